@@ -1,0 +1,69 @@
+// rephoto: novel view prediction error for 3D reconstruction (virtual rephotography).
+// Exit codes: see rephoto::ExitCode in src/rephoto/core/error.h.
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <exception>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "command.h"
+#include "rephoto/core/error.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/core/progress.h"
+
+namespace rephoto::cli {
+std::vector<CommandInfo>& CommandTable() {
+  static std::vector<CommandInfo> table;
+  return table;
+}
+}  // namespace rephoto::cli
+
+int main(int argc, char** argv) {
+  using namespace rephoto;
+  CLI::App app{"rephoto: how good does a 3D reconstruction look? Virtual rephotography "
+               "(Waechter et al. 2017): render held-out views and compare them with the photos."};
+  app.set_version_flag("--version", std::string(REPHOTO_VERSION));
+  app.require_subcommand(1);
+  int threads = 0;
+  bool quiet = false;
+  app.add_option("-j,--threads", threads, "Worker threads (0 = all cores)")->capture_default_str();
+  app.add_flag("-q,--quiet", quiet, "Only print warnings and errors");
+
+  auto& table = cli::CommandTable();
+  std::sort(table.begin(), table.end(),
+            [](const auto& a, const auto& b) { return a.order < b.order; });
+  std::vector<std::pair<CLI::App*, cli::CommandRunner>> commands;
+  for (const auto& command : table) {
+    CLI::App* sub = app.add_subcommand(command.name, command.description);
+    commands.emplace_back(sub, command.setup(*sub));
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : static_cast<int>(ExitCode::kUsage);
+  }
+
+  SetQuiet(quiet);
+  ThreadLimit thread_limit(threads);
+  try {
+    for (auto& [sub, run] : commands) {
+      if (sub->parsed()) return run();
+    }
+  } catch (const Error& e) {
+    std::fflush(stdout);
+    fmt::print(stderr, "rephoto: error: {}\n", e.what());
+    return static_cast<int>(ExitCode::kFailure);
+  } catch (const std::bad_alloc&) {
+    fmt::print(stderr, "rephoto: error: out of memory\n");
+    return static_cast<int>(ExitCode::kFailure);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "rephoto: internal error: {}\n", e.what());
+    return static_cast<int>(ExitCode::kFailure);
+  }
+  return static_cast<int>(ExitCode::kUsage);
+}

@@ -1,0 +1,27 @@
+// File helpers: atomic writes and whole-file reads.
+//
+// Every output rephoto writes goes through WriteFileAtomically: the content is written to
+// "<path>.tmp-<pid>" in the same folder and renamed over <path> only when complete, so an
+// interrupted run never leaves a half-written file under the final name.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+
+namespace rephoto {
+
+// Calls write(temporary_path) and renames the temporary file to `path` afterwards. Creates
+// missing parent folders. If write throws, the temporary file is removed and the exception
+// propagates. Throws Error when the folder cannot be created or the rename fails.
+void WriteFileAtomically(const std::filesystem::path& path,
+                         const std::function<void(const std::filesystem::path&)>& write);
+
+// Writes `content` to `path` atomically (see above).
+void WriteTextFileAtomically(const std::filesystem::path& path, std::string_view content);
+
+// Reads the whole file; throws Error naming the file when it cannot be opened or read.
+std::string ReadFileToString(const std::filesystem::path& path);
+
+}  // namespace rephoto

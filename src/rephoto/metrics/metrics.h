@@ -1,0 +1,86 @@
+// Image-difference metrics of virtual rephotography (SPEC "Metrics", paper Section 3.2).
+//
+// Inputs are a photo and a rephoto of the same size, 3 channels (RGB, interleaved, values as
+// stored in the files scaled to [0,1]), and a per-pixel validity mask that is the AND of the
+// photo's and the rephoto's validity (see validity.h). Every metric yields
+//   - an error image: 1 channel, same size, one value per pixel; for window metrics the value
+//     at (x, y) belongs to the window centred on pixel (x, y). NaN where the metric is not
+//     evaluated: a window metric only where every pixel of the window is valid (windows that
+//     leave the image are never evaluated), a pixel metric only at valid pixels;
+//   - a masked mean over exactly the evaluated positions (denominator = their count).
+//
+// Metric              error image value                    mean                     range
+// 1-ncc               1 - NCC of the window (RGB jointly)  mean                     [0, 2]
+// cb+cr               |dCb| + |dCr|, BT.601 full range     mean                     [0, 2]
+// zssd                sum((x-mx)-(y-my))^2 / window pixels, per channel, averaged     [0, 4]
+// dssim               (1 - SSIM) / 2, per channel averaged mean                     [0, 1]
+// census              Hamming distance / (window px - 1)   mean                     [0, 1]
+// icid                iCID difference (Preiss et al. 2014) mean                     [0, 1]
+// psnr                squared error, averaged over channels  10 log10(1 / masked MSE) dB
+// ssim                SSIM, per channel averaged            mean SSIM                [-1, 1]
+//
+// The sums of all window metrics are computed with running sums or separable filters, so
+// their cost does not depend on the window size; work is split over image rows (ParallelFor),
+// and reductions are ordered, so results do not depend on the thread count.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rephoto/core/image.h"
+
+namespace rephoto::metrics {
+
+enum class Metric { kOneMinusNcc, kCbCr, kZssd, kDssim, kCensus, kIcid, kPsnr, kSsim };
+
+// Names as used on the command line and in outputs: "1-ncc", "cb+cr", "zssd", "dssim",
+// "census", "icid", "psnr", "ssim".
+std::string_view MetricName(Metric metric);
+// Parses a name (case-insensitive); std::nullopt if unknown.
+std::optional<Metric> ParseMetric(std::string_view name);
+// Parses a comma-separated list ("1-ncc,psnr" or "all"); throws Error naming an unknown entry.
+std::vector<Metric> ParseMetricList(std::string_view list);
+// All metrics in the order of the table above.
+const std::vector<Metric>& AllMetrics();
+// True when a larger value is better (psnr, ssim); false for errors.
+bool HigherIsBetter(Metric metric);
+
+struct MetricOptions {
+  // Window side for 1-ncc, zssd and census (odd, >= 3).
+  int window = 9;
+  // SSIM/DSSIM window. Gaussian mode (default): 11x11 window, sigma 1.5, population
+  // covariance (Wang et al. 2004; scikit-image gaussian_weights=True, sigma=1.5,
+  // use_sample_covariance=False). Uniform mode: ssim_window x ssim_window box (7 for
+  // scikit-image's defaults) with sample covariance (N/(N-1)).
+  bool ssim_gaussian = true;
+  int ssim_window = 11;
+  double ssim_sigma = 1.5;
+  // 1-NCC flat-patch rule: a window whose summed squared deviation (over its pixels and
+  // channels) is at or below this value is flat. Both flat: error 0; one flat: error 1.
+  double ncc_flat_threshold = 1e-6;
+  // iCID Gaussian: 11x11, sigma 2 (Preiss et al. 2014).
+  int icid_window = 11;
+  double icid_sigma = 2.0;
+};
+
+struct MetricResult {
+  Metric metric = Metric::kOneMinusNcc;
+  Image error;             // 1 channel; NaN where not evaluated
+  double mean = 0;         // see table; NaN when nothing was evaluated
+  size_t evaluated = 0;    // number of positions that entered the mean
+};
+
+// Computes `metrics` for one photo/rephoto pair. `valid` is the joint per-pixel validity
+// (same size; empty = all valid). Throws Error if sizes or channel counts (must be 3) differ.
+// Metrics share intermediate sums, so asking for several at once is cheaper than one by one.
+std::vector<MetricResult> ComputeMetrics(const Image& photo, const Image& rephoto,
+                                         const Mask& valid, const std::vector<Metric>& metrics,
+                                         const MetricOptions& options = {});
+
+// One metric (convenience wrapper of ComputeMetrics).
+MetricResult ComputeMetric(Metric metric, const Image& photo, const Image& rephoto,
+                           const Mask& valid, const MetricOptions& options = {});
+
+}  // namespace rephoto::metrics

@@ -1,0 +1,51 @@
+#include "rephoto/testing/testing.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <functional>
+#include <string>
+
+namespace rephoto::testing {
+namespace fs = std::filesystem;
+
+fs::path SourceDir() { return fs::path(REPHOTO_SOURCE_DIR); }
+
+fs::path SharedDataDir() { return SourceDir().parent_path() / "shared" / "data"; }
+
+namespace {
+fs::path& TempRoot() {
+  static fs::path root = [] {
+    fs::path p = fs::temp_directory_path() / ("rephoto-test-" + std::to_string(::getpid()));
+    fs::create_directories(p);
+    return p;
+  }();
+  return root;
+}
+struct TempRootCleanup {
+  ~TempRootCleanup() {
+    std::error_code ec;
+    if (!TempRoot().empty()) fs::remove_all(TempRoot(), ec);
+  }
+} g_cleanup;
+}  // namespace
+
+fs::path MakeTempDir() {
+  static std::atomic<int> counter{0};
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
+  for (char& c : name) {
+    if (c == '/') c = '_';
+  }
+  fs::path dir = TempRoot() / (name + "-" + std::to_string(counter++));
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::mt19937_64 MakeRng() {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "";
+  return std::mt19937_64(std::hash<std::string>{}(name) ^ 0x5eed2017ULL);
+}
+
+}  // namespace rephoto::testing
