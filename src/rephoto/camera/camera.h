@@ -47,31 +47,54 @@ std::optional<CameraModel> CameraModelFromId(int id);
 // Number of parameters the model takes.
 int CameraModelParamCount(CameraModel model);
 
+// Intrinsics. ImgFromCam/CamFromImg/Scaled throw Error when `params` has the wrong length for
+// `model` (call Validate once after reading); all other failures are std::nullopt. They are
+// const, allocate nothing and are safe to call from many threads.
 struct Camera {
   CameraModel model = CameraModel::kPinhole;
-  int width = 0;   // image size in pixels the intrinsics refer to
+  int width = 0;  // image size in pixels the intrinsics refer to
   int height = 0;
   std::vector<double> params;  // COLMAP order, see above
 
-  // Projects a point given in camera coordinates to pixel coordinates, applying distortion.
-  // std::nullopt when the point is at or behind the camera plane (z <= 0) or the model cannot
-  // represent it. Does not check that the pixel lies inside the image.
+  // Projects a point given in camera coordinates to pixel coordinates, applying distortion
+  // with COLMAP's formulas (sensor/models.h): normalized (u, v) = (x/z, y/z); fisheye models
+  // first map (u, v) to (u, v) * theta / r with r = |(u, v)|, theta = atan(r); then the model's
+  // distortion; then pixel = (fx * u' + cx, fy * v' + cy).
+  // std::nullopt when z < machine epsilon (at or behind the camera plane, or NaN) or the
+  // result is not finite. Does not check that the pixel lies inside the image, nor that the
+  // point lies in the usable field of view (where the distortion is still one-to-one).
   std::optional<Eigen::Vector2d> ImgFromCam(const Eigen::Vector3d& point_in_cam) const;
 
-  // The unit viewing ray (camera coordinates, z > 0) through a pixel position, undistorting
-  // iteratively. std::nullopt when the undistortion does not converge to 1e-10 normalized
-  // units (e.g. outside the model's usable field of view).
+  // The unit viewing ray (camera coordinates, z > 0) through a pixel position: the inverse of
+  // ImgFromCam. Distortion is inverted by Newton's method with an exact Jacobian (forward-mode
+  // derivatives of the distortion) and a trust region, started at the distorted position; FOV
+  // is inverted in closed form. std::nullopt when the residual does not fall below 1e-10
+  // normalized units within 100 iterations, when the solution lies where the distortion folds
+  // over (Jacobian determinant <= 0, i.e. outside the usable field of view), or when the ray
+  // would not point forward (fisheye theta >= pi/2, FOV angle >= pi/2).
   std::optional<Eigen::Vector3d> CamFromImg(const Eigen::Vector2d& pixel) const;
 
-  // The same camera for an image of another resolution: focal lengths and principal point
-  // scale with the image (pixel-corner convention), distortion coefficients stay.
+  // The same camera for an image of another resolution (e.g. a downsampled photo): with
+  // sx = new_width / width, sy = new_height / height, fx *= sx, fy *= sy (a single focal
+  // length scales by (sx + sy) / 2, as COLMAP's Rescale), cx *= sx, cy *= sy. Scaling about
+  // the origin is right because pixel coordinates use the corner convention: the image corner
+  // (width, height) maps to (new_width, new_height) and the centre to the centre. Distortion
+  // coefficients act on normalized coordinates and stay. Throws Error when a size is <= 0.
   Camera Scaled(int new_width, int new_height) const;
 
+  // Focal lengths in pixels along x and y (equal for single-focal models).
+  double FocalLengthX() const;
+  double FocalLengthY() const;
   // Mean focal length in pixels (for fields of view, splat radii, ...).
   double MeanFocalLength() const;
   double PrincipalPointX() const;
   double PrincipalPointY() const;
   bool IsPinhole() const;  // no distortion (SIMPLE_PINHOLE, PINHOLE)
+  // Fisheye models (OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, THIN_PRISM_FISHEYE):
+  // distortion acts on the angle theta = atan(r) instead of r = |(x/z, y/z)|.
+  bool IsFisheye() const;
+
+  bool operator==(const Camera&) const = default;
 
   // Throws Error (prefixed with `context`) when the size is not positive, the parameter count
   // does not match the model, a value is NaN/inf, or a focal length is <= 0.
@@ -89,12 +112,26 @@ struct Pose {
   Eigen::Vector3d Center() const { return -rotation.transpose() * translation; }
   // Viewing direction (+z of the camera) in world coordinates.
   Eigen::Vector3d ViewDirection() const { return rotation.row(2).transpose(); }
-  // From a unit quaternion (w, x, y, z) as COLMAP stores it, and a translation.
+  // The unit quaternion (w, x, y, z) of `rotation`, w >= 0 (COLMAP's storage order).
+  Eigen::Vector4d Quaternion() const;
+  // From a unit quaternion (w, x, y, z) as COLMAP stores it (Hamilton convention, rotating
+  // world into camera coordinates), and a translation. The quaternion is normalized first;
+  // readers check beforehand that its norm is 1 within their file's precision. A zero
+  // quaternion gives a NaN rotation, which Validate rejects.
   static Pose FromQuaternion(double qw, double qx, double qy, double qz,
                              const Eigen::Vector3d& translation);
   // Throws Error (prefixed with `context`) when a value is NaN/inf or rotation is not a proper
   // rotation (orthonormal to 1e-6 after the file's precision, determinant +1).
   void Validate(std::string_view context) const;
+
+  bool operator==(const Pose&) const = default;
 };
+
+// The rotation closest to `matrix` (Frobenius norm, via SVD), for rotations read from files
+// that print few digits. Throws Error (prefixed with `context`) when a value is NaN/inf, when
+// some entry of matrix^T * matrix - I exceeds `tolerance` in magnitude (not a rotation), or
+// when the determinant is negative (a reflection).
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& matrix, double tolerance,
+                                std::string_view context);
 
 }  // namespace rephoto::camera
