@@ -1,17 +1,36 @@
 // Image files: the only place where 8/16-bit and file formats are converted.
 //
 // Reading returns rephoto::Image (float, interleaved, top row first) with values as stored,
-// scaled to [0,1]: 8-bit v/255, 16-bit v/65535; EXR and PFM values as they are (PFM rows are
-// flipped to top-first). Channels: 1 (grey), 2 (grey+alpha), 3 (RGB) or 4 (RGBA), as stored.
-// Formats by content (magic bytes), not extension: PNG (8/16-bit, palette/grey/RGB, with or
-// without alpha, via libspng), JPEG (libjpeg-turbo; CMYK is rejected), EXR (tinyexr, half and
-// float), PFM (Pf grey, PF RGB, either byte order).
-// Writing: PNG (8 or 16 bit, values clamped to [0,1] and rounded), EXR (32-bit float), chosen by
-// extension, always atomically (temporary name + rename).
-// Every failure throws rephoto::Error whose message starts with the file path.
+// scaled to [0,1]: 8-bit v/255, 16-bit v/65535 (and 1/2/4-bit PNG greys scaled to 8 bit first);
+// EXR and PFM values as they are (PFM rows are flipped to top-first). No colour management:
+// gamma (gAMA), ICC profiles and EXR chromaticities are ignored, values stay display-referred.
+// Channels: 1 (grey), 2 (grey+alpha), 3 (RGB) or 4 (RGBA), as stored:
+//   PNG   grey -> 1, grey+alpha -> 2, RGB -> 3, RGBA -> 4, palette -> 3; a tRNS chunk (palette
+//         transparency or a transparent grey/RGB key colour) adds an alpha channel (2 or 4).
+//   JPEG  grey -> 1, YCbCr/RGB -> 3 (CMYK/YCCK are rejected). Decoded by libjpeg-turbo with
+//         its defaults (accurate integer IDCT, smooth chroma upsampling), the same pixels as
+//         libjpeg/Pillow. The EXIF orientation tag is ignored on purpose: photogrammetry tools
+//         (COLMAP, OpenMVG, MVE) calibrate the pixel grid as stored, so rotating would break the
+//         link to the camera. Decoder warnings other than truncation are logged, not fatal.
+//   EXR   channels R,G,B[,A] -> 3 or 4; Y[,A] -> 1 or 2; a single channel of any name -> 1.
+//         HALF, FLOAT and UINT pixels become float. Scanline and single-level tiled files;
+//         the data window gives the size; multi-part and deep files are rejected.
+//   PFM   "Pf" (grey) -> 1, "PF" (RGB) -> 3, either byte order (sign of the scale).
+// Formats are detected by content (magic bytes), not by extension.
+//
+// Writing: PNG (8 or 16 bit, 1-4 channels, values clamped to [0,1] and rounded, NaN -> 0),
+// EXR (32-bit float, ZIP compression; channel names Y / YA / RGB / RGBA), PFM (1 or 3
+// channels, little-endian). Always atomically (temporary name + rename, core/file.h).
+//
+// Every failure (missing file, not an image, truncated, corrupt, unsupported variant, write
+// error) throws rephoto::Error with a one-line message "<path>: <what is wrong>".
+// All functions are thread-safe (no shared state besides per-thread scratch buffers).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <span>
+#include <string>
 
 #include "rephoto/core/image.h"
 
@@ -19,7 +38,15 @@ namespace rephoto::io {
 
 Image ReadImage(const std::filesystem::path& path);
 
-// Reads only the size (width, height, channels) from the header; cheap.
+// Same, decoding into `image` and reusing its allocation when it is large enough (reading many
+// large images one after another without paying for new memory each time).
+void ReadImage(const std::filesystem::path& path, Image* image);
+
+// Decodes an image file held in memory; `name` is used in error messages (normally the path).
+void DecodeImage(std::span<const uint8_t> bytes, const std::string& name, Image* image);
+
+// Reads only the size (width, height, channels as ReadImage would return them) from the
+// header; cheap (reads the first bytes of the file, not the pixels). Does not validate pixels.
 struct ImageHeader {
   int width = 0;
   int height = 0;
@@ -27,16 +54,23 @@ struct ImageHeader {
 };
 ImageHeader ReadImageHeader(const std::filesystem::path& path);
 
-// Reads a mask image: a pixel is valid where its first channel is > 0 (any format above).
+// Reads a mask image: a pixel is valid (1) where its first channel is > 0, else 0 (any format
+// above; an RGBA PNG counts by its first channel, not its alpha).
 Mask ReadMask(const std::filesystem::path& path);
+void ReadMask(const std::filesystem::path& path, Mask* mask);
 
 enum class PngDepth { k8 = 8, k16 = 16 };
+// Any channel count 1-4 (grey, grey+alpha, RGB, RGBA).
 void WritePng(const std::filesystem::path& path, const Image& image, PngDepth depth = PngDepth::k8);
 void WritePng(const std::filesystem::path& path, const Mask& mask);  // 0 -> 0, else 255
+// 8-bit pixels already converted by the caller: width*height*channels bytes, interleaved, top
+// row first, channels 1-4. Avoids a float copy for large colour-mapped images.
+void WritePng8(const std::filesystem::path& path, std::span<const uint8_t> pixels, int width,
+               int height, int channels);
 void WriteExr(const std::filesystem::path& path, const Image& image);
-// By extension: .png (8 bit), .exr, .pfm.
-void WriteImage(const std::filesystem::path& path, const Image& image);
 void WritePfm(const std::filesystem::path& path, const Image& image);
+// By extension (any case): .png (8 bit), .exr, .pfm; anything else throws Error.
+void WriteImage(const std::filesystem::path& path, const Image& image);
 
 // True if the extension is one ReadImage handles (.png .jpg .jpeg .exr .pfm, any case).
 bool IsImageFile(const std::filesystem::path& path);

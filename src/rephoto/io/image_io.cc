@@ -1,0 +1,820 @@
+#include "rephoto/io/image_io.h"
+
+#include <fcntl.h>
+#include <spng.h>
+#include <sys/stat.h>
+#include <tinyexr.h>
+#include <turbojpeg.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/core/progress.h"
+
+namespace rephoto::io {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Decoders refuse images above this many pixels, so that a corrupt header claiming an absurd
+// size gives a clear error instead of an allocation failure. 2^30 pixels = 32768 x 32768.
+constexpr uint64_t kMaxPixels = uint64_t{1} << 30;
+
+enum class Format { kUnknown, kPng, kJpeg, kExr, kPfm };
+
+Format DetectFormat(std::span<const uint8_t> b) {
+  static constexpr uint8_t kPng[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  if (b.size() >= 8 && std::memcmp(b.data(), kPng, 8) == 0) return Format::kPng;
+  if (b.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) return Format::kJpeg;
+  if (b.size() >= 4 && b[0] == 0x76 && b[1] == 0x2F && b[2] == 0x31 && b[3] == 0x01) {
+    return Format::kExr;
+  }
+  if (b.size() >= 3 && b[0] == 'P' && (b[1] == 'F' || b[1] == 'f') && std::isspace(b[2])) {
+    return Format::kPfm;
+  }
+  return Format::kUnknown;
+}
+
+[[noreturn]] void ThrowUnknownFormat(const std::string& name, size_t size) {
+  if (size == 0) ThrowError("{}: empty file, not an image", name);
+  ThrowError("{}: not a supported image file (expected PNG, JPEG, EXR or PFM content)", name);
+}
+
+void CheckSize(const std::string& name, const char* format, int64_t width, int64_t height) {
+  REPHOTO_CHECK(width > 0 && height > 0, "{}: invalid {}: image size {}x{}", name, format, width,
+                height);
+  REPHOTO_CHECK(static_cast<uint64_t>(width) * static_cast<uint64_t>(height) <= kMaxPixels,
+                "{}: {} image size {}x{} is too large (more than 2^30 pixels)", name, format, width,
+                height);
+}
+
+struct FileCloser {
+  int fd;
+  ~FileCloser() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+// Reads up to `limit` bytes of the file (all of it by default) into `bytes`.
+void ReadFileBytes(const fs::path& path, std::vector<uint8_t>* bytes,
+                   size_t limit = static_cast<size_t>(-1)) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) ThrowError("{}: cannot open: {}", path.string(), std::strerror(errno));
+  FileCloser closer{fd};
+  struct stat st {};
+  REPHOTO_CHECK(::fstat(fd, &st) == 0, "{}: cannot read: {}", path.string(), std::strerror(errno));
+  REPHOTO_CHECK(!S_ISDIR(st.st_mode), "{}: is a folder, not an image file", path.string());
+  const size_t size = std::min(static_cast<size_t>(st.st_size), limit);
+  bytes->resize(size);
+  size_t done = 0;
+  while (done < size) {
+    const ssize_t n = ::read(fd, bytes->data() + done, size - done);
+    if (n < 0 && errno == EINTR) continue;
+    REPHOTO_CHECK(n >= 0, "{}: read failed: {}", path.string(), std::strerror(errno));
+    if (n == 0) break;  // the file shrank while reading
+    done += static_cast<size_t>(n);
+  }
+  bytes->resize(done);
+}
+
+// Per-thread scratch buffers: decoding many large images reuses the same memory.
+std::vector<uint8_t>& FileScratch() {
+  thread_local std::vector<uint8_t> bytes;
+  return bytes;
+}
+std::vector<uint8_t>& PixelScratch() {
+  thread_local std::vector<uint8_t> pixels;
+  return pixels;
+}
+
+// Converts interleaved 8-bit or 16-bit samples to [0,1] floats (v/255, v/65535).
+template <typename T>
+void ConvertToFloat(const T* samples, int width, int height, int channels, Image* image) {
+  image->Resize(width, height, channels);
+  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
+  const size_t row_values = static_cast<size_t>(width) * channels;
+  const int64_t grain = std::max<int64_t>(1, 65536 / static_cast<int64_t>(row_values));
+  ParallelFor(0, height, grain, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      const T* in = samples + static_cast<size_t>(y) * row_values;
+      float* out = image->row(static_cast<int>(y));
+      for (size_t i = 0; i < row_values; ++i) out[i] = static_cast<float>(in[i]) / kMax;
+    }
+  });
+}
+
+// ----------------------------------------------------------------------------------- PNG
+
+struct SpngDeleter {
+  void operator()(spng_ctx* ctx) const { spng_ctx_free(ctx); }
+};
+using SpngPtr = std::unique_ptr<spng_ctx, SpngDeleter>;
+
+int PngChannels(int color_type, bool has_trns) {
+  switch (color_type) {
+    case SPNG_COLOR_TYPE_GRAYSCALE:
+      return has_trns ? 2 : 1;
+    case SPNG_COLOR_TYPE_TRUECOLOR:
+    case SPNG_COLOR_TYPE_INDEXED:
+      return has_trns ? 4 : 3;
+    case SPNG_COLOR_TYPE_GRAYSCALE_ALPHA:
+      return 2;
+    case SPNG_COLOR_TYPE_TRUECOLOR_ALPHA:
+      return 4;
+    default:
+      return 0;
+  }
+}
+
+void DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+  SpngPtr ctx(spng_ctx_new(0));
+  REPHOTO_CHECK(ctx, "{}: out of memory", name);
+  spng_set_png_buffer(ctx.get(), bytes.data(), bytes.size());
+  spng_ihdr ihdr{};
+  int r = spng_get_ihdr(ctx.get(), &ihdr);
+  REPHOTO_CHECK(r == 0, "{}: invalid PNG: {}", name, spng_strerror(r));
+  CheckSize(name, "PNG", ihdr.width, ihdr.height);
+  spng_trns trns{};
+  r = spng_get_trns(ctx.get(), &trns);
+  REPHOTO_CHECK(r == 0 || r == SPNG_ECHUNKAVAIL, "{}: invalid PNG: {}", name, spng_strerror(r));
+  const bool has_trns = r == 0;
+  const int channels = PngChannels(ihdr.color_type, has_trns);
+  REPHOTO_CHECK(channels > 0, "{}: unsupported PNG colour type {}", name, ihdr.color_type);
+  const bool wide = ihdr.bit_depth == 16;
+
+  int format = 0;
+  switch (ihdr.color_type) {
+    case SPNG_COLOR_TYPE_GRAYSCALE:
+      format = wide ? (has_trns ? SPNG_FMT_GA16 : SPNG_FMT_PNG)
+                    : (has_trns ? SPNG_FMT_GA8 : SPNG_FMT_G8);
+      break;
+    case SPNG_COLOR_TYPE_TRUECOLOR:
+      format = wide ? (has_trns ? SPNG_FMT_RGBA16 : SPNG_FMT_PNG)
+                    : (has_trns ? SPNG_FMT_RGBA8 : SPNG_FMT_RGB8);
+      break;
+    case SPNG_COLOR_TYPE_INDEXED:
+      format = has_trns ? SPNG_FMT_RGBA8 : SPNG_FMT_RGB8;
+      break;
+    case SPNG_COLOR_TYPE_GRAYSCALE_ALPHA:
+      format = SPNG_FMT_PNG;  // 8 or 16 bit grey+alpha as stored (host byte order)
+      break;
+    case SPNG_COLOR_TYPE_TRUECOLOR_ALPHA:
+      format = wide ? SPNG_FMT_RGBA16 : SPNG_FMT_RGBA8;
+      break;
+  }
+  const bool out16 = wide && ihdr.color_type != SPNG_COLOR_TYPE_INDEXED;
+  size_t size = 0;
+  r = spng_decoded_image_size(ctx.get(), format, &size);
+  REPHOTO_CHECK(r == 0, "{}: unsupported PNG variant: {}", name, spng_strerror(r));
+  const size_t expected =
+      static_cast<size_t>(ihdr.width) * ihdr.height * channels * (out16 ? 2 : 1);
+  REPHOTO_CHECK(size == expected, "{}: unexpected PNG decoded size {} (expected {})", name, size,
+                expected);
+  std::vector<uint8_t>& pixels = PixelScratch();
+  pixels.resize(size);
+  r = spng_decode_image(ctx.get(), pixels.data(), size, format, has_trns ? SPNG_DECODE_TRNS : 0);
+  if (r != 0) {
+    if (r == SPNG_EOF) ThrowError("{}: truncated PNG ({})", name, spng_strerror(r));
+    ThrowError("{}: corrupt PNG: {}", name, spng_strerror(r));
+  }
+  if (out16) {
+    ConvertToFloat(reinterpret_cast<const uint16_t*>(pixels.data()), ihdr.width, ihdr.height,
+                   channels, image);
+  } else {
+    ConvertToFloat(pixels.data(), ihdr.width, ihdr.height, channels, image);
+  }
+}
+
+// ---------------------------------------------------------------------------------- JPEG
+
+struct TjDeleter {
+  void operator()(void* handle) const { tjDestroy(handle); }
+};
+
+tjhandle Decompressor() {
+  thread_local std::unique_ptr<void, TjDeleter> handle(tjInitDecompress());
+  return handle.get();
+}
+
+void DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+  tjhandle tj = Decompressor();
+  REPHOTO_CHECK(tj != nullptr, "{}: cannot initialize the JPEG decoder", name);
+  // TurboJPEG 2.x takes non-const buffers but does not write to them.
+  auto* data = const_cast<unsigned char*>(bytes.data());
+  const auto size = static_cast<unsigned long>(bytes.size());
+  int width = 0, height = 0, subsampling = 0, colorspace = 0;
+  if (tjDecompressHeader3(tj, data, size, &width, &height, &subsampling, &colorspace) != 0) {
+    ThrowError("{}: invalid JPEG: {}", name, tjGetErrorStr2(tj));
+  }
+  CheckSize(name, "JPEG", width, height);
+  REPHOTO_CHECK(colorspace != TJCS_CMYK && colorspace != TJCS_YCCK,
+                "{}: CMYK JPEG is not supported (convert it to RGB)", name);
+  const bool grey = colorspace == TJCS_GRAY;
+  const int channels = grey ? 1 : 3;
+  std::vector<uint8_t>& pixels = PixelScratch();
+  pixels.resize(static_cast<size_t>(width) * height * channels);
+  if (tjDecompress2(tj, data, size, pixels.data(), width, 0, height, grey ? TJPF_GRAY : TJPF_RGB,
+                    0) != 0) {
+    const std::string message = tjGetErrorStr2(tj);
+    if (tjGetErrorCode(tj) == TJERR_FATAL) ThrowError("{}: corrupt JPEG: {}", name, message);
+    // Warnings: libjpeg fills a truncated scan with grey and carries on; a missing part of the
+    // photo must not be compared, so truncation is an error. Other warnings (e.g. extraneous
+    // bytes before a marker) leave the pixels intact, as in every other decoder.
+    if (message.find("Premature end") != std::string::npos) {
+      ThrowError("{}: truncated JPEG ({})", name, message);
+    }
+    LogWarning(fmt::format("{}: {} (decoded anyway)", name, message));
+  }
+  ConvertToFloat(pixels.data(), width, height, channels, image);
+}
+
+// ----------------------------------------------------------------------------------- EXR
+
+struct ExrHeaderGuard {
+  EXRHeader header;
+  ExrHeaderGuard() { InitEXRHeader(&header); }
+  ~ExrHeaderGuard() { FreeEXRHeader(&header); }
+};
+struct ExrImageGuard {
+  EXRImage image;
+  ExrImageGuard() { InitEXRImage(&image); }
+  ~ExrImageGuard() { FreeEXRImage(&image); }
+};
+
+[[noreturn]] void ThrowExr(const std::string& name, const char* what, int code, const char* err) {
+  std::string message = err ? std::string(err) : fmt::format("tinyexr error {}", code);
+  if (err) FreeEXRErrorMessage(err);
+  // tinyexr messages may span lines; rephoto errors are one line.
+  for (char& c : message) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  while (!message.empty() && message.back() == ' ') message.pop_back();
+  ThrowError("{}: {}: {}", name, what, message);
+}
+
+// Parses the version field and the header of a single-part EXR; throws Error otherwise.
+void ParseExrHeader(std::span<const uint8_t> bytes, const std::string& name, EXRHeader* header) {
+  EXRVersion version{};
+  int r = ParseEXRVersionFromMemory(&version, bytes.data(), bytes.size());
+  REPHOTO_CHECK(r == 0, "{}: invalid EXR version field", name);
+  REPHOTO_CHECK(!version.multipart, "{}: multi-part EXR is not supported", name);
+  REPHOTO_CHECK(!version.non_image, "{}: deep EXR is not supported", name);
+  const char* err = nullptr;
+  r = ParseEXRHeaderFromMemory(header, &version, bytes.data(), bytes.size(), &err);
+  if (r != 0) ThrowExr(name, "invalid EXR header", r, err);
+}
+
+// Indices of the channels ReadImage returns, in output order; throws if none fit.
+std::vector<int> SelectExrChannels(const EXRHeader& header, const std::string& name) {
+  auto find = [&](const char* channel) {
+    for (int i = 0; i < header.num_channels; ++i) {
+      if (std::strcmp(header.channels[i].name, channel) == 0) return i;
+    }
+    return -1;
+  };
+  const int r = find("R"), g = find("G"), b = find("B"), a = find("A"), y = find("Y");
+  std::vector<int> selected;
+  if (r >= 0 && g >= 0 && b >= 0) {
+    selected = {r, g, b};
+  } else if (y >= 0) {
+    selected = {y};
+  } else if (header.num_channels == 1) {
+    selected = {0};
+  } else {
+    std::string names;
+    for (int i = 0; i < header.num_channels; ++i) {
+      if (i > 0) names += ',';
+      names += header.channels[i].name;
+    }
+    ThrowError("{}: EXR has no R,G,B or Y channels (found {})", name, names);
+  }
+  if (a >= 0 && std::find(selected.begin(), selected.end(), a) == selected.end()) {
+    selected.push_back(a);
+  }
+  for (int index : selected) {
+    REPHOTO_CHECK(header.channels[index].x_sampling <= 1 && header.channels[index].y_sampling <= 1,
+                  "{}: EXR channel {} is subsampled, which is not supported", name,
+                  header.channels[index].name);
+  }
+  return selected;
+}
+
+float ExrSample(const unsigned char* plane, int pixel_type, size_t index) {
+  if (pixel_type == TINYEXR_PIXELTYPE_UINT) {
+    return static_cast<float>(reinterpret_cast<const uint32_t*>(plane)[index]);
+  }
+  return reinterpret_cast<const float*>(plane)[index];
+}
+
+void DecodeExr(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+  ExrHeaderGuard header;
+  ParseExrHeader(bytes, name, &header.header);
+  EXRHeader& h = header.header;
+  const std::vector<int> selected = SelectExrChannels(h, name);
+  for (int i = 0; i < h.num_channels; ++i) {
+    if (h.pixel_types[i] == TINYEXR_PIXELTYPE_HALF) {
+      h.requested_pixel_types[i] = TINYEXR_PIXELTYPE_FLOAT;
+    }
+  }
+  CheckSize(name, "EXR", int64_t{h.data_window.max_x} - h.data_window.min_x + 1,
+            int64_t{h.data_window.max_y} - h.data_window.min_y + 1);
+  ExrImageGuard exr;
+  const char* err = nullptr;
+  const int r = LoadEXRImageFromMemory(&exr.image, &h, bytes.data(), bytes.size(), &err);
+  if (r != 0) {
+    // tinyexr frees the image itself when decoding fails but leaves the pointers dangling.
+    InitEXRImage(&exr.image);
+    ThrowExr(name, "corrupt or truncated EXR", r, err);
+  }
+  const EXRImage& e = exr.image;
+  CheckSize(name, "EXR", e.width, e.height);
+  const int channels = static_cast<int>(selected.size());
+  image->Resize(e.width, e.height, channels);
+  if (e.tiles == nullptr) {
+    REPHOTO_CHECK(e.images != nullptr, "{}: EXR holds no pixel data", name);
+    ParallelFor(0, e.height, 64, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y) {
+        float* out = image->row(static_cast<int>(y));
+        for (int c = 0; c < channels; ++c) {
+          const int src = selected[c];
+          const int type = h.requested_pixel_types[src];
+          for (int x = 0; x < e.width; ++x) {
+            out[x * channels + c] = ExrSample(e.images[src], type, y * e.width + x);
+          }
+        }
+      }
+    });
+  } else {
+    // Tiles: offset_x/offset_y are tile indices, data rows have tile_size_x samples.
+    std::fill(image->data(), image->data() + image->size(), 0.f);
+    for (int t = 0; t < e.num_tiles; ++t) {
+      const EXRTile& tile = e.tiles[t];
+      for (int j = 0; j < tile.height; ++j) {
+        const int y = tile.offset_y * h.tile_size_y + j;
+        if (y >= e.height) continue;
+        for (int i = 0; i < tile.width; ++i) {
+          const int x = tile.offset_x * h.tile_size_x + i;
+          if (x >= e.width) continue;
+          const size_t src_index = static_cast<size_t>(j) * h.tile_size_x + i;
+          for (int c = 0; c < channels; ++c) {
+            image->at(x, y, c) = ExrSample(tile.images[selected[c]],
+                                           h.requested_pixel_types[selected[c]], src_index);
+          }
+        }
+      }
+    }
+  }
+}
+
+// ----------------------------------------------------------------------------------- PFM
+
+struct PfmHeader {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  bool little_endian = true;
+  size_t data_offset = 0;
+};
+
+PfmHeader ParsePfmHeader(std::span<const uint8_t> b, const std::string& name) {
+  PfmHeader header;
+  header.channels = b[1] == 'F' ? 3 : 1;
+  size_t pos = 2;
+  auto token = [&](const char* what) {
+    while (pos < b.size() && std::isspace(b[pos])) ++pos;
+    const size_t start = pos;
+    while (pos < b.size() && !std::isspace(b[pos])) ++pos;
+    REPHOTO_CHECK(pos > start && pos < b.size() && pos - start < 32,
+                  "{}: truncated or invalid PFM header (reading {})", name, what);
+    return std::string(reinterpret_cast<const char*>(b.data()) + start, pos - start);
+  };
+  const std::string width = token("width");
+  const std::string height = token("height");
+  const std::string scale = token("scale");
+  char* end = nullptr;
+  const long w = std::strtol(width.c_str(), &end, 10);
+  REPHOTO_CHECK(*end == 0, "{}: invalid PFM width '{}'", name, width);
+  const long h = std::strtol(height.c_str(), &end, 10);
+  REPHOTO_CHECK(*end == 0, "{}: invalid PFM height '{}'", name, height);
+  const double s = std::strtod(scale.c_str(), &end);
+  REPHOTO_CHECK(*end == 0 && s != 0 && std::isfinite(s), "{}: invalid PFM scale '{}'", name, scale);
+  CheckSize(name, "PFM", w, h);
+  header.width = static_cast<int>(w);
+  header.height = static_cast<int>(h);
+  header.little_endian = s < 0;
+  header.data_offset = pos + 1;  // exactly one whitespace byte ends the header
+  return header;
+}
+
+void DecodePfm(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+  const PfmHeader header = ParsePfmHeader(bytes, name);
+  const size_t values = static_cast<size_t>(header.width) * header.height * header.channels;
+  const size_t available = bytes.size() - std::min(bytes.size(), header.data_offset);
+  REPHOTO_CHECK(available >= values * 4,
+                "{}: truncated PFM: {}x{}x{} needs {} bytes of pixels, found {}", name,
+                header.width, header.height, header.channels, values * 4, available);
+  image->Resize(header.width, header.height, header.channels);
+  const bool swap = header.little_endian != (std::endian::native == std::endian::little);
+  const size_t row_values = static_cast<size_t>(header.width) * header.channels;
+  const uint8_t* data = bytes.data() + header.data_offset;
+  ParallelFor(0, header.height, 64, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      // PFM stores the bottom row first.
+      const uint8_t* in = data + static_cast<size_t>(header.height - 1 - y) * row_values * 4;
+      float* out = image->row(static_cast<int>(y));
+      for (size_t i = 0; i < row_values; ++i) {
+        uint32_t bits;
+        std::memcpy(&bits, in + 4 * i, 4);
+        if (swap) bits = __builtin_bswap32(bits);
+        std::memcpy(out + i, &bits, 4);
+      }
+    }
+  });
+}
+
+// ----------------------------------------------------------------------- header-only reads
+
+class FilePrefix {
+ public:
+  explicit FilePrefix(const fs::path& path) : path_(path), in_(path, std::ios::binary) {
+    REPHOTO_CHECK(!fs::is_directory(path), "{}: is a folder, not an image file", path.string());
+    REPHOTO_CHECK(in_, "{}: cannot open: {}", path.string(), std::strerror(errno));
+  }
+  // Reads exactly n bytes or throws "truncated <what>".
+  void Read(void* out, size_t n, const char* what) {
+    in_.read(static_cast<char*>(out), static_cast<std::streamsize>(n));
+    REPHOTO_CHECK(static_cast<size_t>(in_.gcount()) == n, "{}: truncated {}", path_.string(), what);
+  }
+  void Skip(uint64_t n, const char* what) {
+    in_.seekg(static_cast<std::streamoff>(n), std::ios::cur);
+    REPHOTO_CHECK(in_, "{}: truncated {}", path_.string(), what);
+  }
+  std::ifstream& stream() { return in_; }
+
+ private:
+  fs::path path_;
+  std::ifstream in_;
+};
+
+uint32_t BigEndian32(const uint8_t* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
+}
+uint16_t BigEndian16(const uint8_t* p) { return static_cast<uint16_t>((p[0] << 8) | p[1]); }
+
+ImageHeader PngHeader(FilePrefix& file, const std::string& name) {
+  uint8_t chunk[8 + 8 + 13];
+  file.Read(chunk, sizeof chunk, "PNG header");
+  REPHOTO_CHECK(BigEndian32(chunk + 8) == 13 && std::memcmp(chunk + 12, "IHDR", 4) == 0,
+                "{}: invalid PNG: first chunk is not IHDR", name);
+  ImageHeader header;
+  const uint32_t width = BigEndian32(chunk + 16), height = BigEndian32(chunk + 20);
+  CheckSize(name, "PNG", width, height);
+  header.width = static_cast<int>(width);
+  header.height = static_cast<int>(height);
+  const int color_type = chunk[25];
+  file.Skip(4, "PNG header");  // IHDR CRC
+  bool has_trns = false;
+  for (;;) {
+    uint8_t head[8];
+    file.Read(head, 8, "PNG (no image data)");
+    if (std::memcmp(head + 4, "IDAT", 4) == 0) break;
+    if (std::memcmp(head + 4, "tRNS", 4) == 0) has_trns = true;
+    file.Skip(uint64_t{BigEndian32(head)} + 4, "PNG (no image data)");
+  }
+  header.channels = PngChannels(color_type, has_trns);
+  REPHOTO_CHECK(header.channels > 0, "{}: unsupported PNG colour type {}", name, color_type);
+  return header;
+}
+
+ImageHeader JpegHeader(FilePrefix& file, const std::string& name) {
+  file.Skip(2, "JPEG header");  // SOI, already checked
+  for (;;) {
+    uint8_t byte = 0;
+    file.Read(&byte, 1, "JPEG header (no frame header)");
+    if (byte != 0xFF) continue;  // stray byte between segments
+    uint8_t marker = 0xFF;
+    while (marker == 0xFF) file.Read(&marker, 1, "JPEG header (no frame header)");
+    if (marker == 0x01 || marker == 0xD8 || (marker >= 0xD0 && marker <= 0xD7)) continue;
+    REPHOTO_CHECK(marker != 0xD9 && marker != 0xDA, "{}: invalid JPEG: no frame header", name);
+    uint8_t length_bytes[2];
+    file.Read(length_bytes, 2, "JPEG header");
+    const int length = BigEndian16(length_bytes);
+    REPHOTO_CHECK(length >= 2, "{}: invalid JPEG: bad segment length", name);
+    const bool frame =
+        marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (!frame) {
+      file.Skip(length - 2, "JPEG header");
+      continue;
+    }
+    uint8_t sof[6];
+    file.Read(sof, 6, "JPEG frame header");
+    REPHOTO_CHECK(sof[0] == 8, "{}: {}-bit JPEG is not supported (only 8-bit)", name, sof[0]);
+    const int height = BigEndian16(sof + 1), width = BigEndian16(sof + 3);
+    CheckSize(name, "JPEG", width, height);
+    const int components = sof[5];
+    REPHOTO_CHECK(components != 4, "{}: CMYK JPEG is not supported (convert it to RGB)", name);
+    REPHOTO_CHECK(components == 1 || components == 3,
+                  "{}: JPEG with {} components is not "
+                  "supported",
+                  name, components);
+    return {width, height, components};
+  }
+}
+
+ImageHeader ExrHeaderOnly(const fs::path& path, const std::string& name) {
+  // The header is at the start of the file; most are a few hundred bytes. Retry with the whole
+  // file if the prefix was too short.
+  std::vector<uint8_t> bytes;
+  ReadFileBytes(path, &bytes, 1 << 16);
+  ExrHeaderGuard header;
+  try {
+    ParseExrHeader(bytes, name, &header.header);
+  } catch (const Error&) {
+    if (bytes.size() < (1u << 16)) throw;
+    ReadFileBytes(path, &bytes);
+    FreeEXRHeader(&header.header);
+    InitEXRHeader(&header.header);
+    ParseExrHeader(bytes, name, &header.header);
+  }
+  const EXRHeader& h = header.header;
+  const int64_t width = int64_t{h.data_window.max_x} - h.data_window.min_x + 1;
+  const int64_t height = int64_t{h.data_window.max_y} - h.data_window.min_y + 1;
+  CheckSize(name, "EXR", width, height);
+  return {static_cast<int>(width), static_cast<int>(height),
+          static_cast<int>(SelectExrChannels(h, name).size())};
+}
+
+// ---------------------------------------------------------------------------------- write
+
+struct FileHandle {
+  FILE* file = nullptr;
+  ~FileHandle() {
+    if (file) std::fclose(file);
+  }
+};
+
+void EncodePng(const fs::path& path, const void* pixels, size_t size, int width, int height,
+               int channels, int depth) {
+  REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: cannot write {} channels as PNG",
+                path.string(), channels);
+  REPHOTO_CHECK(width > 0 && height > 0, "{}: cannot write an empty image", path.string());
+  static constexpr uint8_t kColorType[5] = {
+      0, SPNG_COLOR_TYPE_GRAYSCALE, SPNG_COLOR_TYPE_GRAYSCALE_ALPHA, SPNG_COLOR_TYPE_TRUECOLOR,
+      SPNG_COLOR_TYPE_TRUECOLOR_ALPHA};
+  WriteFileAtomically(path, [&](const fs::path& temporary) {
+    FileHandle out{std::fopen(temporary.c_str(), "wb")};
+    REPHOTO_CHECK(out.file, "{}: cannot open for writing: {}", path.string(), std::strerror(errno));
+    SpngPtr ctx(spng_ctx_new(SPNG_CTX_ENCODER));
+    REPHOTO_CHECK(ctx, "{}: out of memory", path.string());
+    spng_set_png_file(ctx.get(), out.file);
+    spng_ihdr ihdr{};
+    ihdr.width = static_cast<uint32_t>(width);
+    ihdr.height = static_cast<uint32_t>(height);
+    ihdr.bit_depth = static_cast<uint8_t>(depth);
+    ihdr.color_type = kColorType[channels];
+    int r = spng_set_ihdr(ctx.get(), &ihdr);
+    if (r == 0) {
+      r = spng_encode_image(ctx.get(), pixels, size, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE);
+    }
+    REPHOTO_CHECK(r == 0, "{}: PNG encoding failed: {}", path.string(), spng_strerror(r));
+    ctx.reset();
+    const int closed = std::fclose(out.file);
+    out.file = nullptr;
+    REPHOTO_CHECK(closed == 0, "{}: write failed: {}", path.string(), std::strerror(errno));
+  });
+}
+
+template <typename T>
+void QuantizeTo(const Image& image, std::vector<T>* out) {
+  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
+  out->resize(image.size());
+  const float* in = image.data();
+  T* dst = out->data();
+  ParallelFor(0, static_cast<int64_t>(image.size()), 1 << 16, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const float v = in[i];
+      // NaN fails both comparisons and becomes 0.
+      const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;
+      dst[i] = static_cast<T>(clamped * kMax + 0.5f);
+    }
+  });
+}
+
+std::string LowerExtension(const fs::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------ public API
+
+void DecodeImage(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+  switch (DetectFormat(bytes)) {
+    case Format::kPng:
+      return DecodePng(bytes, name, image);
+    case Format::kJpeg:
+      return DecodeJpeg(bytes, name, image);
+    case Format::kExr:
+      return DecodeExr(bytes, name, image);
+    case Format::kPfm:
+      return DecodePfm(bytes, name, image);
+    case Format::kUnknown:
+      break;
+  }
+  ThrowUnknownFormat(name, bytes.size());
+}
+
+void ReadImage(const fs::path& path, Image* image) {
+  std::vector<uint8_t>& bytes = FileScratch();
+  ReadFileBytes(path, &bytes);
+  DecodeImage(bytes, path.string(), image);
+}
+
+Image ReadImage(const fs::path& path) {
+  Image image;
+  ReadImage(path, &image);
+  return image;
+}
+
+ImageHeader ReadImageHeader(const fs::path& path) {
+  const std::string name = path.string();
+  std::array<uint8_t, 8> magic{};
+  size_t magic_size = 0;
+  {
+    FilePrefix file(path);
+    file.stream().read(reinterpret_cast<char*>(magic.data()), magic.size());
+    magic_size = static_cast<size_t>(file.stream().gcount());
+    file.stream().clear();
+    file.stream().seekg(0);
+    const std::span<const uint8_t> head(magic.data(), magic_size);
+    switch (DetectFormat(head)) {
+      case Format::kPng:
+        return PngHeader(file, name);
+      case Format::kJpeg:
+        return JpegHeader(file, name);
+      case Format::kExr:
+      case Format::kPfm:
+        break;
+      case Format::kUnknown:
+        ThrowUnknownFormat(name, magic_size);
+    }
+  }
+  if (DetectFormat({magic.data(), magic_size}) == Format::kExr) return ExrHeaderOnly(path, name);
+  std::vector<uint8_t> bytes;
+  ReadFileBytes(path, &bytes, 256);
+  const PfmHeader pfm = ParsePfmHeader(bytes, name);
+  return {pfm.width, pfm.height, pfm.channels};
+}
+
+void ReadMask(const fs::path& path, Mask* mask) {
+  thread_local Image image;
+  ReadImage(path, &image);
+  mask->Resize(image.width(), image.height(), 1);
+  const int channels = image.channels();
+  const float* in = image.data();
+  uint8_t* out = mask->data();
+  ParallelFor(0, static_cast<int64_t>(mask->size()), 1 << 16, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) out[i] = in[i * channels] > 0.f ? 1 : 0;
+  });
+}
+
+Mask ReadMask(const fs::path& path) {
+  Mask mask;
+  ReadMask(path, &mask);
+  return mask;
+}
+
+void WritePng(const fs::path& path, const Image& image, PngDepth depth) {
+  if (depth == PngDepth::k8) {
+    thread_local std::vector<uint8_t> bytes;
+    QuantizeTo(image, &bytes);
+    EncodePng(path, bytes.data(), bytes.size(), image.width(), image.height(), image.channels(), 8);
+  } else {
+    thread_local std::vector<uint16_t> words;
+    QuantizeTo(image, &words);
+    EncodePng(path, words.data(), words.size() * 2, image.width(), image.height(), image.channels(),
+              16);
+  }
+}
+
+void WritePng(const fs::path& path, const Mask& mask) {
+  std::vector<uint8_t> bytes(mask.size());
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = mask.data()[i] ? 255 : 0;
+  EncodePng(path, bytes.data(), bytes.size(), mask.width(), mask.height(), mask.channels(), 8);
+}
+
+void WritePng8(const fs::path& path, std::span<const uint8_t> pixels, int width, int height,
+               int channels) {
+  REPHOTO_CHECK(pixels.size() == static_cast<size_t>(width) * height * channels,
+                "{}: {} bytes given for a {}x{}x{} image", path.string(), pixels.size(), width,
+                height, channels);
+  EncodePng(path, pixels.data(), pixels.size(), width, height, channels, 8);
+}
+
+void WriteExr(const fs::path& path, const Image& image) {
+  const int channels = image.channels();
+  REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: cannot write {} channels as EXR",
+                path.string(), channels);
+  REPHOTO_CHECK(!image.empty(), "{}: cannot write an empty image", path.string());
+  // EXR readers expect channels sorted by name: A, B, G, R / A, Y. `order` maps each file
+  // channel to the image channel that feeds it.
+  static const std::vector<std::pair<const char*, int>> kLayouts[5] = {
+      {},
+      {{"Y", 0}},
+      {{"A", 1}, {"Y", 0}},
+      {{"B", 2}, {"G", 1}, {"R", 0}},
+      {{"A", 3}, {"B", 2}, {"G", 1}, {"R", 0}}};
+  const auto& layout = kLayouts[channels];
+  const size_t pixels = image.pixel_count();
+  thread_local std::vector<float> planar;
+  planar.resize(pixels * channels);
+  ParallelFor(0, static_cast<int64_t>(pixels), 1 << 16, [&](int64_t b, int64_t e) {
+    for (int c = 0; c < channels; ++c) {
+      float* plane = planar.data() + static_cast<size_t>(c) * pixels;
+      const int source = layout[c].second;
+      for (int64_t i = b; i < e; ++i) plane[i] = image.data()[i * channels + source];
+    }
+  });
+  std::vector<EXRChannelInfo> infos(channels);
+  std::vector<int> types(channels, TINYEXR_PIXELTYPE_FLOAT);
+  std::vector<unsigned char*> planes(channels);
+  for (int c = 0; c < channels; ++c) {
+    std::memset(&infos[c], 0, sizeof(EXRChannelInfo));
+    std::strncpy(infos[c].name, layout[c].first, sizeof(infos[c].name) - 1);
+    planes[c] = reinterpret_cast<unsigned char*>(planar.data() + static_cast<size_t>(c) * pixels);
+  }
+  EXRHeader header;
+  InitEXRHeader(&header);
+  header.num_channels = channels;
+  header.channels = infos.data();
+  header.pixel_types = types.data();
+  header.requested_pixel_types = types.data();
+  header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+  EXRImage exr;
+  InitEXRImage(&exr);
+  exr.images = planes.data();
+  exr.width = image.width();
+  exr.height = image.height();
+  exr.num_channels = channels;
+  WriteFileAtomically(path, [&](const fs::path& temporary) {
+    const char* err = nullptr;
+    const int r = SaveEXRImageToFile(&exr, &header, temporary.c_str(), &err);
+    if (r != 0) ThrowExr(path.string(), "EXR writing failed", r, err);
+  });
+}
+
+void WritePfm(const fs::path& path, const Image& image) {
+  const int channels = image.channels();
+  REPHOTO_CHECK(channels == 1 || channels == 3, "{}: PFM holds 1 or 3 channels, the image has {}",
+                path.string(), channels);
+  REPHOTO_CHECK(!image.empty(), "{}: cannot write an empty image", path.string());
+  std::string content =
+      fmt::format("{}\n{} {}\n-1\n", channels == 3 ? "PF" : "Pf", image.width(), image.height());
+  const size_t header_size = content.size();
+  const size_t row_bytes = static_cast<size_t>(image.width()) * channels * 4;
+  content.resize(header_size + row_bytes * image.height());
+  for (int y = 0; y < image.height(); ++y) {
+    char* out =
+        content.data() + header_size + static_cast<size_t>(image.height() - 1 - y) * row_bytes;
+    const float* in = image.row(y);
+    for (size_t i = 0; i < row_bytes / 4; ++i) {
+      uint32_t bits;
+      std::memcpy(&bits, in + i, 4);
+      if constexpr (std::endian::native == std::endian::big) bits = __builtin_bswap32(bits);
+      std::memcpy(out + 4 * i, &bits, 4);
+    }
+  }
+  WriteTextFileAtomically(path, content);
+}
+
+void WriteImage(const fs::path& path, const Image& image) {
+  const std::string ext = LowerExtension(path);
+  if (ext == ".png") return WritePng(path, image);
+  if (ext == ".exr") return WriteExr(path, image);
+  if (ext == ".pfm") return WritePfm(path, image);
+  ThrowError("{}: cannot write images with extension '{}' (use .png, .exr or .pfm)", path.string(),
+             ext);
+}
+
+bool IsImageFile(const fs::path& path) {
+  const std::string ext = LowerExtension(path);
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".exr" || ext == ".pfm";
+}
+
+}  // namespace rephoto::io
