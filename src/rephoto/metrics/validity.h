@@ -38,9 +38,9 @@ Mask CombineMasks(const Mask& a, const Mask& b);
 Mask WindowValidity(const Mask& valid, int window);
 
 struct Completeness {
-  double value = 0;            // valid_both / valid_photo, NaN if valid_photo == 0
-  size_t valid_photo = 0;      // windows valid in the photo
-  size_t valid_both = 0;       // windows valid in photo and rephoto
+  double value = 0;        // valid_both / valid_photo, NaN if valid_photo == 0
+  size_t valid_photo = 0;  // windows valid in the photo
+  size_t valid_both = 0;   // windows valid in photo and rephoto
 };
 
 Completeness ComputeCompleteness(const Mask& photo_valid, const Mask& rephoto_valid, int window);

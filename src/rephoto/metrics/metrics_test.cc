@@ -1,0 +1,483 @@
+#include "rephoto/metrics/metrics.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <random>
+#include <vector>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/metrics/icid.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto::metrics {
+namespace {
+
+Image RandomImage(std::mt19937_64& rng, int w, int h, bool quantized = false) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::uniform_int_distribution<int> q(0, 255);
+  Image img(w, h, 3);
+  for (size_t i = 0; i < img.size(); ++i) {
+    img.data()[i] = quantized ? static_cast<float>(q(rng)) / 255.0f : u(rng);
+  }
+  return img;
+}
+
+// A smooth image plus noise, so windows have a realistic mix of flat and textured content.
+Image SmoothImage(std::mt19937_64& rng, int w, int h, float noise) {
+  std::normal_distribution<float> n(0.0f, noise);
+  Image img(w, h, 3);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const float v = 0.5f + 0.3f * std::sin(0.2f * x + 0.7f * c) * std::cos(0.15f * y) + n(rng);
+        img.at(x, y, c) = std::clamp(v, 0.0f, 1.0f);
+      }
+    }
+  }
+  return img;
+}
+
+Mask RandomMask(std::mt19937_64& rng, int w, int h, double keep) {
+  std::bernoulli_distribution b(keep);
+  Mask m(w, h, 1);
+  for (size_t i = 0; i < m.size(); ++i) m.data()[i] = b(rng);
+  return m;
+}
+
+// ---- Naive references: one plain loop per window, everything in double. ----
+
+using WindowFn = std::function<double(const Image&, const Image&, int x, int y, int r)>;
+
+// Expected error image of a window metric: NaN where the window leaves the image or touches an
+// invalid pixel.
+std::vector<double> NaiveWindowMetric(const Image& p, const Image& q, const Mask& valid, int window,
+                                      const WindowFn& fn) {
+  const int r = window / 2;
+  std::vector<double> out(p.pixel_count(), std::nan(""));
+  for (int y = r; y < p.height() - r; ++y) {
+    for (int x = r; x < p.width() - r; ++x) {
+      bool ok = true;
+      for (int dy = -r; dy <= r; ++dy) {
+        for (int dx = -r; dx <= r; ++dx) ok = ok && (valid.empty() || valid.at(x + dx, y + dy));
+      }
+      if (ok) out[static_cast<size_t>(y) * p.width() + x] = fn(p, q, x, y, r);
+    }
+  }
+  return out;
+}
+
+double NaiveNcc(const Image& p, const Image& q, int x, int y, int r) {
+  const double n = (2 * r + 1) * (2 * r + 1);
+  double num = 0, dp = 0, dq = 0;
+  for (int c = 0; c < 3; ++c) {
+    double mp = 0, mq = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        mp += p.at(x + dx, y + dy, c) / n;
+        mq += q.at(x + dx, y + dy, c) / n;
+      }
+    }
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const double a = p.at(x + dx, y + dy, c) - mp, b = q.at(x + dx, y + dy, c) - mq;
+        num += a * b;
+        dp += a * a;
+        dq += b * b;
+      }
+    }
+  }
+  const double flat = MetricOptions().ncc_flat_threshold;
+  if (dp <= flat && dq <= flat) return 0;
+  if (dp <= flat || dq <= flat) return 1;
+  return 1 - num / std::sqrt(dp * dq);
+}
+
+double NaiveZssd(const Image& p, const Image& q, int x, int y, int r) {
+  const double n = (2 * r + 1) * (2 * r + 1);
+  double total = 0;
+  for (int c = 0; c < 3; ++c) {
+    double mp = 0, mq = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        mp += p.at(x + dx, y + dy, c) / n;
+        mq += q.at(x + dx, y + dy, c) / n;
+      }
+    }
+    double s = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const double d = (p.at(x + dx, y + dy, c) - mp) - (q.at(x + dx, y + dy, c) - mq);
+        s += d * d;
+      }
+    }
+    total += s / n;
+  }
+  return total / 3;
+}
+
+float Luma(const Image& img, int x, int y) {
+  return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
+}
+
+double NaiveCensus(const Image& p, const Image& q, int x, int y, int r) {
+  int differ = 0;
+  for (int dy = -r; dy <= r; ++dy) {
+    for (int dx = -r; dx <= r; ++dx) {
+      if (dx == 0 && dy == 0) continue;
+      const bool bp = Luma(p, x + dx, y + dy) < Luma(p, x, y);
+      const bool bq = Luma(q, x + dx, y + dy) < Luma(q, x, y);
+      differ += bp != bq;
+    }
+  }
+  const int n = (2 * r + 1) * (2 * r + 1);
+  return static_cast<double>(differ) / (n - 1);
+}
+
+// SSIM averaged over channels; weights either Gaussian (population covariance) or uniform
+// (sample covariance), like scikit-image.
+double NaiveSsim(const Image& p, const Image& q, int x, int y, int r, bool gaussian, double sigma) {
+  std::vector<double> w(2 * r + 1);
+  double total = 0;
+  for (int k = -r; k <= r; ++k)
+    total += w[k + r] = gaussian ? std::exp(-k * k / (2 * sigma * sigma)) : 1.0;
+  for (double& v : w) v /= total;
+  const double n = (2.0 * r + 1) * (2.0 * r + 1);
+  const double norm = gaussian ? 1.0 : n / (n - 1);
+  double ssim = 0;
+  for (int c = 0; c < 3; ++c) {
+    double mx = 0, my = 0, mxx = 0, myy = 0, mxy = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const double wt = w[dx + r] * w[dy + r];
+        const double a = p.at(x + dx, y + dy, c), b = q.at(x + dx, y + dy, c);
+        mx += wt * a;
+        my += wt * b;
+        mxx += wt * a * a;
+        myy += wt * b * b;
+        mxy += wt * a * b;
+      }
+    }
+    const double vx = norm * (mxx - mx * mx), vy = norm * (myy - my * my);
+    const double vxy = norm * (mxy - mx * my);
+    const double c1 = 1e-4, c2 = 9e-4;
+    ssim += (2 * mx * my + c1) * (2 * vxy + c2) / ((mx * mx + my * my + c1) * (vx + vy + c2)) / 3;
+  }
+  return ssim;
+}
+
+// iCID per window, straight from the formulas in icid.h (CIELAB from SrgbToLab, whose values
+// are checked against scikit-image separately).
+double NaiveIcid(const Image& p, const Image& q, int x, int y, int r) {
+  const double sigma = 2.0;
+  std::vector<double> w(2 * r + 1);
+  double total = 0;
+  for (int k = -r; k <= r; ++k) total += w[k + r] = std::exp(-k * k / (2 * sigma * sigma));
+  for (double& v : w) v /= total;
+  double m[11] = {};
+  for (int dy = -r; dy <= r; ++dy) {
+    for (int dx = -r; dx <= r; ++dx) {
+      const double wt = w[dx + r] * w[dy + r];
+      double a[3], b[3];
+      SrgbToLab(p.at(x + dx, y + dy, 0), p.at(x + dx, y + dy, 1), p.at(x + dx, y + dy, 2), a);
+      SrgbToLab(q.at(x + dx, y + dy, 0), q.at(x + dx, y + dy, 1), q.at(x + dx, y + dy, 2), b);
+      const double ca = std::hypot(a[1], a[2]), cb = std::hypot(b[1], b[2]);
+      const double dh2 =
+          (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]) - (ca - cb) * (ca - cb);
+      const double v[11] = {a[0],
+                            b[0],
+                            ca,
+                            cb,
+                            a[0] * a[0],
+                            b[0] * b[0],
+                            ca * ca,
+                            cb * cb,
+                            a[0] * b[0],
+                            ca * cb,
+                            std::sqrt(std::max(0.0, dh2))};
+      for (int i = 0; i < 11; ++i) m[i] += wt * v[i];
+    }
+  }
+  const double sl1 = std::max(0.0, m[4] - m[0] * m[0]), sl2 = std::max(0.0, m[5] - m[1] * m[1]);
+  const double sc1 = std::max(0.0, m[6] - m[2] * m[2]), sc2 = std::max(0.0, m[7] - m[3] * m[3]);
+  const double sl12 = m[8] - m[0] * m[1], sc12 = m[9] - m[2] * m[3];
+  const double dl = m[0] - m[1], dc = m[2] - m[3], dh = m[10];
+  const double t1 = 1 / (0.002 * dl * dl + 1);
+  const double t2 = (10 + 2 * std::sqrt(sl1) * std::sqrt(sl2)) / (10 + sl1 + sl2);
+  const double t3 = (10 + std::abs(sl12)) / (10 + std::sqrt(sl1) * std::sqrt(sl2));
+  const double t4 = 1 / (0.002 * dc * dc + 1);
+  const double t5 = 1 / (0.002 * dh * dh + 1);
+  const double t6 = (10 + 2 * std::sqrt(sc1) * std::sqrt(sc2)) / (10 + sc1 + sc2);
+  const double t7 = (10 + std::abs(sc12)) / (10 + std::sqrt(sc1) * std::sqrt(sc2));
+  return 1 - t1 * t2 * t3 * t3 * t3 * t4 * t5 * t6 * t7;
+}
+
+void ExpectMatches(const MetricResult& got, const std::vector<double>& expected, double tol,
+                   const char* what) {
+  double sum = 0;
+  size_t n = 0;
+  double worst = 0;
+  for (size_t i = 0; i < expected.size(); ++i) {
+    const float g = got.error.data()[i];
+    if (std::isnan(expected[i])) {
+      ASSERT_TRUE(std::isnan(g)) << what << " pixel " << i << " should not be evaluated";
+      continue;
+    }
+    ASSERT_FALSE(std::isnan(g)) << what << " pixel " << i << " should be evaluated";
+    worst = std::max(worst, std::abs(g - expected[i]));
+    sum += expected[i];
+    ++n;
+  }
+  EXPECT_LE(worst, tol) << what;
+  ASSERT_EQ(got.evaluated, n) << what;
+  ASSERT_GT(n, 0u) << what;
+  EXPECT_NEAR(got.mean, sum / n, tol) << what;
+}
+
+struct Case {
+  const char* name;
+  Image photo, rephoto;
+  Mask valid;
+};
+
+std::vector<Case> RandomCases(std::mt19937_64& rng) {
+  std::vector<Case> cases;
+  cases.push_back({"random", RandomImage(rng, 41, 27), RandomImage(rng, 41, 27), {}});
+  cases.push_back({"random masked", RandomImage(rng, 41, 27), RandomImage(rng, 41, 27),
+                   RandomMask(rng, 41, 27, 0.99)});
+  Image smooth = SmoothImage(rng, 53, 31, 0.01f);
+  Image smooth2 = SmoothImage(rng, 53, 31, 0.03f);
+  cases.push_back({"smooth masked", smooth, smooth2, RandomMask(rng, 53, 31, 0.995)});
+  return cases;
+}
+
+TEST(Metrics, WindowMetricsMatchNaiveLoops) {
+  auto rng = testing::MakeRng();
+  for (const Case& c : RandomCases(rng)) {
+    SCOPED_TRACE(c.name);
+    MetricOptions options;
+    for (int window : {3, 9}) {
+      options.window = window;
+      const auto results =
+          ComputeMetrics(c.photo, c.rephoto, c.valid,
+                         {Metric::kOneMinusNcc, Metric::kZssd, Metric::kCensus}, options);
+      ExpectMatches(results[0], NaiveWindowMetric(c.photo, c.rephoto, c.valid, window, NaiveNcc),
+                    1e-5, "1-ncc");
+      ExpectMatches(results[1], NaiveWindowMetric(c.photo, c.rephoto, c.valid, window, NaiveZssd),
+                    1e-6, "zssd");
+      ExpectMatches(results[2], NaiveWindowMetric(c.photo, c.rephoto, c.valid, window, NaiveCensus),
+                    1e-7, "census");
+    }
+  }
+}
+
+TEST(Metrics, SsimMatchesNaiveLoops) {
+  auto rng = testing::MakeRng();
+  for (const Case& c : RandomCases(rng)) {
+    SCOPED_TRACE(c.name);
+    for (bool gaussian : {true, false}) {
+      MetricOptions options;
+      options.ssim_gaussian = gaussian;
+      options.ssim_window = gaussian ? 11 : 7;
+      const auto results =
+          ComputeMetrics(c.photo, c.rephoto, c.valid, {Metric::kSsim, Metric::kDssim}, options);
+      const auto expected =
+          NaiveWindowMetric(c.photo, c.rephoto, c.valid, options.ssim_window,
+                            [&](const Image& p, const Image& q, int x, int y, int r) {
+                              return NaiveSsim(p, q, x, y, r, gaussian, options.ssim_sigma);
+                            });
+      std::vector<double> dssim(expected.size());
+      for (size_t i = 0; i < expected.size(); ++i) dssim[i] = (1 - expected[i]) / 2;
+      ExpectMatches(results[0], expected, 2e-5, gaussian ? "ssim gaussian" : "ssim uniform");
+      ExpectMatches(results[1], dssim, 1e-5, gaussian ? "dssim gaussian" : "dssim uniform");
+    }
+  }
+}
+
+TEST(Metrics, IcidMatchesNaiveLoop) {
+  auto rng = testing::MakeRng();
+  for (const Case& c : RandomCases(rng)) {
+    SCOPED_TRACE(c.name);
+    const MetricResult got = ComputeMetric(Metric::kIcid, c.photo, c.rephoto, c.valid);
+    ExpectMatches(got, NaiveWindowMetric(c.photo, c.rephoto, c.valid, 11, NaiveIcid), 1e-6, "icid");
+  }
+}
+
+TEST(Metrics, PixelMetricsMatchDefinitions) {
+  auto rng = testing::MakeRng();
+  for (const Case& c : RandomCases(rng)) {
+    SCOPED_TRACE(c.name);
+    const auto results =
+        ComputeMetrics(c.photo, c.rephoto, c.valid, {Metric::kCbCr, Metric::kPsnr});
+    std::vector<double> cbcr(c.photo.pixel_count(), std::nan("")), sq = cbcr;
+    double mse = 0;
+    size_t n = 0;
+    for (int y = 0; y < c.photo.height(); ++y) {
+      for (int x = 0; x < c.photo.width(); ++x) {
+        if (!c.valid.empty() && !c.valid.at(x, y)) continue;
+        // JPEG's full-range YCbCr of each image, then the difference.
+        auto ycbcr = [](const Image& img, int x, int y, double out[3]) {
+          const double r = img.at(x, y, 0), g = img.at(x, y, 1), b = img.at(x, y, 2);
+          out[0] = 0.299 * r + 0.587 * g + 0.114 * b;
+          out[1] = 0.5 - 0.168736 * r - 0.331264 * g + 0.5 * b;
+          out[2] = 0.5 + 0.5 * r - 0.418688 * g - 0.081312 * b;
+        };
+        double a[3], b[3];
+        ycbcr(c.photo, x, y, a);
+        ycbcr(c.rephoto, x, y, b);
+        const size_t i = static_cast<size_t>(y) * c.photo.width() + x;
+        cbcr[i] = std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
+        double e = 0;
+        for (int ch = 0; ch < 3; ++ch) {
+          const double d = static_cast<double>(c.photo.at(x, y, ch)) - c.rephoto.at(x, y, ch);
+          e += d * d / 3;
+        }
+        sq[i] = e;
+        mse += e;
+        ++n;
+      }
+    }
+    ExpectMatches(results[0], cbcr, 1e-6, "cb+cr");
+    ASSERT_EQ(results[1].evaluated, n);
+    EXPECT_NEAR(results[1].mean, 10 * std::log10(n / mse), 1e-9);
+    for (size_t i = 0; i < sq.size(); ++i) {
+      if (std::isnan(sq[i])) {
+        EXPECT_TRUE(std::isnan(results[1].error.data()[i]));
+      } else {
+        EXPECT_NEAR(results[1].error.data()[i], sq[i], 1e-7);
+      }
+    }
+  }
+}
+
+TEST(Metrics, IdenticalImagesGiveExactlyZero) {
+  auto rng = testing::MakeRng();
+  const Image img = SmoothImage(rng, 48, 40, 0.02f);
+  const Mask mask = RandomMask(rng, 48, 40, 0.995);
+  for (const MetricResult& res : ComputeMetrics(img, img, mask, AllMetrics())) {
+    SCOPED_TRACE(std::string(MetricName(res.metric)));
+    ASSERT_GT(res.evaluated, 0u);
+    if (res.metric == Metric::kPsnr) {
+      EXPECT_TRUE(std::isinf(res.mean) && res.mean > 0);
+    } else if (res.metric == Metric::kSsim) {
+      EXPECT_EQ(res.mean, 1.0);
+    } else {
+      EXPECT_EQ(res.mean, 0.0);
+    }
+    for (size_t i = 0; i < res.error.size(); ++i) {
+      const float v = res.error.data()[i];
+      if (!std::isnan(v)) {
+        ASSERT_EQ(v, res.metric == Metric::kSsim ? 1.0f : 0.0f) << i;
+      }
+    }
+  }
+}
+
+TEST(Metrics, NccAndCensusInvariantUnderGainAndOffset) {
+  auto rng = testing::MakeRng();
+  // 8-bit values, so no two different lumas are closer than the rounding of gain * v + offset.
+  const Image photo = RandomImage(rng, 40, 30, true);
+  const Image rephoto = RandomImage(rng, 40, 30, true);
+  Image changed = rephoto;
+  for (size_t i = 0; i < changed.size(); ++i) changed.data()[i] = 0.6f * changed.data()[i] + 0.3f;
+  const std::vector<Metric> set = {Metric::kOneMinusNcc, Metric::kCensus, Metric::kZssd};
+  const auto before = ComputeMetrics(photo, rephoto, {}, set);
+  const auto after = ComputeMetrics(photo, changed, {}, set);
+  for (int m = 0; m < 2; ++m) {
+    for (size_t i = 0; i < before[m].error.size(); ++i) {
+      const float a = before[m].error.data()[i], b = after[m].error.data()[i];
+      if (std::isnan(a)) {
+        ASSERT_TRUE(std::isnan(b));
+      } else {
+        ASSERT_NEAR(a, b, 1e-6) << MetricName(set[m]) << " at " << i;
+      }
+    }
+  }
+  // ZSSD: offset only.
+  Image shifted = rephoto;
+  for (size_t i = 0; i < shifted.size(); ++i) shifted.data()[i] += 0.25f;
+  const MetricResult z0 = ComputeMetric(Metric::kZssd, photo, rephoto, {});
+  const MetricResult z1 = ComputeMetric(Metric::kZssd, photo, shifted, {});
+  EXPECT_NEAR(z0.mean, z1.mean, 1e-6);
+  for (size_t i = 0; i < z0.error.size(); ++i) {
+    if (!std::isnan(z0.error.data()[i])) {
+      ASSERT_NEAR(z0.error.data()[i], z1.error.data()[i], 1e-6);
+    }
+  }
+}
+
+TEST(Metrics, InvertedPatchGivesNccErrorTwo) {
+  auto rng = testing::MakeRng();
+  const Image photo = RandomImage(rng, 20, 20);
+  Image inverted = photo;
+  for (size_t i = 0; i < inverted.size(); ++i) inverted.data()[i] = 1.0f - photo.data()[i];
+  const MetricResult res = ComputeMetric(Metric::kOneMinusNcc, photo, inverted, {});
+  EXPECT_EQ(res.evaluated, 12u * 12u);
+  EXPECT_NEAR(res.mean, 2.0, 1e-6);
+}
+
+TEST(Metrics, CbCrIgnoresLumaChanges) {
+  auto rng = testing::MakeRng();
+  std::uniform_real_distribution<float> u(0.3f, 0.7f), chroma(-0.1f, 0.1f), dy(-0.2f, 0.2f);
+  Image photo(30, 20, 3), rephoto(30, 20, 3);
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 30; ++x) {
+      const double luma = u(rng), cb = chroma(rng), cr = chroma(rng), luma2 = luma + dy(rng);
+      // Inverse full-range BT.601 with the +0.5 offsets removed.
+      auto set = [&](Image& img, double yy) {
+        img.at(x, y, 0) = static_cast<float>(yy + 1.402 * cr);
+        img.at(x, y, 1) = static_cast<float>(yy - 0.344136 * cb - 0.714136 * cr);
+        img.at(x, y, 2) = static_cast<float>(yy + 1.772 * cb);
+      };
+      set(photo, luma);
+      set(rephoto, luma2);
+    }
+  }
+  const MetricResult res = ComputeMetric(Metric::kCbCr, photo, rephoto, {});
+  EXPECT_EQ(res.evaluated, 600u);
+  EXPECT_LT(res.mean, 2e-6);
+  const MetricResult control = ComputeMetric(Metric::kOneMinusNcc, photo, rephoto, {});
+  EXPECT_GT(control.mean, 0.01);  // the images do differ
+}
+
+TEST(Metrics, ResultsDoNotDependOnThreadCount) {
+  auto rng = testing::MakeRng();
+  const Image p = SmoothImage(rng, 200, 150, 0.05f), q = SmoothImage(rng, 200, 150, 0.05f);
+  const auto all = ComputeMetrics(p, q, {}, AllMetrics());
+  std::vector<MetricResult> one;
+  {
+    ThreadLimit limit(1);
+    one = ComputeMetrics(p, q, {}, AllMetrics());
+  }
+  for (size_t m = 0; m < all.size(); ++m) EXPECT_EQ(all[m].mean, one[m].mean) << m;
+}
+
+TEST(Metrics, SmallImagesAndBadInput) {
+  const Image tiny(5, 5, 3, 0.5f);
+  const MetricResult res = ComputeMetric(Metric::kOneMinusNcc, tiny, tiny, {});
+  EXPECT_EQ(res.evaluated, 0u);
+  EXPECT_TRUE(std::isnan(res.mean));
+  EXPECT_THROW(ComputeMetric(Metric::kZssd, tiny, Image(5, 4, 3), {}), Error);
+  EXPECT_THROW(ComputeMetric(Metric::kZssd, tiny, Image(5, 5, 4), {}), Error);
+  EXPECT_THROW(ComputeMetric(Metric::kZssd, tiny, tiny, Mask(4, 5, 1)), Error);
+  MetricOptions even;
+  even.window = 8;
+  EXPECT_THROW(ComputeMetric(Metric::kZssd, tiny, tiny, {}, even), Error);
+}
+
+TEST(Metrics, NamesAndLists) {
+  for (Metric m : AllMetrics()) EXPECT_EQ(ParseMetric(MetricName(m)), m);
+  EXPECT_EQ(ParseMetric("1-NCC"), Metric::kOneMinusNcc);
+  EXPECT_FALSE(ParseMetric("mse"));
+  EXPECT_EQ(ParseMetricList("psnr, 1-ncc").size(), 2u);
+  EXPECT_EQ(ParseMetricList("all"), AllMetrics());
+  EXPECT_THROW(ParseMetricList("1-ncc,bogus"), Error);
+  EXPECT_THROW(ParseMetricList(""), Error);
+  EXPECT_TRUE(HigherIsBetter(Metric::kPsnr));
+  EXPECT_FALSE(HigherIsBetter(Metric::kCensus));
+}
+
+}  // namespace
+}  // namespace rephoto::metrics
