@@ -1,0 +1,227 @@
+#include "rephoto/render/render_model.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/render/point_radius.h"
+
+namespace rephoto::render {
+
+struct RenderModel::PointGeometry {
+  const Eigen::Vector3f* positions = nullptr;
+  const Eigen::Vector3f* normals = nullptr;  // nullptr: view-facing discs
+  const float* radii = nullptr;
+};
+
+namespace {
+
+void PointBounds(const RTCBoundsFunctionArguments* args) {
+  const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
+  const Eigen::Vector3f& c = data->positions[args->primID];
+  const float r = data->radii[args->primID];
+  RTCBounds* b = args->bounds_o;
+  b->lower_x = c.x() - r;
+  b->lower_y = c.y() - r;
+  b->lower_z = c.z() - r;
+  b->upper_x = c.x() + r;
+  b->upper_y = c.y() + r;
+  b->upper_z = c.z() + r;
+}
+
+// Ray-disc test; returns the ray parameter of the hit or NaN. `normal_out` is the disc normal.
+inline float IntersectDisc(const RenderModel::PointGeometry& data, unsigned prim,
+                           const Eigen::Vector3f& o, const Eigen::Vector3f& d, float tnear,
+                           float tfar, Eigen::Vector3f* normal_out) {
+  const Eigen::Vector3f& c = data.positions[prim];
+  const float r = data.radii[prim];
+  Eigen::Vector3f n = Eigen::Vector3f::Zero();
+  if (data.normals != nullptr) n = data.normals[prim];
+  float t;
+  if (n.squaredNorm() > 0) {
+    const float denom = d.dot(n);
+    if (std::abs(denom) < 1e-12f) return std::numeric_limits<float>::quiet_NaN();
+    t = (c - o).dot(n) / denom;
+  } else {  // view-facing: the disc through c perpendicular to the ray
+    t = (c - o).dot(d) / d.squaredNorm();
+    n = -d;
+  }
+  if (!(t > tnear && t < tfar)) return std::numeric_limits<float>::quiet_NaN();
+  if ((o + t * d - c).squaredNorm() > r * r) return std::numeric_limits<float>::quiet_NaN();
+  *normal_out = n;
+  return t;
+}
+
+void PointIntersect(const RTCIntersectFunctionNArguments* args) {
+  const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
+  const unsigned n = args->N;
+  RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, n);
+  RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, n);
+  for (unsigned i = 0; i < n; ++i) {
+    if (args->valid[i] == 0) continue;
+    const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
+                            RTCRayN_org_z(ray, n, i));
+    const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
+                            RTCRayN_dir_z(ray, n, i));
+    Eigen::Vector3f normal;
+    const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
+                                  RTCRayN_tfar(ray, n, i), &normal);
+    if (std::isnan(t)) continue;
+    RTCRayN_tfar(ray, n, i) = t;
+    RTCHitN_Ng_x(hit, n, i) = normal.x();
+    RTCHitN_Ng_y(hit, n, i) = normal.y();
+    RTCHitN_Ng_z(hit, n, i) = normal.z();
+    RTCHitN_u(hit, n, i) = 0;
+    RTCHitN_v(hit, n, i) = 0;
+    RTCHitN_primID(hit, n, i) = args->primID;
+    RTCHitN_geomID(hit, n, i) = args->geomID;
+    RTCHitN_instID(hit, n, i, 0) = args->context->instID[0];
+  }
+}
+
+void PointOccluded(const RTCOccludedFunctionNArguments* args) {
+  const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
+  const unsigned n = args->N;
+  RTCRayN* ray = args->ray;
+  for (unsigned i = 0; i < n; ++i) {
+    if (args->valid[i] == 0) continue;
+    const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
+                            RTCRayN_org_z(ray, n, i));
+    const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
+                            RTCRayN_dir_z(ray, n, i));
+    Eigen::Vector3f normal;
+    const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
+                                  RTCRayN_tfar(ray, n, i), &normal);
+    if (!std::isnan(t)) RTCRayN_tfar(ray, n, i) = -std::numeric_limits<float>::infinity();
+  }
+}
+
+void CheckDevice(RTCDevice device, std::string_view name, const char* step) {
+  const RTCError error = rtcGetDeviceError(device);
+  REPHOTO_CHECK(error == RTC_ERROR_NONE, "{}: Embree error {} while {}", name,
+                static_cast<int>(error), step);
+}
+
+}  // namespace
+
+RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::string_view name)
+    : mesh_(std::move(mesh)), options_(options) {
+  mesh_.Validate(name);
+  REPHOTO_CHECK(options_.point_radius >= 0 && std::isfinite(options_.point_radius),
+                "{}: point radius {} must be >= 0", name, options_.point_radius);
+  REPHOTO_CHECK(options_.point_radius_neighbors >= 1, "{}: point radius neighbours must be >= 1",
+                name);
+
+  if (mesh_.is_point_cloud()) {
+    representation_ = Representation::kPointCloud;
+  } else if (options_.load_textures && mesh_.is_textured()) {
+    representation_ = Representation::kTexturedMesh;
+    textures_.resize(mesh_.materials.size());
+    for (size_t m = 0; m < mesh_.materials.size(); ++m) {
+      if (!mesh_.materials[m].diffuse_texture.empty()) {
+        textures_[m] = Texture::Read(mesh_.materials[m].diffuse_texture);
+      }
+    }
+  } else if (!mesh_.colors.empty()) {
+    representation_ = Representation::kVertexColoredMesh;
+  } else {
+    representation_ = Representation::kPlainMesh;
+  }
+
+  device_ = rtcNewDevice(nullptr);
+  REPHOTO_CHECK(device_ != nullptr, "{}: cannot create an Embree device", name);
+  scene_ = rtcNewScene(device_);
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
+
+  if (representation_ == Representation::kPointCloud) {
+    const size_t n = mesh_.positions.size();
+    if (options_.point_radius > 0) {
+      point_radii_.assign(n, options_.point_radius);
+    } else if (!mesh_.radii.empty()) {
+      point_radii_ = mesh_.radii;
+    } else {
+      point_radii_ = KthNeighborDistances(mesh_.positions, options_.point_radius_neighbors);
+      float fallback = 0;  // for isolated duplicates: the median positive radius
+      std::vector<float> positive;
+      for (float r : point_radii_) {
+        if (r > 0) positive.push_back(r);
+      }
+      if (!positive.empty()) {
+        std::nth_element(positive.begin(), positive.begin() + positive.size() / 2, positive.end());
+        fallback = positive[positive.size() / 2];
+      }
+      for (float& r : point_radii_) {
+        r = (r > 0 ? r : fallback) * options_.point_radius_scale;
+      }
+      REPHOTO_CHECK(fallback > 0,
+                    "{}: cannot derive a point radius (all points coincide); give "
+                    "one explicitly",
+                    name);
+    }
+    point_geometry_ = std::make_unique<PointGeometry>();
+    point_geometry_->positions = mesh_.positions.data();
+    point_geometry_->normals = mesh_.normals.empty() ? nullptr : mesh_.normals.data();
+    point_geometry_->radii = point_radii_.data();
+    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(n));
+    rtcSetGeometryUserData(geometry, point_geometry_.get());
+    rtcSetGeometryBoundsFunction(geometry, PointBounds, nullptr);
+    rtcSetGeometryIntersectFunction(geometry, PointIntersect);
+    rtcSetGeometryOccludedFunction(geometry, PointOccluded);
+    rtcCommitGeometry(geometry);
+    rtcAttachGeometryByID(scene_, geometry, 0);
+    rtcReleaseGeometry(geometry);
+  } else {
+    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), mesh_.positions.size()));
+    auto* indices = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(uint32_t), mesh_.faces.size()));
+    CheckDevice(device_, name, "allocating buffers");
+    std::memcpy(vertices, mesh_.positions.data(), mesh_.positions.size() * 3 * sizeof(float));
+    std::memcpy(indices, mesh_.faces.data(), mesh_.faces.size() * 3 * sizeof(uint32_t));
+    rtcCommitGeometry(geometry);
+    rtcAttachGeometryByID(scene_, geometry, 0);
+    rtcReleaseGeometry(geometry);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  rtcCommitScene(scene_);
+  build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  CheckDevice(device_, name, "building the BVH");
+}
+
+RenderModel::~RenderModel() {
+  if (scene_ != nullptr) rtcReleaseScene(scene_);
+  if (device_ != nullptr) rtcReleaseDevice(device_);
+}
+
+std::shared_ptr<const CameraRays> RenderModel::RaysFor(const camera::Camera& camera) const {
+  {
+    std::lock_guard<std::mutex> lock(rays_mutex_);
+    for (auto it = rays_cache_.begin(); it != rays_cache_.end(); ++it) {
+      if ((*it)->Matches(camera)) {
+        auto found = *it;
+        rays_cache_.erase(it);
+        rays_cache_.push_back(found);
+        return found;
+      }
+    }
+  }
+  // Built outside the lock: another thread may build the same table meanwhile (harmless).
+  auto rays = std::make_shared<const CameraRays>(camera);
+  std::lock_guard<std::mutex> lock(rays_mutex_);
+  constexpr size_t kCacheSize = 4;
+  if (rays_cache_.size() >= kCacheSize) rays_cache_.erase(rays_cache_.begin());
+  rays_cache_.push_back(rays);
+  return rays;
+}
+
+}  // namespace rephoto::render
