@@ -36,7 +36,7 @@ void SrgbToLab(float r, float g, float b, double lab[3]) {
   const double y = 0.212671 * rl + 0.715160 * gl + 0.072169 * bl;
   const double z = (0.019334 * rl + 0.119193 * gl + 0.950227 * bl) / 1.08883;
   const double fx = LabF(x), fy = LabF(y), fz = LabF(z);
-  lab[0] = y > 0.008856 ? 116.0 * fy - 16.0 : 903.3 * y;
+  lab[0] = 116.0 * fy - 16.0;
   lab[1] = 500.0 * (fx - fy);
   lab[2] = 200.0 * (fy - fz);
 }

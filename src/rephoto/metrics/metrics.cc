@@ -40,12 +40,13 @@ T* Scratch(std::vector<T>& buffer, size_t size) {
 // the band; row sums come from prefix sums, so the cost does not depend on the window.
 
 REPHOTO_SIMD_CLONES
-void AddBoxRows(const float* p, const float* q, int n, double* cols) {
-  double* sx = cols;
-  double* sy = cols + n;
-  double* sxx = cols + 2 * n;
-  double* syy = cols + 3 * n;
-  double* sxy = cols + 4 * n;
+void AddBoxRows(const float* __restrict p, const float* __restrict q, int n,
+                double* __restrict cols) {
+  double* __restrict sx = cols;
+  double* __restrict sy = cols + n;
+  double* __restrict sxx = cols + 2 * n;
+  double* __restrict syy = cols + 3 * n;
+  double* __restrict sxy = cols + 4 * n;
   for (int i = 0; i < n; ++i) {
     const double a = p[i], b = q[i];
     sx[i] += a;
@@ -57,13 +58,14 @@ void AddBoxRows(const float* p, const float* q, int n, double* cols) {
 }
 
 REPHOTO_SIMD_CLONES
-void SlideBoxRows(const float* p_add, const float* q_add, const float* p_sub, const float* q_sub,
-                  int n, double* cols) {
-  double* sx = cols;
-  double* sy = cols + n;
-  double* sxx = cols + 2 * n;
-  double* syy = cols + 3 * n;
-  double* sxy = cols + 4 * n;
+void SlideBoxRows(const float* __restrict p_add, const float* __restrict q_add,
+                  const float* __restrict p_sub, const float* __restrict q_sub, int n,
+                  double* __restrict cols) {
+  double* __restrict sx = cols;
+  double* __restrict sy = cols + n;
+  double* __restrict sxx = cols + 2 * n;
+  double* __restrict syy = cols + 3 * n;
+  double* __restrict sxy = cols + 4 * n;
   for (int i = 0; i < n; ++i) {
     const double a = p_add[i], b = q_add[i], c = p_sub[i], d = q_sub[i];
     sx[i] += a - c;
@@ -87,14 +89,14 @@ void BoxPrefix(const double* cols, int n, double* prefix) {
 
 // Per element (pixel x channel): summed squared deviations and co-deviation of the window.
 REPHOTO_SIMD_CLONES
-void BoxMoments(const double* prefix, int n, int r, double inv_count, double* var_x, double* var_y,
-                double* cov) {
+void BoxMoments(const double* __restrict prefix, int n, int r, double inv_count,
+                double* __restrict var_x, double* __restrict var_y, double* __restrict cov) {
   const int m = n + 3;
-  const double* px = prefix;
-  const double* py = prefix + m;
-  const double* pxx = prefix + 2 * m;
-  const double* pyy = prefix + 3 * m;
-  const double* pxy = prefix + 4 * m;
+  const double* __restrict px = prefix;
+  const double* __restrict py = prefix + m;
+  const double* __restrict pxx = prefix + 2 * m;
+  const double* __restrict pyy = prefix + 3 * m;
+  const double* __restrict pxy = prefix + 4 * m;
   const int lo = 3 * r, hi = n - 3 * r, ahead = 3 * r + 3, behind = 3 * r;
   for (int i = lo; i < hi; ++i) {
     const double sx = px[i + ahead] - px[i - behind];
@@ -192,7 +194,7 @@ MeanSums BoxBand(const Inputs& in, int window, double flat, Image* ncc, Image* z
 // Census on luma.
 
 REPHOTO_SIMD_CLONES
-void LumaRow(const float* rgb, int width, float* luma) {
+void LumaRow(const float* __restrict rgb, int width, float* __restrict luma) {
   for (int x = 0; x < width; ++x) {
     luma[x] = 0.299f * rgb[3 * x] + 0.587f * rgb[3 * x + 1] + 0.114f * rgb[3 * x + 2];
   }
@@ -352,18 +354,18 @@ MeanSums PixelBand(const Inputs& in, Image* cbcr, Image* squared, int64_t y0, in
 constexpr int kBlock = 512;
 
 REPHOTO_SIMD_CLONES
-void SsimVertical(const float* const* p_rows, const float* const* q_rows, const float* weights,
-                  int r, int n, float* out) {
-  float* vx = out;
-  float* vy = out + n;
-  float* vxx = out + 2 * n;
-  float* vyy = out + 3 * n;
-  float* vxy = out + 4 * n;
+void SsimVertical(const float* const* p_rows, const float* const* q_rows,
+                  const float* __restrict weights, int r, int n, float* __restrict out) {
+  float* __restrict vx = out;
+  float* __restrict vy = out + n;
+  float* __restrict vxx = out + 2 * n;
+  float* __restrict vyy = out + 3 * n;
+  float* __restrict vxy = out + 4 * n;
   for (int b0 = 0; b0 < n; b0 += kBlock) {
     const int b1 = std::min(n, b0 + kBlock);
     const float w0 = weights[r];
-    const float* pc = p_rows[r];
-    const float* qc = q_rows[r];
+    const float* __restrict pc = p_rows[r];
+    const float* __restrict qc = q_rows[r];
     for (int i = b0; i < b1; ++i) {
       const float a = pc[i] - 0.5f, b = qc[i] - 0.5f;
       vx[i] = w0 * a;
@@ -374,10 +376,10 @@ void SsimVertical(const float* const* p_rows, const float* const* q_rows, const 
     }
     for (int k = 1; k <= r; ++k) {
       const float wk = weights[r + k];
-      const float* p1 = p_rows[r - k];
-      const float* p2 = p_rows[r + k];
-      const float* q1 = q_rows[r - k];
-      const float* q2 = q_rows[r + k];
+      const float* __restrict p1 = p_rows[r - k];
+      const float* __restrict p2 = p_rows[r + k];
+      const float* __restrict q1 = q_rows[r - k];
+      const float* __restrict q2 = q_rows[r + k];
       for (int i = b0; i < b1; ++i) {
         const float a1 = p1[i] - 0.5f, a2 = p2[i] - 0.5f;
         const float b1v = q1[i] - 0.5f, b2v = q2[i] - 0.5f;
@@ -392,7 +394,8 @@ void SsimVertical(const float* const* p_rows, const float* const* q_rows, const 
 }
 
 REPHOTO_SIMD_CLONES
-void SsimHorizontal(const float* in, const float* weights, int r, int n, float* out) {
+void SsimHorizontal(const float* __restrict in, const float* __restrict weights, int r, int n,
+                    float* __restrict out) {
   // out[i] for i in [3r, n - 3r).
   for (int b0 = 3 * r; b0 < n - 3 * r; b0 += kBlock) {
     const int b1 = std::min(n - 3 * r, b0 + kBlock);
@@ -400,20 +403,21 @@ void SsimHorizontal(const float* in, const float* weights, int r, int n, float* 
     for (int i = b0; i < b1; ++i) out[i] = w0 * in[i];
     for (int k = 1; k <= r; ++k) {
       const float wk = weights[r + k];
-      const float* left = in - 3 * k;
-      const float* right = in + 3 * k;
+      const float* __restrict left = in - 3 * k;
+      const float* __restrict right = in + 3 * k;
       for (int i = b0; i < b1; ++i) out[i] += wk * (left[i] + right[i]);
     }
   }
 }
 
 REPHOTO_SIMD_CLONES
-void SsimFormula(const float* moments, int r, int n, float cov_norm, float* ssim) {
-  const float* mx = moments;
-  const float* my = moments + n;
-  const float* mxx = moments + 2 * n;
-  const float* myy = moments + 3 * n;
-  const float* mxy = moments + 4 * n;
+void SsimFormula(const float* __restrict moments, int r, int n, float cov_norm,
+                 float* __restrict ssim) {
+  const float* __restrict mx = moments;
+  const float* __restrict my = moments + n;
+  const float* __restrict mxx = moments + 2 * n;
+  const float* __restrict myy = moments + 3 * n;
+  const float* __restrict mxy = moments + 4 * n;
   const float c1 = 0.01f * 0.01f, c2 = 0.03f * 0.03f;
   for (int i = 3 * r; i < n - 3 * r; ++i) {
     const float ux = mx[i] + 0.5f, uy = my[i] + 0.5f;
