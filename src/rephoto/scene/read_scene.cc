@@ -252,9 +252,10 @@ SceneSource DetectSceneFormat(const fs::path& path) {
   }
   std::string looked_for;
   for (SceneFormat format : kAllFormats) {
-    looked_for += fmt::format("; {}: {}", SceneFormatName(format), LookedFor(format));
+    looked_for += fmt::format("{}{}: {}", looked_for.empty() ? "" : "; ", SceneFormatName(format),
+                              LookedFor(format));
   }
-  ThrowError("{}: cannot detect the scene format (looked for{}); pass --format with one of: {}",
+  ThrowError("{}: cannot detect the scene format (looked for {}); pass --format with one of: {}",
              path.string(), looked_for, SceneFormatList());
 }
 
