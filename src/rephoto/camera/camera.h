@@ -121,7 +121,8 @@ struct Pose {
   static Pose FromQuaternion(double qw, double qx, double qy, double qz,
                              const Eigen::Vector3d& translation);
   // Throws Error (prefixed with `context`) when a value is NaN/inf or rotation is not a proper
-  // rotation (orthonormal to 1e-6 after the file's precision, determinant +1).
+  // rotation: some entry of R^T R - I above 1e-6 in magnitude, or determinant <= 0. Readers of
+  // files that print rotations with few digits repair them with NearestRotation first.
   void Validate(std::string_view context) const;
 
   bool operator==(const Pose&) const = default;
