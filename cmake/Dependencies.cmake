@@ -17,4 +17,6 @@ if(REPHOTO_BUILD_TESTS)
 endif()
 if(REPHOTO_BUILD_BENCHMARKS)
   find_package(benchmark REQUIRED)
+  # Only for the OpenGL comparison in bench/bench_render.cc (skipped when absent).
+  find_package(OpenGL QUIET COMPONENTS OpenGL EGL)
 endif()

@@ -12,6 +12,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-skimage python3-numpy python3-scipy
+  libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
 )
 
 missing=()

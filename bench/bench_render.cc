@@ -1,0 +1,377 @@
+// Renderer speed: BVH build, 1 and 4 samples per pixel, 1920x1080, a procedural
+// 1,000,000-triangle vertex-coloured mesh (displaced UV sphere filling most of the frame), and
+// the same mesh and camera rasterized with OpenGL on Mesa llvmpipe through EGL surfaceless
+// (the paper's rephotographer renders with OpenGL), when the benchmark was built with EGL.
+//
+// Run: build-*/bench/rephoto_bench_render --benchmark_repetitions=5
+//        --benchmark_report_aggregates_only=true
+// Threads: all cores (TBB default); pass --threads=N through REPHOTO_BENCH_THREADS=N.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+#include "rephoto/core/parallel.h"
+#include "rephoto/mesh/mesh.h"
+#include "rephoto/render/render.h"
+
+#ifdef REPHOTO_BENCH_EGL
+#define EGL_EGLEXT_PROTOTYPES
+#define GL_GLEXT_PROTOTYPES
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GL/gl.h>
+#include <GL/glext.h>
+#endif
+
+namespace {
+
+using rephoto::camera::Camera;
+using rephoto::camera::CameraModel;
+using rephoto::camera::Pose;
+using rephoto::mesh::Mesh;
+
+constexpr int kWidth = 1920;
+constexpr int kHeight = 1080;
+
+// A UV sphere of 500 x 1000 quads (1,000,000 triangles) with a smooth bumpy displacement and
+// colours varying along it.
+const Mesh& BenchMesh() {
+  static const Mesh mesh = [] {
+    Mesh m;
+    const int rows = 500, cols = 1000;
+    const double pi = 3.14159265358979323846;
+    for (int i = 0; i <= rows; ++i) {
+      const double theta = pi * i / rows;
+      for (int j = 0; j < cols; ++j) {
+        const double phi = 2 * pi * j / cols;
+        const double bump = 1.0 + 0.03 * std::sin(17 * theta) * std::cos(23 * phi) +
+                            0.01 * std::sin(71 * theta + 3 * phi);
+        m.positions.emplace_back(bump * std::sin(theta) * std::cos(phi),
+                                 bump * std::sin(theta) * std::sin(phi), bump * std::cos(theta));
+        m.colors.emplace_back(0.5 + 0.5 * std::sin(9 * phi), 0.5 + 0.5 * std::cos(7 * theta),
+                              0.5 + 0.5 * std::sin(40 * theta + 31 * phi));
+      }
+    }
+    for (int i = 0; i < rows; ++i) {
+      for (int j = 0; j < cols; ++j) {
+        const uint32_t a = i * cols + j, b = i * cols + (j + 1) % cols;
+        const uint32_t c = (i + 1) * cols + j, d = (i + 1) * cols + (j + 1) % cols;
+        m.faces.push_back({a, c, b});
+        m.faces.push_back({b, c, d});
+      }
+    }
+    return m;
+  }();
+  return mesh;
+}
+
+Camera BenchCamera() {
+  Camera camera;
+  camera.model = CameraModel::kPinhole;
+  camera.width = kWidth;
+  camera.height = kHeight;
+  camera.params = {1400.0, 1400.0, kWidth / 2.0, kHeight / 2.0};
+  return camera;
+}
+
+// Looking at the sphere from distance 2.3, slightly from above.
+Pose BenchPose() {
+  const Eigen::Vector3d center(0.4, -2.2, 0.6);
+  const Eigen::Vector3d forward = (-center).normalized();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d(0, 0, 1)).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Pose pose;
+  pose.rotation.row(0) = right.transpose();
+  pose.rotation.row(1) = down.transpose();
+  pose.rotation.row(2) = forward.transpose();
+  pose.translation = -pose.rotation * center;
+  return pose;
+}
+
+const rephoto::render::RenderModel& BenchModel() {
+  static const auto model = std::make_unique<rephoto::render::RenderModel>(BenchMesh());
+  return *model;
+}
+
+double Coverage(const rephoto::Image& rgba) {
+  double sum = 0;
+  for (size_t i = 0; i < rgba.pixel_count(); ++i) sum += rgba.data()[4 * i + 3];
+  return sum / static_cast<double>(rgba.pixel_count());
+}
+
+void BM_BuildBvh(benchmark::State& state) {
+  const Mesh& mesh = BenchMesh();
+  double build = 0;
+  for (auto _ : state) {
+    rephoto::render::RenderModel model(mesh);
+    build = model.build_seconds();
+    benchmark::DoNotOptimize(model.scene());
+  }
+  state.counters["triangles"] = static_cast<double>(mesh.faces.size());
+  state.counters["commit_ms"] = build * 1e3;  // rtcCommitScene only (rest: buffer copies)
+}
+BENCHMARK(BM_BuildBvh)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+void BM_Render(benchmark::State& state) {
+  const auto& model = BenchModel();
+  const auto rays = model.RaysFor(BenchCamera());
+  rephoto::render::RenderOptions options;
+  options.samples_per_pixel = static_cast<int>(state.range(0));
+  rephoto::render::Rephoto out;
+  rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);  // warm buffers
+  for (auto _ : state) {
+    rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);
+    benchmark::DoNotOptimize(out.color.data());
+  }
+  state.counters["coverage"] = Coverage(out.color);
+  state.counters["Mrays/s"] = benchmark::Counter(
+      static_cast<double>(kWidth) * kHeight * options.samples_per_pixel * state.iterations() / 1e6,
+      benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+#ifdef REPHOTO_BENCH_EGL
+const char* kVertexShader = R"(#version 330 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 color;
+uniform mat4 clip_from_world;
+out vec3 vertex_color;
+void main() {
+  gl_Position = clip_from_world * vec4(position, 1.0);
+  vertex_color = color;
+})";
+const char* kFragmentShader = R"(#version 330 core
+in vec3 vertex_color;
+out vec4 frag_color;
+void main() { frag_color = vec4(vertex_color, 1.0); })";
+
+// Headless OpenGL 3.3 core context on EGL's surfaceless platform (Mesa llvmpipe), rendering
+// into a framebuffer object with `samples` MSAA samples (0 = none).
+class GlRenderer {
+ public:
+  bool Init(int samples, std::string* error) {
+    auto get_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+        eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    if (get_display == nullptr) return Fail(error, "no eglGetPlatformDisplayEXT");
+    display_ = get_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (display_ == EGL_NO_DISPLAY || !eglInitialize(display_, nullptr, nullptr)) {
+      return Fail(error, "eglInitialize failed");
+    }
+    const EGLint config_attributes[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE,
+                                        EGL_OPENGL_BIT, EGL_NONE};
+    EGLConfig config;
+    EGLint count = 0;
+    if (!eglChooseConfig(display_, config_attributes, &config, 1, &count) || count == 0) {
+      return Fail(error, "no EGL config");
+    }
+    eglBindAPI(EGL_OPENGL_API);
+    const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION,
+                                         3,
+                                         EGL_CONTEXT_MINOR_VERSION,
+                                         3,
+                                         EGL_CONTEXT_OPENGL_PROFILE_MASK,
+                                         EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                                         EGL_NONE};
+    context_ = eglCreateContext(display_, config, EGL_NO_CONTEXT, context_attributes);
+    if (context_ == EGL_NO_CONTEXT) return Fail(error, "eglCreateContext failed");
+    if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_)) {
+      return Fail(error, "eglMakeCurrent (surfaceless) failed");
+    }
+    renderer_name_ = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+
+    glGenFramebuffers(1, &framebuffer_);
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
+    glGenRenderbuffers(2, renderbuffers_);
+    glBindRenderbuffer(GL_RENDERBUFFER, renderbuffers_[0]);
+    glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_RGBA8, kWidth, kHeight);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                              renderbuffers_[0]);
+    glBindRenderbuffer(GL_RENDERBUFFER, renderbuffers_[1]);
+    glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_DEPTH_COMPONENT24, kWidth,
+                                     kHeight);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                              renderbuffers_[1]);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      return Fail(error, "framebuffer incomplete");
+    }
+    samples_ = samples;
+    if (samples > 0) {  // resolve target for reading back
+      glGenFramebuffers(1, &resolve_framebuffer_);
+      glBindFramebuffer(GL_FRAMEBUFFER, resolve_framebuffer_);
+      glGenRenderbuffers(1, &resolve_renderbuffer_);
+      glBindRenderbuffer(GL_RENDERBUFFER, resolve_renderbuffer_);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, kWidth, kHeight);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                resolve_renderbuffer_);
+      glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
+    }
+
+    program_ = glCreateProgram();
+    for (auto [type, source] : {std::pair{GL_VERTEX_SHADER, kVertexShader},
+                                std::pair{GL_FRAGMENT_SHADER, kFragmentShader}}) {
+      const GLuint shader = glCreateShader(type);
+      glShaderSource(shader, 1, &source, nullptr);
+      glCompileShader(shader);
+      GLint ok = 0;
+      glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+      if (!ok) return Fail(error, "shader compilation failed");
+      glAttachShader(program_, shader);
+    }
+    glLinkProgram(program_);
+    glUseProgram(program_);
+
+    const Mesh& mesh = BenchMesh();
+    std::vector<float> vertices;
+    vertices.reserve(mesh.positions.size() * 6);
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+      for (int k = 0; k < 3; ++k) vertices.push_back(mesh.positions[i][k]);
+      for (int k = 0; k < 3; ++k) vertices.push_back(mesh.colors[i][k]);
+    }
+    glGenVertexArrays(1, &vertex_array_);
+    glBindVertexArray(vertex_array_);
+    GLuint buffers[2];
+    glGenBuffers(2, buffers);
+    glBindBuffer(GL_ARRAY_BUFFER, buffers[0]);
+    glBufferData(GL_ARRAY_BUFFER, vertices.size() * sizeof(float), vertices.data(), GL_STATIC_DRAW);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<void*>(3 * sizeof(float)));
+    glEnableVertexAttribArray(0);
+    glEnableVertexAttribArray(1);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[1]);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, mesh.faces.size() * 3 * sizeof(uint32_t),
+                 mesh.faces.data(), GL_STATIC_DRAW);
+    index_count_ = static_cast<GLsizei>(mesh.faces.size() * 3);
+
+    // clip_from_world = projection (pinhole intrinsics, y down -> NDC y up) * cam_from_world.
+    const Camera camera = BenchCamera();
+    const double fx = camera.params[0], fy = camera.params[1], cx = camera.params[2],
+                 cy = camera.params[3], near = 0.1, far = 10.0;
+    Eigen::Matrix4d projection = Eigen::Matrix4d::Zero();
+    projection(0, 0) = 2 * fx / kWidth;
+    projection(0, 2) = 2 * cx / kWidth - 1;
+    projection(1, 1) = -2 * fy / kHeight;
+    projection(1, 2) = 1 - 2 * cy / kHeight;
+    projection(2, 2) = (far + near) / (far - near);
+    projection(2, 3) = -2 * far * near / (far - near);
+    projection(3, 2) = 1;
+    const Pose pose = BenchPose();
+    Eigen::Matrix4d view = Eigen::Matrix4d::Identity();
+    view.topLeftCorner<3, 3>() = pose.rotation;
+    view.topRightCorner<3, 1>() = pose.translation;
+    const Eigen::Matrix4f clip_from_world = (projection * view).cast<float>();
+    glUniformMatrix4fv(glGetUniformLocation(program_, "clip_from_world"), 1, GL_FALSE,
+                       clip_from_world.data());  // Eigen is column-major, as GL expects
+    glViewport(0, 0, kWidth, kHeight);
+    glEnable(GL_DEPTH_TEST);
+    if (samples > 0) glEnable(GL_MULTISAMPLE);
+    pixels_.resize(static_cast<size_t>(kWidth) * kHeight * 4);
+    return glGetError() == GL_NO_ERROR || Fail(error, "OpenGL error during setup");
+  }
+
+  // Draws one frame and reads it back (the rephoto renderer also ends with an image in memory).
+  void Frame() {
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
+    glClearColor(0, 0, 0, 0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glDrawElements(GL_TRIANGLES, index_count_, GL_UNSIGNED_INT, nullptr);
+    if (samples_ > 0) {
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer_);
+      glBindFramebuffer(GL_DRAW_FRAMEBUFFER, resolve_framebuffer_);
+      glBlitFramebuffer(0, 0, kWidth, kHeight, 0, 0, kWidth, kHeight, GL_COLOR_BUFFER_BIT,
+                        GL_NEAREST);
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, resolve_framebuffer_);
+    }
+    glReadPixels(0, 0, kWidth, kHeight, GL_RGBA, GL_UNSIGNED_BYTE, pixels_.data());
+  }
+
+  double Coverage() const {
+    size_t covered = 0;
+    for (size_t i = 0; i < pixels_.size(); i += 4) covered += pixels_[i + 3];
+    return covered / 255.0 / (pixels_.size() / 4);
+  }
+  const std::string& renderer_name() const { return renderer_name_; }
+
+ private:
+  static bool Fail(std::string* error, const char* message) {
+    *error = message;
+    return false;
+  }
+  EGLDisplay display_ = EGL_NO_DISPLAY;
+  EGLContext context_ = EGL_NO_CONTEXT;
+  GLuint framebuffer_ = 0, renderbuffers_[2] = {0, 0};
+  GLuint resolve_framebuffer_ = 0, resolve_renderbuffer_ = 0;
+  GLuint program_ = 0, vertex_array_ = 0;
+  GLsizei index_count_ = 0;
+  int samples_ = 0;
+  std::string renderer_name_;
+  std::vector<uint8_t> pixels_;
+};
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+// OpenGL frame time, and in the same run the rephoto frame with the matching sample count
+// (1x: 1 spp, 4x MSAA: 4 spp), interleaved; counters give both medians and their ratio.
+void BM_OpenGlLlvmpipe(benchmark::State& state) {
+  const int msaa = static_cast<int>(state.range(0));
+  static std::unique_ptr<GlRenderer> renderers[2];
+  auto& gl = renderers[msaa > 0 ? 1 : 0];
+  if (gl == nullptr) {
+    gl = std::make_unique<GlRenderer>();
+    std::string error;
+    if (!gl->Init(msaa, &error)) {
+      gl.reset();
+      state.SkipWithError(("OpenGL unavailable: " + error).c_str());
+      return;
+    }
+  }
+  const auto& model = BenchModel();
+  const auto rays = model.RaysFor(BenchCamera());
+  rephoto::render::RenderOptions options;
+  options.samples_per_pixel = msaa > 0 ? msaa : 1;
+  rephoto::render::Rephoto out;
+  rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);
+  gl->Frame();  // warm-up
+  std::vector<double> gl_seconds, rephoto_seconds;
+  for (auto _ : state) {
+    auto start = std::chrono::steady_clock::now();
+    gl->Frame();
+    gl_seconds.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    state.PauseTiming();
+    start = std::chrono::steady_clock::now();
+    rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);
+    rephoto_seconds.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    state.ResumeTiming();
+  }
+  const double gl_ms = Median(gl_seconds) * 1e3, rephoto_ms = Median(rephoto_seconds) * 1e3;
+  state.counters["gl_ms"] = gl_ms;
+  state.counters["rephoto_ms"] = rephoto_ms;
+  state.counters["gl_over_rephoto"] = gl_ms / rephoto_ms;
+  state.counters["gl_coverage"] = gl->Coverage();
+  state.counters["rephoto_coverage"] = Coverage(out.color);
+  state.SetLabel(gl->renderer_name());
+}
+BENCHMARK(BM_OpenGlLlvmpipe)->Arg(0)->Arg(4)->Unit(benchmark::kMillisecond)->Iterations(10);
+#endif
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* threads = std::getenv("REPHOTO_BENCH_THREADS");
+  rephoto::ThreadLimit limit(threads != nullptr ? std::atoi(threads) : 0);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
