@@ -18,7 +18,7 @@
 // Training points: each 3D point keeps only its observations in training views and is kept if
 // at least two remain (it could have been triangulated from training photos alone). Points
 // whose format stores no track are dropped: nothing shows they do not depend on test photos.
-// With scheme "none" (train = test) every point with a track is kept.
+// With scheme "none" (train = all views) points keep all their observations.
 // Intrinsics that transforms.json cannot hold (FOV, THIN_PRISM_FISHEYE, rational FULL_OPENCV)
 // skip the transforms.json files with a warning and "transforms_json": false in split.json.
 #pragma once
