@@ -1,0 +1,230 @@
+#include "rephoto/render/colorize.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numeric>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/render/render_model.h"
+
+namespace rephoto::render {
+namespace {
+
+struct Observation {
+  uint32_t vertex;
+  float weight;
+  Eigen::Vector3f color;
+};
+
+// Bilinear sample at continuous position (px, py), pixel-corner convention; the caller keeps
+// (px, py) within [0.5, width - 0.5] x [0.5, height - 0.5].
+Eigen::Vector3f SampleBilinear(const Image& photo, double px, double py) {
+  const double x = px - 0.5, y = py - 0.5;
+  int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  x0 = std::clamp(x0, 0, photo.width() - 1);
+  y0 = std::clamp(y0, 0, photo.height() - 1);
+  const int x1 = std::min(x0 + 1, photo.width() - 1), y1 = std::min(y0 + 1, photo.height() - 1);
+  const float ax = static_cast<float>(x - x0), ay = static_cast<float>(y - y0);
+  const int c = photo.channels();
+  Eigen::Vector3f out;
+  for (int k = 0; k < 3; ++k) {
+    const int ch = c >= 3 ? k : 0;
+    const float top = photo.at(x0, y0, ch) + ax * (photo.at(x1, y0, ch) - photo.at(x0, y0, ch));
+    const float bottom = photo.at(x0, y1, ch) + ax * (photo.at(x1, y1, ch) - photo.at(x0, y1, ch));
+    out[k] = top + ay * (bottom - top);
+  }
+  return out;
+}
+
+// Weighted median of (value, weight) pairs: the smallest value whose cumulative weight reaches
+// half the total. `pairs` is reordered.
+float WeightedMedian(std::vector<std::pair<float, float>>& pairs) {
+  std::sort(pairs.begin(), pairs.end());
+  double total = 0;
+  for (const auto& p : pairs) total += p.second;
+  double cumulative = 0;
+  for (const auto& p : pairs) {
+    cumulative += p.second;
+    if (cumulative >= 0.5 * total) return p.first;
+  }
+  return pairs.back().first;
+}
+
+Eigen::Vector3f RobustMean(const Observation* obs, size_t n, int iterations,
+                           std::vector<std::pair<float, float>>& scratch) {
+  if (n == 1) return obs[0].color;
+  Eigen::Vector3f estimate;
+  for (int k = 0; k < 3; ++k) {
+    scratch.clear();
+    for (size_t i = 0; i < n; ++i) scratch.emplace_back(obs[i].color[k], obs[i].weight);
+    estimate[k] = WeightedMedian(scratch);
+  }
+  for (int it = 0; it < iterations; ++it) {
+    scratch.clear();
+    for (size_t i = 0; i < n; ++i) {
+      scratch.emplace_back((obs[i].color - estimate).norm(), obs[i].weight);
+    }
+    const float scale = std::max(1.4826f * WeightedMedian(scratch), 1.0f / 255.0f);
+    const float c = 2.385f * scale;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    double weight_sum = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const float r = (obs[i].color - estimate).norm() / c;
+      const double w = obs[i].weight / (1.0 + r * r);
+      sum += w * obs[i].color.cast<double>();
+      weight_sum += w;
+    }
+    if (!(weight_sum > 0)) break;
+    estimate = (sum / weight_sum).cast<float>();
+  }
+  return estimate;
+}
+
+}  // namespace
+
+mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
+                        const std::vector<size_t>& views, const ColorizeOptions& options,
+                        ColorizeReport* report) {
+  mesh.Validate("mesh");
+  for (size_t v : views) {
+    REPHOTO_CHECK(v < scene.views.size(), "colorize: view index {} out of range ({} views)", v,
+                  scene.views.size());
+  }
+  const size_t n = mesh.positions.size();
+  std::vector<Eigen::Vector3f> normals = mesh.normals;
+  if (normals.empty() && !mesh.faces.empty()) normals = ComputeVertexNormals(mesh);
+
+  mesh::Mesh geometry;  // positions and faces only: the occlusion model
+  geometry.positions = mesh.positions;
+  geometry.faces = mesh.faces;
+  geometry.normals = mesh.is_point_cloud() ? mesh.normals : std::vector<Eigen::Vector3f>{};
+  geometry.radii = mesh.radii;
+  ModelOptions model_options;
+  model_options.load_textures = false;
+  const RenderModel model(std::move(geometry), model_options, "mesh");
+  RTCScene rtc_scene = model.scene();
+
+  std::vector<Observation> observations;
+  std::vector<uint8_t> visible(n);
+  std::vector<Observation> per_vertex(n);
+  std::unique_ptr<Progress> progress;
+  if (options.show_progress) progress = std::make_unique<Progress>("colorize", views.size());
+  // Photos are decoded two at a time (decoding dominates; one core each), then processed in
+  // view order, so the result does not depend on the thread count.
+  constexpr size_t kBatch = 2;
+  std::vector<Image> batch(kBatch);
+  for (size_t position = 0; position < views.size(); ++position) {
+    const size_t view_index = views[position];
+    const scene::View& view = scene.views[view_index];
+    if (position % kBatch == 0) {
+      const size_t count = std::min(kBatch, views.size() - position);
+      ParallelFor(0, static_cast<int64_t>(count), 1, [&](int64_t begin, int64_t end) {
+        for (int64_t b = begin; b < end; ++b) {
+          batch[b] = io::ReadImage(scene.views[views[position + b]].image_path);
+        }
+      });
+    }
+    const Image photo = std::move(batch[position % kBatch]);
+    REPHOTO_CHECK(photo.channels() >= 1 && photo.channels() <= 4 && !photo.empty(),
+                  "{}: unsupported photo ({} channels)", view.image_path.string(),
+                  photo.channels());
+    camera::Camera camera = scene.CameraOf(view);
+    if (camera.width != photo.width() || camera.height != photo.height()) {
+      camera = camera.Scaled(photo.width(), photo.height());
+    }
+    const Eigen::Vector3d center = view.cam_from_world.Center();
+    const double focal = camera.MeanFocalLength();
+    const double min_x = 0.5, max_x = photo.width() - 0.5;
+    const double min_y = 0.5, max_y = photo.height() - 0.5;
+    ParallelFor(0, static_cast<int64_t>(n), 2048, [&](int64_t begin, int64_t end) {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      for (int64_t i = begin; i < end; ++i) {
+        visible[i] = 0;
+        const Eigen::Vector3d p = mesh.positions[i].cast<double>();
+        const Eigen::Vector3d to_camera = center - p;
+        const double distance = to_camera.norm();
+        if (!(distance > 0)) continue;
+        double cosine = 1.0;
+        if (!normals.empty() && normals[i].squaredNorm() > 0) {
+          cosine = normals[i].cast<double>().normalized().dot(to_camera / distance);
+          if (cosine <= options.min_facing_cosine) continue;
+        }
+        const auto pixel = camera.ImgFromCam(view.cam_from_world.CamFromWorld(p));
+        if (!pixel || !(pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
+                        pixel->y() <= max_y)) {
+          continue;
+        }
+        RTCRay ray;
+        ray.org_x = static_cast<float>(center.x());
+        ray.org_y = static_cast<float>(center.y());
+        ray.org_z = static_cast<float>(center.z());
+        ray.dir_x = static_cast<float>(-to_camera.x());
+        ray.dir_y = static_cast<float>(-to_camera.y());
+        ray.dir_z = static_cast<float>(-to_camera.z());
+        ray.tnear = 0.0f;
+        ray.tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
+        ray.mask = 0xFFFFFFFFu;
+        ray.time = 0.0f;
+        ray.flags = 0;
+        rtcOccluded1(rtc_scene, &context, &ray);
+        if (ray.tfar < 0) continue;  // something lies between the camera and the vertex
+        visible[i] = 1;
+        const double density = focal / distance;
+        per_vertex[i] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
+                         SampleBilinear(photo, pixel->x(), pixel->y())};
+      }
+    });
+    for (size_t i = 0; i < n; ++i) {
+      if (visible[i]) observations.push_back(per_vertex[i]);
+    }
+    if (progress) progress->Advance(view.name);
+  }
+  if (progress) progress->Finish();
+
+  // Group the observations by vertex (stable counting sort: deterministic order).
+  std::vector<size_t> offsets(n + 1, 0);
+  for (const Observation& o : observations) ++offsets[o.vertex + 1];
+  std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
+  std::vector<Observation> grouped(observations.size());
+  {
+    std::vector<size_t> cursor(offsets.begin(), offsets.end() - 1);
+    for (const Observation& o : observations) grouped[cursor[o.vertex]++] = o;
+  }
+  observations = {};
+
+  mesh::Mesh out = mesh;
+  out.colors.assign(n, Eigen::Vector3f::Zero());
+  mesh::VertexScalar counts{"view_count", std::vector<float>(n, 0.0f)};
+  ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
+    std::vector<std::pair<float, float>> scratch;
+    for (int64_t i = begin; i < end; ++i) {
+      const size_t count = offsets[i + 1] - offsets[i];
+      counts.values[i] = static_cast<float>(count);
+      if (count == 0) continue;
+      out.colors[i] =
+          RobustMean(grouped.data() + offsets[i], count, options.irls_iterations, scratch)
+              .cwiseMax(0.0f)
+              .cwiseMin(1.0f);
+    }
+  });
+  out.scalars.erase(
+      std::remove_if(out.scalars.begin(), out.scalars.end(),
+                     [](const mesh::VertexScalar& s) { return s.name == "view_count"; }),
+      out.scalars.end());
+  out.scalars.push_back(std::move(counts));
+  if (report != nullptr) {
+    report->vertices = n;
+    report->observations = grouped.size();
+    report->colored_vertices = 0;
+    for (size_t i = 0; i < n; ++i) report->colored_vertices += offsets[i + 1] > offsets[i];
+  }
+  return out;
+}
+
+}  // namespace rephoto::render
