@@ -1,0 +1,58 @@
+// rephoto demo [--out DIR] [--cameras N] [--width W --height H]
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "command.h"
+#include "rephoto/core/error.h"
+#include "rephoto/demo/demo.h"
+
+namespace rephoto::cli {
+namespace {
+
+CommandRunner SetupDemo(CLI::App& app) {
+  auto options = std::make_shared<demo::DemoOptions>();
+  options->out = "rephoto-demo";
+  app.add_option("--out", options->out, "Output folder")->capture_default_str();
+  app.add_option("--cameras", options->scene.camera_count, "Cameras on the ring")
+      ->check(CLI::Range(3, 360))
+      ->capture_default_str();
+  app.add_option("--width", options->scene.image_width, "Photo width in pixels")
+      ->check(CLI::Range(64, 8192))
+      ->capture_default_str();
+  app.add_option("--height", options->scene.image_height, "Photo height in pixels")
+      ->check(CLI::Range(48, 8192))
+      ->capture_default_str();
+  app.add_option("--seed", options->scene.seed, "Seed of the procedural scene")
+      ->capture_default_str();
+  return [options] {
+    const demo::DemoResult result = demo::RunDemo(*options);
+    fmt::print("Reconstructions of the demo scene, ranked by median 1-NCC error over {} photos\n",
+               options->scene.camera_count);
+    fmt::print("{:<4} {:<16} {:>12} {:>8} {:>8} {:>8}  {}\n", "rank", "reconstruction",
+               "completeness", "1-ncc", "cb+cr", "dssim", "what");
+    int rank = 1;
+    for (const auto& r : result.ranking) {
+      auto median = [&](metrics::Metric m) {
+        for (const auto& s : r.result.metrics) {
+          if (s.metric == m) return s.over_images.median;
+        }
+        return std::nan("");
+      };
+      fmt::print("{:<4} {:<16} {:>12.4f} {:>8.4f} {:>8.4f} {:>8.4f}  {}\n", rank++, r.name,
+                 r.result.completeness.median, median(metrics::Metric::kOneMinusNcc),
+                 median(metrics::Metric::kCbCr), median(metrics::Metric::kDssim), r.description);
+    }
+    fmt::print("Results in {} (ranking.csv, demo.json, results/<reconstruction>/per_image.csv)\n",
+               options->out.string());
+    return static_cast<int>(ExitCode::kOk);
+  };
+}
+
+REPHOTO_COMMAND(90, "demo",
+                "Run the built-in example: photograph a procedural scene, evaluate five "
+                "reconstructions of it and rank them",
+                SetupDemo);
+
+}  // namespace
+}  // namespace rephoto::cli

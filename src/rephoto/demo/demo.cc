@@ -1,0 +1,181 @@
+#include "rephoto/demo/demo.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "rephoto/core/file.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/degrade/degrade.h"
+#include "rephoto/degrade/simplex_noise.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/mesh/ply.h"
+#include "rephoto/render/render.h"
+#include "rephoto/scene/colmap.h"
+
+namespace rephoto::demo {
+namespace fs = std::filesystem;
+namespace {
+
+std::string Stem(const std::string& name) { return fs::path(name).stem().string(); }
+
+// Renders `model` at every view and writes RGBA PNGs named <stem>.png into `folder`.
+void RenderAll(const mesh::Mesh& model_mesh, const scene::Scene& scene, int samples_per_pixel,
+               const fs::path& folder, const std::string& task,
+               const std::function<void(size_t, const render::Rephoto&)>& also = {}) {
+  render::RenderModel model(model_mesh, {}, task);
+  render::RenderOptions options;
+  options.samples_per_pixel = samples_per_pixel;
+  render::Rephoto rephoto;
+  Progress progress(task, scene.views.size());
+  for (size_t i = 0; i < scene.views.size(); ++i) {
+    const scene::View& view = scene.views[i];
+    const auto rays = model.RaysFor(scene.CameraOf(view));
+    render::RenderRephoto(model, *rays, view.cam_from_world, options, &rephoto);
+    if (also) {
+      also(i, rephoto);
+    } else {
+      io::WritePng(folder / (Stem(view.name) + ".png"), rephoto.color);
+    }
+    progress.Advance(view.name);
+  }
+}
+
+mesh::Mesh PointCloudFrom(const mesh::Mesh& truth, size_t step) {
+  mesh::Mesh cloud;
+  for (size_t v = 0; v < truth.positions.size(); v += step) {
+    cloud.positions.push_back(truth.positions[v]);
+    cloud.colors.push_back(truth.colors[v]);
+    cloud.normals.push_back(truth.normals[v]);
+  }
+  return cloud;
+}
+
+const compare::MetricSummary* FindMetric(const compare::CompareResult& r, metrics::Metric m) {
+  for (const auto& s : r.metrics) {
+    if (s.metric == m) return &s;
+  }
+  return nullptr;
+}
+
+double MedianOf(const compare::CompareResult& r, metrics::Metric m) {
+  const auto* s = FindMetric(r, m);
+  return s ? s->over_images.median : std::nan("");
+}
+
+}  // namespace
+
+DemoResult RunDemo(const DemoOptions& options) {
+  REPHOTO_CHECK(!options.out.empty(), "demo: no output folder given");
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path scene_dir = options.out / "scene";
+  const fs::path images_dir = scene_dir / "images";
+
+  LogInfo(fmt::format("demo: generating the procedural scene ({} cameras, {}x{} photos)",
+                      options.scene.camera_count, options.scene.image_width,
+                      options.scene.image_height));
+  const mesh::Mesh truth = synth::MakeDemoMesh(options.scene);
+  const scene::Scene scene = synth::MakeDemoScene(options.scene, images_dir);
+  mesh::WritePly(scene_dir / "ground_truth.ply", truth);
+  scene::WriteColmap(scene, scene_dir / "sparse", scene::ColmapFormat::kText);
+
+  // Photos: the ground truth, finely anti-aliased, with exposure differences and sensor noise.
+  uint64_t state = options.scene.seed ^ 0xF070ULL;
+  RenderAll(truth, scene, options.photo_samples_per_pixel, images_dir, "demo: photographing",
+            [&](size_t i, const render::Rephoto& clean) {
+              const double gain =
+                  1.0 + options.max_exposure_change * (2 * degrade::UniformDouble(state) - 1);
+              const Image photo = synth::SimulatePhoto(clean.color, gain, options.noise_sigma,
+                                                       options.scene.seed * 1000 + i);
+              io::WritePng(images_dir / scene.views[i].name, photo);
+            });
+
+  struct Recipe {
+    std::string name, description;
+    mesh::Mesh model;
+  };
+  std::vector<Recipe> recipes;
+  recipes.push_back({"ground_truth", "the ground-truth mesh with vertex colours", truth});
+  {
+    degrade::DegradeOptions d;
+    d.seed = options.scene.seed;
+    d.texture_noise = 0.15f;
+    recipes.push_back({"texture_noise", "vertex colours offset by simplex noise (max 0.15)",
+                       degrade::Degrade(truth, d)});
+    d = {};
+    d.seed = options.scene.seed;
+    d.geometry_noise = 0.002f;
+    recipes.push_back({"geometry_noise",
+                       "vertices moved along normals by simplex noise (max 0.2 % of the extent)",
+                       degrade::Degrade(truth, d)});
+    d = {};
+    d.simplify = 0.97f;
+    recipes.push_back({"simplified", "97 % of the vertices removed by edge collapse",
+                       degrade::Degrade(truth, d)});
+  }
+  recipes.push_back({"point_cloud",
+                     "every 3rd vertex as an oriented disc, radius from the point density",
+                     PointCloudFrom(truth, 3)});
+
+  DemoResult result;
+  for (const Recipe& recipe : recipes) {
+    const fs::path model_path = options.out / "models" / (recipe.name + ".ply");
+    mesh::WritePly(model_path, recipe.model);
+    const fs::path renders = options.out / "renders" / recipe.name;
+    RenderAll(recipe.model, scene, options.render_samples_per_pixel, renders,
+              "demo: rephotographing " + recipe.name);
+    compare::CompareOptions c;
+    c.photos = images_dir;
+    c.renders = renders;
+    c.out = options.out / "results" / recipe.name;
+    c.metrics = options.metrics;
+    LogInfo("demo: comparing " + recipe.name);
+    result.ranking.push_back({recipe.name, recipe.description, model_path, compare::RunCompare(c)});
+  }
+
+  std::stable_sort(result.ranking.begin(), result.ranking.end(), [](const auto& a, const auto& b) {
+    return MedianOf(a.result, metrics::Metric::kOneMinusNcc) <
+           MedianOf(b.result, metrics::Metric::kOneMinusNcc);
+  });
+
+  // ranking.csv and demo.json
+  std::ostringstream csv;
+  csv << "rank,reconstruction,completeness_median";
+  for (metrics::Metric m : options.metrics) csv << "," << metrics::MetricName(m) << "_median";
+  csv << ",description\n";
+  nlohmann::json json;
+  json["schema"] = "rephoto.demo/1";
+  json["tool_version"] = compare::ToolVersion();
+  json["photos"] = images_dir.string();
+  json["cameras"] = scene.views.size();
+  json["image_size"] = {options.scene.image_width, options.scene.image_height};
+  for (size_t rank = 0; rank < result.ranking.size(); ++rank) {
+    const auto& r = result.ranking[rank];
+    csv << rank + 1 << "," << r.name << "," << fmt::format("{:.6g}", r.result.completeness.median);
+    nlohmann::json entry;
+    entry["rank"] = rank + 1;
+    entry["reconstruction"] = r.name;
+    entry["description"] = r.description;
+    entry["model"] = r.model.string();
+    entry["results"] = (options.out / "results" / r.name).string();
+    entry["completeness_median"] = r.result.completeness.median;
+    for (metrics::Metric m : options.metrics) {
+      const double v = MedianOf(r.result, m);
+      csv << "," << fmt::format("{:.6g}", v);
+      entry[std::string(metrics::MetricName(m)) + "_median"] = std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+    }
+    csv << ",\"" << r.description << "\"\n";
+    json["ranking"].push_back(entry);
+  }
+  json["seconds"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  WriteTextFileAtomically(options.out / "ranking.csv", csv.str());
+  WriteTextFileAtomically(options.out / "demo.json", json.dump(2) + "\n");
+  return result;
+}
+
+}  // namespace rephoto::demo
