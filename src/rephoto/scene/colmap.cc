@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 constexpr double kQuaternionNormTolerance = 1e-4;
 // Bounds on what a count in a binary header may reserve up front, so a corrupt count cannot
 // allocate gigabytes before truncation is detected.
-constexpr uint64_t kMaxReserve = 1 << 16;
+constexpr uint64_t kMaxReserve = 1 << 10;
 constexpr size_t kMaxNameLength = 1 << 16;
 
 camera::Pose PoseFromQuaternion(const Eigen::Vector4d& q, const Eigen::Vector3d& translation,
@@ -156,6 +156,41 @@ void WriteModelFile(const fs::path& path, Write write) {
   });
 }
 
+// Lines of a COLMAP text file with "<name>:<line>" positions. Unlike LineReader it sets no
+// length bound: a POINTS2D line holds every keypoint of an image, which with COLMAP's larger
+// feature settings is megabytes of text.
+class TextLines {
+ public:
+  TextLines(std::istream& in, std::string_view name) : in_(in), name_(name) {}
+
+  // The next line ('\r' stripped); false at the end of the stream.
+  bool Next(std::string& line) {
+    if (!std::getline(in_, line)) {
+      REPHOTO_CHECK(!in_.bad(), "{}: read error after line {}", name_, line_number_);
+      return false;
+    }
+    ++line_number_;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return true;
+  }
+
+  // The next line that is neither blank nor a '#' comment (COLMAP trims, then skips these).
+  bool NextContent(std::string& line) {
+    while (Next(line)) {
+      const size_t first = line.find_first_not_of(" \t\r\n\v\f");
+      if (first != std::string::npos && line[first] != '#') return true;
+    }
+    return false;
+  }
+
+  std::string Where() const { return fmt::format("{}:{}", name_, line_number_); }
+
+ private:
+  std::istream& in_;
+  std::string name_;
+  int line_number_ = 0;
+};
+
 bool IsAllDigits(const std::string& text) {
   return !text.empty() &&
          std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
@@ -167,11 +202,11 @@ bool IsAllDigits(const std::string& text) {
 // Text readers.
 
 std::map<uint32_t, camera::Camera> ReadColmapCamerasText(std::istream& in, std::string_view name) {
-  LineReader reader(in, std::string(name));
+  TextLines reader(in, name);
   std::map<uint32_t, camera::Camera> cameras;
   std::map<uint32_t, std::string> defined_at;
   std::string line;
-  while (reader.NextContentLine(line, '#')) {
+  while (reader.NextContent(line)) {
     const std::string where = reader.Where();
     const std::vector<std::string_view> tokens = SplitTokens(line);
     RequireTokenCount(tokens, 4, where, "CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]", true);
@@ -193,10 +228,10 @@ std::map<uint32_t, camera::Camera> ReadColmapCamerasText(std::istream& in, std::
 }
 
 std::vector<ColmapImage> ReadColmapImagesText(std::istream& in, std::string_view name) {
-  LineReader reader(in, std::string(name));
+  TextLines reader(in, name);
   std::vector<ColmapImage> images;
   std::string line;
-  while (reader.NextContentLine(line, '#')) {
+  while (reader.NextContent(line)) {
     ColmapImage image;
     image.where = reader.Where();
     const std::string& where = image.where;
@@ -220,7 +255,7 @@ std::vector<ColmapImage> ReadColmapImagesText(std::istream& in, std::string_view
 
     // POINTS2D: always the next line, possibly empty; a missing last line counts as empty.
     std::string points_line;
-    if (reader.NextLine(points_line)) {
+    if (reader.Next(points_line)) {
       const std::string points_where = reader.Where();
       const std::vector<std::string_view> values = SplitTokens(points_line);
       REPHOTO_CHECK(values.size() % 3 == 0,
@@ -241,10 +276,10 @@ std::vector<ColmapImage> ReadColmapImagesText(std::istream& in, std::string_view
 }
 
 std::vector<ColmapPoint3D> ReadColmapPoints3DText(std::istream& in, std::string_view name) {
-  LineReader reader(in, std::string(name));
+  TextLines reader(in, name);
   std::vector<ColmapPoint3D> points;
   std::string line;
-  while (reader.NextContentLine(line, '#')) {
+  while (reader.NextContent(line)) {
     ColmapPoint3D point;
     point.where = reader.Where();
     const std::string& where = point.where;

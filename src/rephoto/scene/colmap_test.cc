@@ -352,6 +352,23 @@ TEST(ColmapText, ErrorsNameFileAndLine) {
   ExpectError([&] { points("1 0 0 0 1 1 1 0 5\n"); }, {"points3D.txt:1:", "pairs"});
 }
 
+TEST(ColmapText, LongPoints2DLines) {
+  // 50000 keypoints written with 17 digits: a POINTS2D line of about 2.5 MB, as COLMAP writes
+  // with large feature settings.
+  std::string text = "1 1 0 0 0 0 0 0 1 a.png\n";
+  for (int i = 0; i < 50000; ++i) {
+    text += fmt::format("{} {} {} ", 1000.0 + i / 7.0, 2000.0 - i / 3.0, i % 2 ? -1 : i);
+  }
+  text += "\n";
+  std::istringstream in(text);
+  const std::vector<ColmapImage> images = ReadColmapImagesText(in, "images.txt");
+  ASSERT_EQ(images.size(), 1u);
+  ASSERT_EQ(images[0].points2d.size(), 50000u);
+  EXPECT_EQ(images[0].points2d[49999].x(), 1000.0 + 49999 / 7.0);
+  EXPECT_EQ(images[0].point3d_ids[49998], 49998u);
+  EXPECT_EQ(images[0].point3d_ids[49999], ColmapImage::kNoPoint3D);
+}
+
 TEST(Colmap, LinkingErrorsNameTheRecord) {
   // An image referring to a camera id that cameras.txt does not define.
   ExpectError(
