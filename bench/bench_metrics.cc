@@ -15,6 +15,7 @@
 #include <random>
 #include <utility>
 
+#include "rephoto/core/parallel.h"
 #include "rephoto/metrics/metrics.h"
 
 namespace {
@@ -84,6 +85,18 @@ void BM_Set(benchmark::State& state) {
   Run(state, {Metric::kOneMinusNcc, Metric::kCbCr, Metric::kZssd, Metric::kDssim, Metric::kCensus});
 }
 BENCHMARK(BM_Set)->Apply(Sizes);
+
+// The same set on one thread: the per-core cost, and a figure that other jobs competing for
+// the second core disturb less.
+void BM_SetOneThread(benchmark::State& state) {
+  rephoto::ThreadLimit limit(1);
+  BM_Set(state);
+}
+BENCHMARK(BM_SetOneThread)
+    ->Args({4000, 3000})
+    ->UseRealTime()
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 
 #define REPHOTO_METRIC_BENCH(name, metric)                          \
   void BM_##name(benchmark::State& state) { Run(state, {metric}); } \

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace rephoto::metrics::internal {
 
@@ -11,20 +12,47 @@ WindowValidityRows::WindowValidityRows(const Mask& valid, int width, int height,
       height_(height),
       radius_(radius),
       column_invalid_(valid.empty() ? 0 : static_cast<size_t>(width), 0),
-      row_(static_cast<size_t>(width), 0) {
+      row_(static_cast<size_t>(width), 0),
+      span_(valid.empty() ? 0 : 2 * static_cast<size_t>(width), 0) {
   if (valid_.empty()) {
     std::fill(row_.begin() + std::min(radius, width),
               row_.begin() + std::max(std::min(radius, width), width - radius), 1);
   }
 }
 
+namespace {
+
+REPHOTO_SIMD_CLONES
+void SlideCounts(const uint8_t* __restrict add, const uint8_t* __restrict sub, int width,
+                 int* __restrict counts) {
+  for (int x = 0; x < width; ++x) counts[x] += (add[x] == 0) - (sub[x] == 0);
+}
+
+// out[x] for x in [r, width - r): 1 where counts[x - r .. x + r] are all 0. all[x] = 1 where
+// columns [x, x + span) are all valid; the span doubles per pass and the window is the AND of
+// two overlapping spans: log2(2r + 1) vectorised byte passes, ping-ponging between a and b.
+REPHOTO_SIMD_CLONES
+void RowFromCounts(const int* __restrict counts, int width, int r, uint8_t* __restrict a,
+                   uint8_t* __restrict b, uint8_t* __restrict out) {
+  const int window = 2 * r + 1;
+  for (int x = 0; x < width; ++x) a[x] = counts[x] == 0;
+  int span = 1;
+  while (2 * span <= window) {
+    for (int x = 0; x + 2 * span <= width; ++x) b[x] = a[x] & a[x + span];
+    std::swap(a, b);
+    span *= 2;
+  }
+  const int tail = window - span;
+  for (int x = r; x < width - r; ++x) out[x] = a[x - r] & a[x - r + tail];
+}
+
+}  // namespace
+
 const uint8_t* WindowValidityRows::Row(int y) {
   if (valid_.empty()) return row_.data();
   const int r = radius_;
   if (y == last_y_ + 1) {
-    const uint8_t* add = valid_.row(y + r);
-    const uint8_t* sub = valid_.row(y - r - 1);
-    for (int x = 0; x < width_; ++x) column_invalid_[x] += (add[x] == 0) - (sub[x] == 0);
+    SlideCounts(valid_.row(y + r), valid_.row(y - r - 1), width_, column_invalid_.data());
   } else {
     std::fill(column_invalid_.begin(), column_invalid_.end(), 0);
     for (int j = y - r; j <= y + r; ++j) {
@@ -34,13 +62,8 @@ const uint8_t* WindowValidityRows::Row(int y) {
   }
   last_y_ = y;
   if (width_ < 2 * r + 1) return row_.data();
-  int run = 0;
-  for (int x = 0; x < 2 * r + 1; ++x) run += column_invalid_[x];
-  row_[r] = run == 0;
-  for (int x = r + 1; x < width_ - r; ++x) {
-    run += column_invalid_[x + r] - column_invalid_[x - r - 1];
-    row_[x] = run == 0;
-  }
+  RowFromCounts(column_invalid_.data(), width_, r, span_.data(), span_.data() + width_,
+                row_.data());
   return row_.data();
 }
 

@@ -8,11 +8,13 @@
 
 #include "rephoto/core/image.h"
 
-// Row kernels are compiled twice, for AVX2+FMA (x86-64-v3) and for the baseline, and the
-// loader picks one at start-up. Floating-point contraction stays off (ISO C++ mode), so both
-// clones compute bit-identical results.
+// Row kernels are compiled three times, for AVX-512 (x86-64-v4), AVX2+FMA (x86-64-v3) and the
+// baseline, and the loader picks one at start-up. Floating-point contraction is off for this
+// library (CMakeLists.txt), so the clones compute bit-identical results (except the SSIM
+// filters, see ssim_filter.cc).
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define REPHOTO_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define REPHOTO_SIMD_CLONES \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define REPHOTO_SIMD_CLONES
 #endif
@@ -40,7 +42,8 @@ struct MeanSums {
 
 // Produces, for consecutive centre rows y, the row of window validity: out[x] = 1 where the
 // (2r+1)^2 window centred at (x, y) is inside the image and all valid. `valid` may be empty
-// (everything valid). Column counts slide from row to row, so the cost is O(width) per row.
+// (everything valid). Column counts slide from row to row (O(width) per row); the row test
+// takes log2(2r+1) vectorised byte passes.
 class WindowValidityRows {
  public:
   WindowValidityRows(const Mask& valid, int width, int height, int radius);
@@ -53,11 +56,19 @@ class WindowValidityRows {
   int last_y_ = -1000000;
   std::vector<int> column_invalid_;
   std::vector<uint8_t> row_;
+  std::vector<uint8_t> span_;
 };
 
 // Normalised 1-D weights of length 2r+1: Gaussian exp(-k^2 / (2 sigma^2)), or uniform if
 // sigma <= 0.
 std::vector<float> FilterWeights(int radius, double sigma);
+
+// SSIM filters on interleaved RGB rows of n = 3 * width values, shifted by -0.5 (ssim_filter.cc).
+// Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy = weighted sum over the 2r+1 rows.
+void SsimVertical(const float* const* p_rows, const float* const* q_rows, const float* weights,
+                  int r, int n, float* out);
+// Horizontal: out[i] = weighted sum of in[i + 3k], k in [-r, r], for i in [3r, n - 3r).
+void SsimHorizontal(const float* in, const float* weights, int r, int n, float* out);
 
 // Fills a whole error row with NaN.
 void FillNaN(float* row, int width);

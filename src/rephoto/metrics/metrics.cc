@@ -18,6 +18,8 @@ using internal::FillNaN;
 using internal::kBandRows;
 using internal::kNaN;
 using internal::MeanSums;
+using internal::SsimHorizontal;
+using internal::SsimVertical;
 using internal::WindowValidityRows;
 
 struct Inputs {
@@ -36,154 +38,169 @@ T* Scratch(std::vector<T>& buffer, size_t size) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// 1-NCC and ZSSD: box sums of x, y, x^2, y^2, xy per channel in double. Column sums slide down
-// the band; row sums come from prefix sums, so the cost does not depend on the window.
+// 1-NCC and ZSSD need, per window, the sums of x_c and y_c per channel c, and of
+// sum_c x_c^2, sum_c y_c^2 and sum_c x_c y_c (9 planar quantities, in double so that
+// E[x^2] - E[x]^2 does not cancel). Column sums slide down the band; row sums come from prefix
+// sums, so the cost does not depend on the window.
 
+constexpr int kBoxQuantities = 9;
+
+// Splits an interleaved RGB row into three planes.
 REPHOTO_SIMD_CLONES
-void AddBoxRows(const float* __restrict p, const float* __restrict q, int n,
-                double* __restrict cols) {
-  double* __restrict sx = cols;
-  double* __restrict sy = cols + n;
-  double* __restrict sxx = cols + 2 * n;
-  double* __restrict syy = cols + 3 * n;
-  double* __restrict sxy = cols + 4 * n;
-  for (int i = 0; i < n; ++i) {
-    const double a = p[i], b = q[i];
-    sx[i] += a;
-    sy[i] += b;
-    sxx[i] += a * a;
-    syy[i] += b * b;
-    sxy[i] += a * b;
+void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, float* __restrict c1,
+                  float* __restrict c2) {
+  for (int x = 0; x < w; ++x) {
+    c0[x] = rgb[3 * x];
+    c1[x] = rgb[3 * x + 1];
+    c2[x] = rgb[3 * x + 2];
   }
 }
 
+// cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes).
 REPHOTO_SIMD_CLONES
-void SlideBoxRows(const float* __restrict p_add, const float* __restrict q_add,
-                  const float* __restrict p_sub, const float* __restrict q_sub, int n,
-                  double* __restrict cols) {
-  double* __restrict sx = cols;
-  double* __restrict sy = cols + n;
-  double* __restrict sxx = cols + 2 * n;
-  double* __restrict syy = cols + 3 * n;
-  double* __restrict sxy = cols + 4 * n;
-  for (int i = 0; i < n; ++i) {
-    const double a = p_add[i], b = q_add[i], c = p_sub[i], d = q_sub[i];
-    sx[i] += a - c;
-    sy[i] += b - d;
-    sxx[i] += a * a - c * c;
-    syy[i] += b * b - d * d;
-    sxy[i] += a * b - c * d;
+void AccumulateBoxColumns(const float* __restrict planes, int w, double sign,
+                          double* __restrict cols) {
+  const float* __restrict a0 = planes;
+  const float* __restrict a1 = planes + w;
+  const float* __restrict a2 = planes + 2 * w;
+  const float* __restrict b0 = planes + 3 * w;
+  const float* __restrict b1 = planes + 4 * w;
+  const float* __restrict b2 = planes + 5 * w;
+  double* __restrict sx0 = cols;
+  double* __restrict sx1 = cols + w;
+  double* __restrict sx2 = cols + 2 * w;
+  double* __restrict sy0 = cols + 3 * w;
+  double* __restrict sy1 = cols + 4 * w;
+  double* __restrict sy2 = cols + 5 * w;
+  double* __restrict sxx = cols + 6 * w;
+  double* __restrict syy = cols + 7 * w;
+  double* __restrict sxy = cols + 8 * w;
+  // Three simple loops vectorise where one loop over fifteen streams does not.
+  for (int x = 0; x < w; ++x) {
+    sx0[x] += sign * static_cast<double>(a0[x]);
+    sx1[x] += sign * static_cast<double>(a1[x]);
+    sx2[x] += sign * static_cast<double>(a2[x]);
+  }
+  for (int x = 0; x < w; ++x) {
+    sy0[x] += sign * static_cast<double>(b0[x]);
+    sy1[x] += sign * static_cast<double>(b1[x]);
+    sy2[x] += sign * static_cast<double>(b2[x]);
+  }
+  for (int x = 0; x < w; ++x) {
+    const double p0 = a0[x], p1 = a1[x], p2 = a2[x];
+    const double q0 = b0[x], q1 = b1[x], q2 = b2[x];
+    sxx[x] += sign * (p0 * p0 + p1 * p1 + p2 * p2);
+    syy[x] += sign * (q0 * q0 + q1 * q1 + q2 * q2);
+    sxy[x] += sign * (p0 * q0 + p1 * q1 + p2 * q2);
   }
 }
 
-// prefix_q[i + 3] = prefix_q[i] + cols_q[i] (stride 3 = per channel), for the 5 quantities.
-void BoxPrefix(const double* cols, int n, double* prefix) {
-  const int m = n + 3;
-  for (int q = 0; q < 5; ++q) {
-    for (int i = 0; i < 3; ++i) prefix[q * m + i] = 0;
-  }
-  for (int i = 0; i < n; ++i) {
-    for (int q = 0; q < 5; ++q) prefix[q * m + i + 3] = prefix[q * m + i] + cols[q * n + i];
+// Adds (sign +1) or removes (sign -1) source row y of both images to the column sums.
+void SlideBoxColumns(const Inputs& in, int y, double sign, float* planes, double* cols) {
+  const int w = in.width;
+  Deinterleave(in.photo.row(y), w, planes, planes + w, planes + 2 * w);
+  Deinterleave(in.rephoto.row(y), w, planes + 3 * w, planes + 4 * w, planes + 5 * w);
+  AccumulateBoxColumns(planes, w, sign, cols);
+}
+
+// prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. The nine
+// independent chains are interleaved so the adds overlap.
+void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) {
+  const int m = w + 1;
+  double run[kBoxQuantities] = {};
+  for (int q = 0; q < kBoxQuantities; ++q) prefix[q * m] = 0;
+  for (int x = 0; x < w; ++x) {
+    for (int q = 0; q < kBoxQuantities; ++q) {
+      run[q] += cols[q * w + x];
+      prefix[q * m + x + 1] = run[q];
+    }
   }
 }
 
-// Per element (pixel x channel): summed squared deviations and co-deviation of the window.
+// 1-NCC and ZSSD for centres x in [r, w - r) (no validity test yet).
 REPHOTO_SIMD_CLONES
-void BoxMoments(const double* __restrict prefix, int n, int r, double inv_count,
-                double* __restrict var_x, double* __restrict var_y, double* __restrict cov) {
-  const int m = n + 3;
-  const double* __restrict px = prefix;
-  const double* __restrict py = prefix + m;
-  const double* __restrict pxx = prefix + 2 * m;
-  const double* __restrict pyy = prefix + 3 * m;
-  const double* __restrict pxy = prefix + 4 * m;
-  const int lo = 3 * r, hi = n - 3 * r, ahead = 3 * r + 3, behind = 3 * r;
-  for (int i = lo; i < hi; ++i) {
-    const double sx = px[i + ahead] - px[i - behind];
-    const double sy = py[i + ahead] - py[i - behind];
-    const double sxx = pxx[i + ahead] - pxx[i - behind];
-    const double syy = pyy[i + ahead] - pyy[i - behind];
-    const double sxy = pxy[i + ahead] - pxy[i - behind];
-    var_x[i] = sxx - sx * sx * inv_count;
-    var_y[i] = syy - sy * sy * inv_count;
-    cov[i] = sxy - sx * sy * inv_count;
+void BoxErrors(const double* __restrict prefix, int w, int r, double inv_count, double flat,
+               float* __restrict ncc, float* __restrict zssd) {
+  const int m = w + 1;
+  const double* __restrict p[kBoxQuantities];
+  for (int q = 0; q < kBoxQuantities; ++q) p[q] = prefix + q * m;
+  for (int x = r; x < w - r; ++x) {
+    const int hi = x + r + 1, lo = x - r;
+    const double sx0 = p[0][hi] - p[0][lo], sx1 = p[1][hi] - p[1][lo], sx2 = p[2][hi] - p[2][lo];
+    const double sy0 = p[3][hi] - p[3][lo], sy1 = p[4][hi] - p[4][lo], sy2 = p[5][hi] - p[5][lo];
+    const double sxx = p[6][hi] - p[6][lo], syy = p[7][hi] - p[7][lo];
+    const double sxy = p[8][hi] - p[8][lo];
+    // Summed squared deviations from the per-channel window means, and co-deviation.
+    const double dx = sxx - (sx0 * sx0 + sx1 * sx1 + sx2 * sx2) * inv_count;
+    const double dy = syy - (sy0 * sy0 + sy1 * sy1 + sy2 * sy2) * inv_count;
+    const double dxy = sxy - (sx0 * sy0 + sx1 * sy1 + sx2 * sy2) * inv_count;
+    const bool flat_x = dx <= flat, flat_y = dy <= flat;
+    double e = 1.0 - dxy / std::sqrt(dx * dy);
+    e = e < 0.0 ? 0.0 : (e > 2.0 ? 2.0 : e);
+    e = flat_x ? (flat_y ? 0.0 : 1.0) : (flat_y ? 1.0 : e);
+    ncc[x] = static_cast<float>(e);
+    const double z = dx + dy - 2.0 * dxy;
+    zssd[x] = static_cast<float>((z > 0.0 ? z : 0.0) * inv_count * (1.0 / 3.0));
   }
+}
+
+// Copies evaluated values to the output row (NaN elsewhere) and returns their sum.
+double MaskRow(const float* __restrict values, const uint8_t* __restrict ok, int w, int r,
+               float* __restrict out) {
+  double sum = 0;
+  for (int x = 0; x < w; ++x) {
+    if (x >= r && x < w - r && ok[x]) {
+      out[x] = values[x];
+      sum += values[x];
+    } else {
+      out[x] = kNaN;
+    }
+  }
+  return sum;
+}
+
+size_t CountRow(const uint8_t* __restrict ok, int w, int r) {
+  size_t n = 0;
+  for (int x = r; x < w - r; ++x) n += ok[x] != 0;
+  return n;
 }
 
 MeanSums BoxBand(const Inputs& in, int window, double flat, Image* ncc, Image* zssd, int64_t y0,
                  int64_t y1) {
-  const int w = in.width, h = in.height, r = window / 2, n = 3 * w;
+  const int w = in.width, h = in.height, r = window / 2;
   MeanSums sums;
   const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
   for (int64_t y = y0; y < y1; ++y) {
-    if (y >= c0 && y < c1) continue;
+    if (y >= c0 && y < c1 && w >= window) continue;
     if (ncc) FillNaN(ncc->row(static_cast<int>(y)), w);
     if (zssd) FillNaN(zssd->row(static_cast<int>(y)), w);
   }
-  if (c0 >= c1 || w < window) {
-    for (int64_t y = c0; y < c1; ++y) {
-      if (ncc) FillNaN(ncc->row(static_cast<int>(y)), w);
-      if (zssd) FillNaN(zssd->row(static_cast<int>(y)), w);
-    }
-    return sums;
-  }
+  if (c0 >= c1 || w < window) return sums;
   thread_local std::vector<double> buffer;
-  double* cols = Scratch(buffer, static_cast<size_t>(5 * n + 5 * (n + 3) + 3 * n));
-  double* prefix = cols + 5 * n;
-  double* var_x = prefix + 5 * (n + 3);
-  double* var_y = var_x + n;
-  double* cov = var_y + n;
-  std::fill(cols, cols + 5 * n, 0.0);
+  double* cols = Scratch(buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1));
+  double* prefix = cols + kBoxQuantities * w;
+  thread_local std::vector<float> row_buffer;
+  float* ncc_values = Scratch(row_buffer, static_cast<size_t>(8 * w));
+  float* zssd_values = ncc_values + w;
+  float* planes = zssd_values + w;
+  std::fill(cols, cols + kBoxQuantities * w, 0.0);
   for (int64_t j = c0 - r; j <= c0 + r; ++j) {
-    AddBoxRows(in.photo.row(static_cast<int>(j)), in.rephoto.row(static_cast<int>(j)), n, cols);
+    SlideBoxColumns(in, static_cast<int>(j), 1.0, planes, cols);
   }
   WindowValidityRows validity(in.valid, w, h, r);
-  const double count = static_cast<double>(window) * window;
-  const double inv_count = 1.0 / count;
+  const double inv_count = 1.0 / (static_cast<double>(window) * window);
   for (int64_t y = c0; y < c1; ++y) {
     const int yi = static_cast<int>(y);
     if (y > c0) {
-      SlideBoxRows(in.photo.row(yi + r), in.rephoto.row(yi + r), in.photo.row(yi - r - 1),
-                   in.rephoto.row(yi - r - 1), n, cols);
+      SlideBoxColumns(in, yi + r, 1.0, planes, cols);
+      SlideBoxColumns(in, yi - r - 1, -1.0, planes, cols);
     }
-    BoxPrefix(cols, n, prefix);
-    BoxMoments(prefix, n, r, inv_count, var_x, var_y, cov);
+    BoxPrefix(cols, w, prefix);
+    BoxErrors(prefix, w, r, inv_count, flat, ncc_values, zssd_values);
     const uint8_t* ok = validity.Row(yi);
-    float* ncc_row = ncc ? ncc->row(yi) : nullptr;
-    float* zssd_row = zssd ? zssd->row(yi) : nullptr;
-    double ncc_sum = 0, zssd_sum = 0;
-    size_t evaluated = 0;
-    for (int x = 0; x < w; ++x) {
-      if (x < r || x >= w - r || !ok[x]) {
-        if (ncc_row) ncc_row[x] = kNaN;
-        if (zssd_row) zssd_row[x] = kNaN;
-        continue;
-      }
-      const int i = 3 * x;
-      const double dx = var_x[i] + var_x[i + 1] + var_x[i + 2];
-      const double dy = var_y[i] + var_y[i + 1] + var_y[i + 2];
-      const double dxy = cov[i] + cov[i + 1] + cov[i + 2];
-      ++evaluated;
-      if (ncc_row) {
-        const bool flat_x = dx <= flat, flat_y = dy <= flat;
-        double e;
-        if (flat_x && flat_y) {
-          e = 0;
-        } else if (flat_x || flat_y) {
-          e = 1;
-        } else {
-          e = std::clamp(1.0 - dxy / std::sqrt(dx * dy), 0.0, 2.0);
-        }
-        ncc_row[x] = static_cast<float>(e);
-        ncc_sum += ncc_row[x];
-      }
-      if (zssd_row) {
-        zssd_row[x] = static_cast<float>(std::max(0.0, dx + dy - 2 * dxy) * inv_count / 3);
-        zssd_sum += zssd_row[x];
-      }
-    }
-    sums.sum[0] += ncc_sum;
-    sums.sum[1] += zssd_sum;
+    const size_t evaluated = CountRow(ok, w, r);
+    if (ncc) sums.sum[0] += MaskRow(ncc_values, ok, w, r, ncc->row(yi));
+    if (zssd) sums.sum[1] += MaskRow(zssd_values, ok, w, r, zssd->row(yi));
     sums.count[0] += evaluated;
     sums.count[1] += evaluated;
   }
@@ -200,38 +217,39 @@ void LumaRow(const float* __restrict rgb, int width, float* __restrict luma) {
   }
 }
 
-typedef float V8f __attribute__((vector_size(32)));
-typedef int V8i __attribute__((vector_size(32)));
+typedef float V16f __attribute__((vector_size(64)));
+typedef int V16i __attribute__((vector_size(64)));
 
-// counts[x - r] for x in [r, r + 16 * blocks): number of window neighbours whose census bit
-// differs. `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the window.
+// counts[x - r] for x in [r, r + 32 * blocks): number of window neighbours whose census bit
+// differs. `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the window. GCC vector
+// extensions: native 16-wide in the AVX-512 clone, lowered to narrower vectors elsewhere.
 REPHOTO_SIMD_CLONES
 void CensusCounts(const float* const* photo_rows, const float* const* rephoto_rows, int r,
                   int blocks, int* counts) {
   for (int b = 0; b < blocks; ++b) {
-    const int x = r + 16 * b;
-    V8f cp0, cp1, cr0, cr1;
-    __builtin_memcpy(&cp0, photo_rows[r] + x, 32);
-    __builtin_memcpy(&cp1, photo_rows[r] + x + 8, 32);
-    __builtin_memcpy(&cr0, rephoto_rows[r] + x, 32);
-    __builtin_memcpy(&cr1, rephoto_rows[r] + x + 8, 32);
-    V8i n0 = {}, n1 = {};
+    const int x = r + 32 * b;
+    V16f cp0, cp1, cr0, cr1;
+    __builtin_memcpy(&cp0, photo_rows[r] + x, 64);
+    __builtin_memcpy(&cp1, photo_rows[r] + x + 16, 64);
+    __builtin_memcpy(&cr0, rephoto_rows[r] + x, 64);
+    __builtin_memcpy(&cr1, rephoto_rows[r] + x + 16, 64);
+    V16i n0 = {}, n1 = {};
     for (int dy = 0; dy <= 2 * r; ++dy) {
       const float* pr = photo_rows[dy] + x;
       const float* rr = rephoto_rows[dy] + x;
       for (int dx = -r; dx <= r; ++dx) {
         // The centre compares false with itself in both images and adds nothing.
-        V8f p0, p1, q0, q1;
-        __builtin_memcpy(&p0, pr + dx, 32);
-        __builtin_memcpy(&p1, pr + dx + 8, 32);
-        __builtin_memcpy(&q0, rr + dx, 32);
-        __builtin_memcpy(&q1, rr + dx + 8, 32);
+        V16f p0, p1, q0, q1;
+        __builtin_memcpy(&p0, pr + dx, 64);
+        __builtin_memcpy(&p1, pr + dx + 16, 64);
+        __builtin_memcpy(&q0, rr + dx, 64);
+        __builtin_memcpy(&q1, rr + dx + 16, 64);
         n0 -= (p0 < cp0) ^ (q0 < cr0);
         n1 -= (p1 < cp1) ^ (q1 < cr1);
       }
     }
-    __builtin_memcpy(counts + 16 * b, &n0, 32);
-    __builtin_memcpy(counts + 16 * b + 8, &n1, 32);
+    __builtin_memcpy(counts + 32 * b, &n0, 64);
+    __builtin_memcpy(counts + 32 * b + 16, &n1, 64);
   }
 }
 
@@ -257,7 +275,7 @@ MeanSums CensusBand(const Inputs& in, int window, Image* census, int64_t y0, int
   std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
   WindowValidityRows validity(in.valid, w, h, r);
   const int inner = w - 2 * r;
-  const int blocks = inner / 16;
+  const int blocks = inner / 32;
   const float inv = 1.0f / static_cast<float>(window * window - 1);
   for (int64_t y = c0; y < c1; ++y) {
     const int j0 = static_cast<int>(y - c0);
@@ -266,7 +284,7 @@ MeanSums CensusBand(const Inputs& in, int window, Image* census, int64_t y0, int
       rephoto_rows[k] = luma + static_cast<size_t>(rows + j0 + k) * w;
     }
     CensusCounts(photo_rows.data(), rephoto_rows.data(), r, blocks, counts);
-    for (int x = r + 16 * blocks; x < w - r; ++x) {  // tail
+    for (int x = r + 32 * blocks; x < w - r; ++x) {  // tail
       int n = 0;
       const float cp = photo_rows[r][x], cr = rephoto_rows[r][x];
       for (int k = 0; k <= 2 * r; ++k) {
@@ -351,65 +369,6 @@ MeanSums PixelBand(const Inputs& in, Image* cbcr, Image* squared, int64_t y0, in
 // step by 3). Values are shifted by -0.5 before squaring, which halves their magnitude and
 // the cancellation in E[x^2] - E[x]^2; the shift cancels in variances and covariances.
 
-constexpr int kBlock = 512;
-
-REPHOTO_SIMD_CLONES
-void SsimVertical(const float* const* p_rows, const float* const* q_rows,
-                  const float* __restrict weights, int r, int n, float* __restrict out) {
-  float* __restrict vx = out;
-  float* __restrict vy = out + n;
-  float* __restrict vxx = out + 2 * n;
-  float* __restrict vyy = out + 3 * n;
-  float* __restrict vxy = out + 4 * n;
-  for (int b0 = 0; b0 < n; b0 += kBlock) {
-    const int b1 = std::min(n, b0 + kBlock);
-    const float w0 = weights[r];
-    const float* __restrict pc = p_rows[r];
-    const float* __restrict qc = q_rows[r];
-    for (int i = b0; i < b1; ++i) {
-      const float a = pc[i] - 0.5f, b = qc[i] - 0.5f;
-      vx[i] = w0 * a;
-      vy[i] = w0 * b;
-      vxx[i] = w0 * (a * a);
-      vyy[i] = w0 * (b * b);
-      vxy[i] = w0 * (a * b);
-    }
-    for (int k = 1; k <= r; ++k) {
-      const float wk = weights[r + k];
-      const float* __restrict p1 = p_rows[r - k];
-      const float* __restrict p2 = p_rows[r + k];
-      const float* __restrict q1 = q_rows[r - k];
-      const float* __restrict q2 = q_rows[r + k];
-      for (int i = b0; i < b1; ++i) {
-        const float a1 = p1[i] - 0.5f, a2 = p2[i] - 0.5f;
-        const float b1v = q1[i] - 0.5f, b2v = q2[i] - 0.5f;
-        vx[i] += wk * (a1 + a2);
-        vy[i] += wk * (b1v + b2v);
-        vxx[i] += wk * (a1 * a1 + a2 * a2);
-        vyy[i] += wk * (b1v * b1v + b2v * b2v);
-        vxy[i] += wk * (a1 * b1v + a2 * b2v);
-      }
-    }
-  }
-}
-
-REPHOTO_SIMD_CLONES
-void SsimHorizontal(const float* __restrict in, const float* __restrict weights, int r, int n,
-                    float* __restrict out) {
-  // out[i] for i in [3r, n - 3r).
-  for (int b0 = 3 * r; b0 < n - 3 * r; b0 += kBlock) {
-    const int b1 = std::min(n - 3 * r, b0 + kBlock);
-    const float w0 = weights[r];
-    for (int i = b0; i < b1; ++i) out[i] = w0 * in[i];
-    for (int k = 1; k <= r; ++k) {
-      const float wk = weights[r + k];
-      const float* __restrict left = in - 3 * k;
-      const float* __restrict right = in + 3 * k;
-      for (int i = b0; i < b1; ++i) out[i] += wk * (left[i] + right[i]);
-    }
-  }
-}
-
 REPHOTO_SIMD_CLONES
 void SsimFormula(const float* __restrict moments, int r, int n, float cov_norm,
                  float* __restrict ssim) {
@@ -438,7 +397,7 @@ struct SsimSetup {
 
 MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, Image* ssim, Image* dssim, int64_t y0,
                   int64_t y1) {
-  const int w = in.width, h = in.height, r = setup.window / 2, n = 3 * w;
+  const int w = in.width, h = in.height, r = setup.window / 2;
   MeanSums sums;
   for (int64_t y = y0; y < y1; ++y) {
     const int yi = static_cast<int>(y);
@@ -448,50 +407,69 @@ MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, Image* ssim, Image* 
   }
   const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
   if (c0 >= c1 || w < setup.window) return sums;
+  // Window validity of the band's rows, then the band in strips of kStripPixels columns so
+  // that the 2r+1 input rows of a strip stay in cache while the strip moves down the band
+  // (whole rows would stream ~1 MB per output row from memory at 4000 px).
+  const int rows = static_cast<int>(c1 - c0);
+  thread_local std::vector<uint8_t> validity_buffer;
+  uint8_t* band_ok = Scratch(validity_buffer, static_cast<size_t>(rows) * w);
+  {
+    WindowValidityRows validity(in.valid, w, h, r);
+    for (int j = 0; j < rows; ++j) {
+      const uint8_t* ok = validity.Row(static_cast<int>(c0) + j);
+      std::copy(ok, ok + w, band_ok + static_cast<size_t>(j) * w);
+    }
+  }
+  constexpr int kStripPixels = 256;
+  const int max_elements = 3 * (kStripPixels + 2 * r);
   thread_local std::vector<float> buffer;
-  float* vertical = Scratch(buffer, static_cast<size_t>(11) * n);
-  float* moments = vertical + 5 * n;
-  float* element = moments + 5 * n;
+  float* vertical = Scratch(buffer, static_cast<size_t>(11) * max_elements);
+  float* moments = vertical + 5 * max_elements;
+  float* element = moments + 5 * max_elements;
   std::vector<const float*> p_rows(2 * r + 1), q_rows(2 * r + 1);
-  WindowValidityRows validity(in.valid, w, h, r);
-  for (int64_t y = c0; y < c1; ++y) {
-    const int yi = static_cast<int>(y);
-    for (int k = 0; k <= 2 * r; ++k) {
-      p_rows[k] = in.photo.row(yi - r + k);
-      q_rows[k] = in.rephoto.row(yi - r + k);
-    }
-    SsimVertical(p_rows.data(), q_rows.data(), setup.weights.data(), r, n, vertical);
-    for (int q = 0; q < 5; ++q) {
-      SsimHorizontal(vertical + q * n, setup.weights.data(), r, n, moments + q * n);
-    }
-    SsimFormula(moments, r, n, setup.cov_norm, element);
-    const uint8_t* ok = validity.Row(yi);
-    float* ssim_row = ssim ? ssim->row(yi) : nullptr;
-    float* dssim_row = dssim ? dssim->row(yi) : nullptr;
-    double ssim_sum = 0, dssim_sum = 0;
-    size_t evaluated = 0;
-    for (int x = 0; x < w; ++x) {
-      if (x < r || x >= w - r || !ok[x]) {
-        if (ssim_row) ssim_row[x] = kNaN;
-        if (dssim_row) dssim_row[x] = kNaN;
-        continue;
+  for (int x0 = 0; x0 < w; x0 += kStripPixels) {
+    const int x1 = std::min(w, x0 + kStripPixels);
+    // Elements [e0, e1) feed the horizontal filter of pixels [max(x0, r), min(x1, w - r)).
+    const int e0 = 3 * std::max(0, x0 - r), e1 = 3 * std::min(w, x1 + r), m = e1 - e0;
+    for (int64_t y = c0; y < c1; ++y) {
+      const int yi = static_cast<int>(y);
+      for (int k = 0; k <= 2 * r; ++k) {
+        p_rows[k] = in.photo.row(yi - r + k) + e0;
+        q_rows[k] = in.rephoto.row(yi - r + k) + e0;
       }
-      const float* e = element + 3 * x;
-      const float s = (e[0] + e[1] + e[2]) / 3.0f;
-      ++evaluated;
-      if (ssim_row) {
-        ssim_row[x] = s;
-        ssim_sum += s;
+      SsimVertical(p_rows.data(), q_rows.data(), setup.weights.data(), r, m, vertical);
+      for (int q = 0; q < 5; ++q) {
+        SsimHorizontal(vertical + q * m, setup.weights.data(), r, m, moments + q * m);
       }
-      if (dssim_row) {
-        dssim_row[x] = (1.0f - s) * 0.5f;
-        dssim_sum += dssim_row[x];
+      SsimFormula(moments, r, m, setup.cov_norm, element);
+      const uint8_t* ok = band_ok + static_cast<size_t>(y - c0) * w;
+      float* ssim_row = ssim ? ssim->row(yi) : nullptr;
+      float* dssim_row = dssim ? dssim->row(yi) : nullptr;
+      double ssim_sum = 0, dssim_sum = 0;
+      size_t evaluated = 0;
+      for (int x = x0; x < x1; ++x) {
+        if (x < r || x >= w - r || !ok[x]) {
+          if (ssim_row) ssim_row[x] = kNaN;
+          if (dssim_row) dssim_row[x] = kNaN;
+          continue;
+        }
+        const float* e = element + 3 * x - e0;
+        const float s = (e[0] + e[1] + e[2]) / 3.0f;
+        ++evaluated;
+        if (ssim_row) {
+          ssim_row[x] = s;
+          ssim_sum += s;
+        }
+        if (dssim_row) {
+          dssim_row[x] = (1.0f - s) * 0.5f;
+          dssim_sum += dssim_row[x];
+        }
       }
+      sums.sum[0] += ssim_sum;
+      sums.sum[1] += dssim_sum;
+      sums.count[0] += evaluated;
+      sums.count[1] += evaluated;
     }
-    sums.sum[0] += ssim_sum;
-    sums.sum[1] += dssim_sum;
-    sums.count[0] += evaluated;
-    sums.count[1] += evaluated;
   }
   return sums;
 }
