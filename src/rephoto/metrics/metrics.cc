@@ -95,14 +95,6 @@ void AccumulateBoxColumns(const float* __restrict planes, int w, double sign,
   }
 }
 
-// Adds (sign +1) or removes (sign -1) source row y of both images to the column sums.
-void SlideBoxColumns(const Inputs& in, int y, double sign, float* planes, double* cols) {
-  const int w = in.width;
-  Deinterleave(in.photo.row(y), w, planes, planes + w, planes + 2 * w);
-  Deinterleave(in.rephoto.row(y), w, planes + 3 * w, planes + 4 * w, planes + 5 * w);
-  AccumulateBoxColumns(planes, w, sign, cols);
-}
-
 // prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. The nine
 // independent chains are interleaved so the adds overlap.
 void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) {
@@ -165,56 +157,14 @@ size_t CountRow(const uint8_t* __restrict ok, int w, int r) {
   return n;
 }
 
-MeanSums BoxBand(const Inputs& in, int window, double flat, Image* ncc, Image* zssd, int64_t y0,
-                 int64_t y1) {
-  const int w = in.width, h = in.height, r = window / 2;
-  MeanSums sums;
-  const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
-  for (int64_t y = y0; y < y1; ++y) {
-    if (y >= c0 && y < c1 && w >= window) continue;
-    if (ncc) FillNaN(ncc->row(static_cast<int>(y)), w);
-    if (zssd) FillNaN(zssd->row(static_cast<int>(y)), w);
-  }
-  if (c0 >= c1 || w < window) return sums;
-  thread_local std::vector<double> buffer;
-  double* cols = Scratch(buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1));
-  double* prefix = cols + kBoxQuantities * w;
-  thread_local std::vector<float> row_buffer;
-  float* ncc_values = Scratch(row_buffer, static_cast<size_t>(8 * w));
-  float* zssd_values = ncc_values + w;
-  float* planes = zssd_values + w;
-  std::fill(cols, cols + kBoxQuantities * w, 0.0);
-  for (int64_t j = c0 - r; j <= c0 + r; ++j) {
-    SlideBoxColumns(in, static_cast<int>(j), 1.0, planes, cols);
-  }
-  WindowValidityRows validity(in.valid, w, h, r);
-  const double inv_count = 1.0 / (static_cast<double>(window) * window);
-  for (int64_t y = c0; y < c1; ++y) {
-    const int yi = static_cast<int>(y);
-    if (y > c0) {
-      SlideBoxColumns(in, yi + r, 1.0, planes, cols);
-      SlideBoxColumns(in, yi - r - 1, -1.0, planes, cols);
-    }
-    BoxPrefix(cols, w, prefix);
-    BoxErrors(prefix, w, r, inv_count, flat, ncc_values, zssd_values);
-    const uint8_t* ok = validity.Row(yi);
-    const size_t evaluated = CountRow(ok, w, r);
-    if (ncc) sums.sum[0] += MaskRow(ncc_values, ok, w, r, ncc->row(yi));
-    if (zssd) sums.sum[1] += MaskRow(zssd_values, ok, w, r, zssd->row(yi));
-    sums.count[0] += evaluated;
-    sums.count[1] += evaluated;
-  }
-  return sums;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Census on luma.
 
+// Luma Y = 0.299 R + 0.587 G + 0.114 B of planar rows.
 REPHOTO_SIMD_CLONES
-void LumaRow(const float* __restrict rgb, int width, float* __restrict luma) {
-  for (int x = 0; x < width; ++x) {
-    luma[x] = 0.299f * rgb[3 * x] + 0.587f * rgb[3 * x + 1] + 0.114f * rgb[3 * x + 2];
-  }
+void LumaPlanar(const float* __restrict red, const float* __restrict green,
+                const float* __restrict blue, int w, float* __restrict luma) {
+  for (int x = 0; x < w; ++x) luma[x] = 0.299f * red[x] + 0.587f * green[x] + 0.114f * blue[x];
 }
 
 typedef float V16f __attribute__((vector_size(64)));
@@ -253,62 +203,103 @@ void CensusCounts(const float* const* photo_rows, const float* const* rephoto_ro
   }
 }
 
-MeanSums CensusBand(const Inputs& in, int window, Image* census, int64_t y0, int64_t y1) {
+// 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
+// planes and converted to luma once, and kept in a ring of 2r+2 rows (the window plus the row
+// that leaves the column sums).
+MeanSums WindowBand(const Inputs& in, int window, double flat, Image* ncc, Image* zssd,
+                    Image* census, int64_t y0, int64_t y1) {
   const int w = in.width, h = in.height, r = window / 2;
+  const bool box = ncc != nullptr || zssd != nullptr;
   MeanSums sums;
   const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
   for (int64_t y = y0; y < y1; ++y) {
-    if (y < c0 || y >= c1 || w < window) FillNaN(census->row(static_cast<int>(y)), w);
+    if (y >= c0 && y < c1 && w >= window) continue;
+    for (Image* out : {ncc, zssd, census}) {
+      if (out) FillNaN(out->row(static_cast<int>(y)), w);
+    }
   }
   if (c0 >= c1 || w < window) return sums;
-  // Luma rows [c0 - r, c1 + r) of both images.
-  const int rows = static_cast<int>(c1 - c0) + 2 * r;
-  thread_local std::vector<float> luma_buffer;
-  float* luma = Scratch(luma_buffer, static_cast<size_t>(2 * rows) * w);
-  for (int j = 0; j < rows; ++j) {
-    const int y = static_cast<int>(c0) - r + j;
-    LumaRow(in.photo.row(y), w, luma + static_cast<size_t>(j) * w);
-    LumaRow(in.rephoto.row(y), w, luma + static_cast<size_t>(rows + j) * w);
-  }
+  // Ring slot: photo R, G, B, rephoto R, G, B, photo luma, rephoto luma (8 planes of w).
+  const int ring = 2 * r + 2;
+  const size_t slot_size = static_cast<size_t>(8) * w;
+  thread_local std::vector<float> float_buffer;
+  float* slots = Scratch(float_buffer, ring * slot_size + 2 * static_cast<size_t>(w));
+  float* ncc_values = slots + ring * slot_size;
+  float* zssd_values = ncc_values + w;
+  thread_local std::vector<double> double_buffer;
+  double* cols =
+      box ? Scratch(double_buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1)) : nullptr;
+  double* prefix = box ? cols + kBoxQuantities * w : nullptr;
   thread_local std::vector<int> count_buffer;
-  int* counts = Scratch(count_buffer, static_cast<size_t>(w));
-  std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
-  WindowValidityRows validity(in.valid, w, h, r);
-  const int inner = w - 2 * r;
-  const int blocks = inner / 32;
-  const float inv = 1.0f / static_cast<float>(window * window - 1);
-  for (int64_t y = c0; y < c1; ++y) {
-    const int j0 = static_cast<int>(y - c0);
-    for (int k = 0; k <= 2 * r; ++k) {
-      photo_rows[k] = luma + static_cast<size_t>(j0 + k) * w;
-      rephoto_rows[k] = luma + static_cast<size_t>(rows + j0 + k) * w;
+  int* counts = census ? Scratch(count_buffer, static_cast<size_t>(w)) : nullptr;
+  auto slot = [&](int64_t j) { return slots + static_cast<size_t>(j % ring) * slot_size; };
+  auto load = [&](int64_t j) {
+    float* s = slot(j);
+    Deinterleave(in.photo.row(static_cast<int>(j)), w, s, s + w, s + 2 * w);
+    Deinterleave(in.rephoto.row(static_cast<int>(j)), w, s + 3 * w, s + 4 * w, s + 5 * w);
+    if (census) {
+      LumaPlanar(s, s + w, s + 2 * w, w, s + 6 * w);
+      LumaPlanar(s + 3 * w, s + 4 * w, s + 5 * w, w, s + 7 * w);
     }
-    CensusCounts(photo_rows.data(), rephoto_rows.data(), r, blocks, counts);
-    for (int x = r + 32 * blocks; x < w - r; ++x) {  // tail
-      int n = 0;
-      const float cp = photo_rows[r][x], cr = rephoto_rows[r][x];
+  };
+  if (box) std::fill(cols, cols + kBoxQuantities * w, 0.0);
+  for (int64_t j = c0 - r; j <= c0 + r; ++j) {
+    load(j);
+    if (box) AccumulateBoxColumns(slot(j), w, 1.0, cols);
+  }
+  WindowValidityRows validity(in.valid, w, h, r);
+  const double inv_count = 1.0 / (static_cast<double>(window) * window);
+  const float inv_bits = 1.0f / static_cast<float>(window * window - 1);
+  std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
+  const int blocks = (w - 2 * r) / 32;
+  for (int64_t y = c0; y < c1; ++y) {
+    const int yi = static_cast<int>(y);
+    if (y > c0) {
+      load(y + r);
+      if (box) {
+        AccumulateBoxColumns(slot(y + r), w, 1.0, cols);
+        AccumulateBoxColumns(slot(y - r - 1), w, -1.0, cols);
+      }
+    }
+    const uint8_t* ok = validity.Row(yi);
+    const size_t evaluated = CountRow(ok, w, r);
+    if (box) {
+      BoxPrefix(cols, w, prefix);
+      BoxErrors(prefix, w, r, inv_count, flat, ncc_values, zssd_values);
+      if (ncc) sums.sum[0] += MaskRow(ncc_values, ok, w, r, ncc->row(yi));
+      if (zssd) sums.sum[1] += MaskRow(zssd_values, ok, w, r, zssd->row(yi));
+      sums.count[0] += evaluated;
+      sums.count[1] += evaluated;
+    }
+    if (census) {
       for (int k = 0; k <= 2 * r; ++k) {
-        for (int dx = -r; dx <= r; ++dx) {
-          n += (photo_rows[k][x + dx] < cp) != (rephoto_rows[k][x + dx] < cr);
+        photo_rows[k] = slot(y - r + k) + 6 * w;
+        rephoto_rows[k] = slot(y - r + k) + 7 * w;
+      }
+      CensusCounts(photo_rows.data(), rephoto_rows.data(), r, blocks, counts);
+      for (int x = r + 32 * blocks; x < w - r; ++x) {  // tail
+        int n = 0;
+        const float cp = photo_rows[r][x], cr = rephoto_rows[r][x];
+        for (int k = 0; k <= 2 * r; ++k) {
+          for (int dx = -r; dx <= r; ++dx) {
+            n += (photo_rows[k][x + dx] < cp) != (rephoto_rows[k][x + dx] < cr);
+          }
+        }
+        counts[x - r] = n;
+      }
+      float* out = census->row(yi);
+      double s = 0;
+      for (int x = 0; x < w; ++x) {
+        if (x < r || x >= w - r || !ok[x]) {
+          out[x] = kNaN;
+        } else {
+          out[x] = static_cast<float>(counts[x - r]) * inv_bits;
+          s += out[x];
         }
       }
-      counts[x - r] = n;
+      sums.sum[2] += s;
+      sums.count[2] += evaluated;
     }
-    const uint8_t* ok = validity.Row(static_cast<int>(y));
-    float* out = census->row(static_cast<int>(y));
-    double s = 0;
-    size_t evaluated = 0;
-    for (int x = 0; x < w; ++x) {
-      if (x < r || x >= w - r || !ok[x]) {
-        out[x] = kNaN;
-      } else {
-        out[x] = static_cast<float>(counts[x - r]) * inv;
-        s += out[x];
-        ++evaluated;
-      }
-    }
-    sums.sum[0] += s;
-    sums.count[0] += evaluated;
   }
   return sums;
 }
@@ -608,19 +599,14 @@ void ComputeMetrics(const Image& photo, const Image& rephoto, const Mask& valid,
     }
   };
 
-  if (image(Metric::kOneMinusNcc) || image(Metric::kZssd)) {
+  if (image(Metric::kOneMinusNcc) || image(Metric::kZssd) || image(Metric::kCensus)) {
     const MeanSums sums = ParallelSum<MeanSums>(0, h, kBandRows, [&](int64_t y0, int64_t y1) {
-      return BoxBand(in, options.window, options.ncc_flat_threshold, image(Metric::kOneMinusNcc),
-                     image(Metric::kZssd), y0, y1);
+      return WindowBand(in, options.window, options.ncc_flat_threshold, image(Metric::kOneMinusNcc),
+                        image(Metric::kZssd), image(Metric::kCensus), y0, y1);
     });
     finish(Metric::kOneMinusNcc, sums, 0);
     finish(Metric::kZssd, sums, 1);
-  }
-  if (image(Metric::kCensus)) {
-    const MeanSums sums = ParallelSum<MeanSums>(0, h, kBandRows, [&](int64_t y0, int64_t y1) {
-      return CensusBand(in, options.window, image(Metric::kCensus), y0, y1);
-    });
-    finish(Metric::kCensus, sums, 0);
+    finish(Metric::kCensus, sums, 2);
   }
   if (image(Metric::kCbCr) || image(Metric::kPsnr)) {
     const MeanSums sums = ParallelSum<MeanSums>(0, h, kBandRows, [&](int64_t y0, int64_t y1) {
