@@ -269,6 +269,11 @@ TEST(Metrics, WindowMetricsMatchNaiveLoops) {
                     1e-6, "zssd");
       ExpectMatches(results[2], NaiveWindowMetric(c.photo, c.rephoto, c.valid, window, NaiveCensus),
                     1e-7, "census");
+      // Census alone takes a different path through the shared window pass.
+      const MetricResult alone =
+          ComputeMetric(Metric::kCensus, c.photo, c.rephoto, c.valid, options);
+      ExpectMatches(alone, NaiveWindowMetric(c.photo, c.rephoto, c.valid, window, NaiveCensus),
+                    1e-7, "census alone");
     }
   }
 }
