@@ -148,6 +148,54 @@ TEST(Camera, FovProjectionByHand) {
   EXPECT_NEAR(pixel->y(), 300 * 0.4 / 0.5 * rd + 500, 1e-10);
 }
 
+TEST(Camera, FullOpenCvRadialFisheyeAndThinPrismByHand) {
+  // FULL_OPENCV: radial (1 + k1 r2 + k2 r4 + k3 r6) / (1 + k4 r2 + k5 r4 + k6 r6), tangential
+  // as OPENCV. u = 0.2, v = -0.1: r2 = 0.05, uv = -0.02.
+  const Camera full = MakeCamera(CameraModel::kFullOpenCv, 100, 100,
+                                 {100, 200, 10, 20, 0.1, 0.2, 0.01, 0.02, 0.3, 0.4, 0.5, 0.6});
+  {
+    const double r2 = 0.05, u = 0.2, v = -0.1, uv = -0.02;
+    const double radial = (1 + 0.1 * r2 + 0.2 * r2 * r2 + 0.3 * r2 * r2 * r2) /
+                          (1 + 0.4 * r2 + 0.5 * r2 * r2 + 0.6 * r2 * r2 * r2);
+    const double xd = u * radial + 2 * 0.01 * uv + 0.02 * (r2 + 2 * u * u);
+    const double yd = v * radial + 2 * 0.02 * uv + 0.01 * (r2 + 2 * v * v);
+    const auto pixel = full.ImgFromCam({0.4, -0.2, 2});
+    ASSERT_TRUE(pixel.has_value());
+    EXPECT_NEAR(pixel->x(), 100 * xd + 10, 1e-12);
+    EXPECT_NEAR(pixel->y(), 200 * yd + 20, 1e-12);
+  }
+  // RADIAL_FISHEYE: theta = atan(r), theta_d = theta (1 + k1 theta^2 + k2 theta^4), along
+  // the direction of (u, v). Point (3, 4, 5): r = 1, theta = pi / 4.
+  const Camera radial_fisheye =
+      MakeCamera(CameraModel::kRadialFisheye, 100, 100, {300, 50, 60, 0.05, -0.01});
+  {
+    const double t = M_PI / 4;
+    const double td = t * (1 + 0.05 * t * t - 0.01 * t * t * t * t);
+    const auto pixel = radial_fisheye.ImgFromCam({3, 4, 5});
+    ASSERT_TRUE(pixel.has_value());
+    EXPECT_NEAR(pixel->x(), 300 * td * 0.6 + 50, 1e-12);
+    EXPECT_NEAR(pixel->y(), 300 * td * 0.8 + 60, 1e-12);
+  }
+  // THIN_PRISM_FISHEYE: on the angle-scaled (a, b) = theta * (u, v) / r, with
+  // r2 = a^2 + b^2: radial k1 r2 + k2 r4 + k3 r6 + k4 r8, OPENCV's tangential terms, plus
+  // sx1 r2 and sy1 r2.
+  const Camera prism =
+      MakeCamera(CameraModel::kThinPrismFisheye, 100, 100,
+                 {300, 310, 50, 60, 0.05, -0.01, 0.001, 0.002, 0.003, -0.004, 0.0005, -0.0007});
+  {
+    const double t = M_PI / 4;
+    const double a = t * 0.6, b = t * 0.8, r2 = t * t;
+    const double radial =
+        0.05 * r2 - 0.01 * r2 * r2 + 0.003 * std::pow(r2, 3) - 0.004 * std::pow(r2, 4);
+    const double xd = a + a * radial + 2 * 0.001 * a * b + 0.002 * (r2 + 2 * a * a) + 0.0005 * r2;
+    const double yd = b + b * radial + 2 * 0.002 * a * b + 0.001 * (r2 + 2 * b * b) - 0.0007 * r2;
+    const auto pixel = prism.ImgFromCam({3, 4, 5});
+    ASSERT_TRUE(pixel.has_value());
+    EXPECT_NEAR(pixel->x(), 300 * xd + 50, 1e-12);
+    EXPECT_NEAR(pixel->y(), 310 * yd + 60, 1e-12);
+  }
+}
+
 // project(unproject(p)) = p over a dense grid covering the whole image, borders included.
 TEST(Camera, UnprojectThenProjectIsIdentityOverTheImage) {
   for (const Camera& camera : RealisticCameras()) {

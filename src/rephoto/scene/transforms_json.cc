@@ -120,7 +120,8 @@ camera::Camera MakeCamera(const Intrinsics& in, int width, int height, std::stri
                   "{}: OPENCV_FISHEYE has no tangential distortion, but p1/p2 are set", where);
     camera.model = CameraModel::kOpenCvFisheye;
     camera.params = {fx, fy, cx, cy, k1, k2, k3, k4};
-  } else if (model_name == "OPENCV") {
+  } else if (model_name == "OPENCV" || model_name == "SIMPLE_RADIAL" || model_name == "RADIAL") {
+    // nerfstudio reads the same k1..k4, p1, p2 keys for all three names.
     REPHOTO_CHECK(k4 == 0, "{}: k4 = {} (an r^8 term) has no COLMAP camera model equivalent", where,
                   k4);
     if (k3 != 0) {
@@ -136,8 +137,10 @@ camera::Camera MakeCamera(const Intrinsics& in, int width, int height, std::stri
     camera.model = CameraModel::kPinhole;
     camera.params = {fx, fy, cx, cy};
   } else {
-    ThrowError("{}: unsupported camera_model '{}' (OPENCV, OPENCV_FISHEYE, PINHOLE)", where,
-               model_name);
+    ThrowError(
+        "{}: unsupported camera_model '{}' (OPENCV, OPENCV_FISHEYE, PINHOLE, SIMPLE_PINHOLE, "
+        "SIMPLE_RADIAL, RADIAL)",
+        where, model_name);
   }
   camera.Validate(where);
   return camera;

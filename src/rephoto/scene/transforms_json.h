@@ -11,8 +11,9 @@
 //   -> COLMAP OPENCV (k1, k2, p1, p2; with k3 != 0 FULL_OPENCV, whose k3 is the same r^6
 //   term; k4 != 0 is rejected: it has no COLMAP equivalent), "OPENCV_FISHEYE" (or instant-ngp's
 //   "is_fisheye": true) -> OPENCV_FISHEYE (k1..k4; p1/p2 != 0 rejected), "PINHOLE" /
-//   "SIMPLE_PINHOLE" -> PINHOLE (any distortion rejected). Without "camera_model": OPENCV if a
-//   coefficient is non-zero, else PINHOLE. These are the same formulas in all three tools.
+//   "SIMPLE_PINHOLE" -> PINHOLE (any distortion rejected); nerfstudio's "SIMPLE_RADIAL" and
+//   "RADIAL" read the same keys as "OPENCV" and are handled like it. Without "camera_model": OPENCV
+//   if a coefficient is non-zero, else PINHOLE. These are the same formulas in all three tools.
 // - Pixel centres: cx, cy are taken as they are in rephoto's pixel-corner convention. That is
 //   what colmap2nerf (copying COLMAP's cx, cy), instant-ngp and nerfstudio (rays through pixel
 //   centres at +0.5) mean. NeRF-synthetic has no cx/cy; the Blender renders have the principal
@@ -28,8 +29,10 @@
 // - instant-ngp's "aabb_scale", "scale", "offset" are NOT applied (nor written): instant-ngp
 //   applies scale/offset (default 0.33 / 0.5) and an axis permutation only to its internal
 //   training frame; the file's transform_matrix values are the poses in the dataset's world
-//   frame, and meshes exported from that world frame line up with them. Other keys
-//   ("sharpness", "rotation", "colmap_im_id", ...) are ignored.
+//   frame, and meshes exported from that world frame line up with them. Likewise nerfstudio's
+//   "applied_transform" (what ns-process-data already applied to COLMAP's poses to get the
+//   file's matrices) is informational. Other keys ("sharpness", "rotation", "colmap_im_id",
+//   "ply_file_path", ...) are ignored.
 // Views are in frame order; cameras are shared where intrinsics are identical (ids 1, 2, ...).
 // View::name is file_path as resolved (leading "./" removed); Scene::image_root is the JSON
 // file's folder. Errors name the file and the JSON field: "transforms.json: frames[3].fl_x: ...".

@@ -145,6 +145,13 @@ TEST(TransformsJson, InstantNgpAndNerfstudioForms) {
   EXPECT_EQ(ngp_fisheye.cameras.at(1).model, CameraModel::kOpenCvFisheye);
   EXPECT_EQ(ngp_fisheye.cameras.at(1).params,
             (std::vector<double>{500, 500, 500, 400, 0.01, 0, 0, 0}));
+  // nerfstudio's RADIAL name reads k1, k2 like OPENCV.
+  const Scene radial = Parse(R"({"fl_x": 500, "w": 1000, "h": 800, "camera_model": "RADIAL",
+    "k1": 0.01, "k2": -0.002, "frames": [{"file_path": "a.png",
+    "transform_matrix": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}]})");
+  EXPECT_EQ(radial.cameras.at(1).model, CameraModel::kOpenCv);
+  EXPECT_EQ(radial.cameras.at(1).params,
+            (std::vector<double>{500, 500, 500, 400, 0.01, -0.002, 0, 0}));
 }
 
 TEST(TransformsJson, ErrorsNameTheField) {
