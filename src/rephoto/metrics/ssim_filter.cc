@@ -12,13 +12,19 @@ namespace {
 
 typedef float V16f __attribute__((vector_size(64)));
 
-inline V16f Load(const float* p) {
-  V16f v;
-  __builtin_memcpy(&v, p, sizeof(v));
-  return v;
-}
-
-inline void Store(float* p, V16f v) { __builtin_memcpy(p, &v, sizeof(v)); }
+// Macros rather than functions: passing 64-byte vectors by value to a function not compiled
+// for AVX-512 changes the ABI (GCC's -Wpsabi).
+#define REPHOTO_LOAD(p)                     \
+  ({                                        \
+    V16f v_;                                \
+    __builtin_memcpy(&v_, (p), sizeof(v_)); \
+    v_;                                     \
+  })
+#define REPHOTO_STORE(p, v)                 \
+  do {                                      \
+    const V16f s_ = (v);                    \
+    __builtin_memcpy((p), &s_, sizeof(s_)); \
+  } while (false)
 
 }  // namespace
 
@@ -34,23 +40,25 @@ void SsimVertical(const float* const* p_rows, const float* const* q_rows, const 
   const int vectors = n / 16 * 16;
   for (int i = 0; i < vectors; i += 16) {
     const V16f w0 = V16f{} + weights[r];
-    const V16f a = Load(p_rows[r] + i) - half, b = Load(q_rows[r] + i) - half;
+    const V16f a = REPHOTO_LOAD(p_rows[r] + i) - half, b = REPHOTO_LOAD(q_rows[r] + i) - half;
     V16f sx = w0 * a, sy = w0 * b, sxx = w0 * (a * a), syy = w0 * (b * b), sxy = w0 * (a * b);
     for (int k = 1; k <= r; ++k) {
       const V16f wk = V16f{} + weights[r + k];
-      const V16f a1 = Load(p_rows[r - k] + i) - half, a2 = Load(p_rows[r + k] + i) - half;
-      const V16f b1 = Load(q_rows[r - k] + i) - half, b2 = Load(q_rows[r + k] + i) - half;
+      const V16f a1 = REPHOTO_LOAD(p_rows[r - k] + i) - half,
+                 a2 = REPHOTO_LOAD(p_rows[r + k] + i) - half;
+      const V16f b1 = REPHOTO_LOAD(q_rows[r - k] + i) - half,
+                 b2 = REPHOTO_LOAD(q_rows[r + k] + i) - half;
       sx += wk * (a1 + a2);
       sy += wk * (b1 + b2);
       sxx += wk * (a1 * a1 + a2 * a2);
       syy += wk * (b1 * b1 + b2 * b2);
       sxy += wk * (a1 * b1 + a2 * b2);
     }
-    Store(vx + i, sx);
-    Store(vy + i, sy);
-    Store(vxx + i, sxx);
-    Store(vyy + i, syy);
-    Store(vxy + i, sxy);
+    REPHOTO_STORE(vx + i, sx);
+    REPHOTO_STORE(vy + i, sy);
+    REPHOTO_STORE(vxx + i, sxx);
+    REPHOTO_STORE(vyy + i, syy);
+    REPHOTO_STORE(vxy + i, sxy);
   }
   for (int i = vectors; i < n; ++i) {  // same arithmetic, one value at a time
     const float w0 = weights[r];
@@ -79,11 +87,12 @@ void SsimHorizontal(const float* in, const float* weights, int r, int n, float* 
   const int begin = 3 * r, end = n - 3 * r;
   int i = begin;
   for (; i + 16 <= end; i += 16) {
-    V16f acc = (V16f{} + weights[r]) * Load(in + i);
+    V16f acc = (V16f{} + weights[r]) * REPHOTO_LOAD(in + i);
     for (int k = 1; k <= r; ++k) {
-      acc += (V16f{} + weights[r + k]) * (Load(in + i - 3 * k) + Load(in + i + 3 * k));
+      acc +=
+          (V16f{} + weights[r + k]) * (REPHOTO_LOAD(in + i - 3 * k) + REPHOTO_LOAD(in + i + 3 * k));
     }
-    Store(out + i, acc);
+    REPHOTO_STORE(out + i, acc);
   }
   for (; i < end; ++i) {
     float acc = weights[r] * in[i];
