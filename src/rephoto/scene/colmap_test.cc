@@ -16,6 +16,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/io/image_io.h"
+#include "rephoto/scene/bundler.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::scene {
@@ -570,6 +571,37 @@ TEST(ColmapRealData, FernBinaryMatchesTheDerivedTextModel) {
   EXPECT_EQ(outside, 0u);
   EXPECT_LT(mean, 35);
   EXPECT_GT(random, 60);
+}
+
+// Kermit (Bundler) has real 2D observations: converted to COLMAP (text and binary) and read
+// back, every track still points at its keypoint, and the points reproject onto them with the
+// bundle adjustment's residual (the Bundler reader's test measured a median of 0.20 px).
+TEST(ColmapRealData, KermitObservationsSurviveColmapAndReproject) {
+  REPHOTO_REQUIRE_DATA("bundler_kermit/results.example/bundle.out");
+  const Scene bundler =
+      ReadBundlerScene(testing::SharedDataDir() / "bundler_kermit/results.example/bundle.out");
+  for (const ColmapFormat format : {ColmapFormat::kText, ColmapFormat::kBinary}) {
+    const fs::path dir = testing::MakeTempDir() / "sparse";
+    WriteColmap(bundler, dir, format);
+    const Scene scene = ReadColmap(dir, {.image_root = bundler.image_root});
+    ExpectScenesEqual(bundler, scene);
+    std::vector<double> errors;
+    for (const Point3D& point : scene.points) {
+      for (const Observation& observation : point.track) {
+        const View& view = scene.views[observation.view_index];
+        const auto pixel =
+            scene.CameraOf(view).ImgFromCam(view.cam_from_world.CamFromWorld(point.position));
+        ASSERT_TRUE(pixel.has_value());
+        errors.push_back((*pixel - observation.pixel).norm());
+      }
+    }
+    ASSERT_EQ(errors.size(), 2039u);
+    const Summary summary = Summarize(errors);
+    RecordProperty(format == ColmapFormat::kText ? "text_median_px" : "binary_median_px",
+                   fmt::format("{:.3f}", summary.median));
+    EXPECT_LT(summary.median, 0.3);
+    EXPECT_GT(summary.median, 0.05);
+  }
 }
 
 }  // namespace
