@@ -36,7 +36,7 @@ camera::Pose PoseFromQuaternion(const Eigen::Vector4d& q, const Eigen::Vector3d&
   REPHOTO_CHECK(std::abs(norm - 1) <= kQuaternionNormTolerance,
                 "{}: quaternion ({}, {}, {}, {}) has norm {:.9g}, expected 1", where, q[0], q[1],
                 q[2], q[3], norm);
-  const camera::Pose pose = camera::Pose::FromQuaternion(q[0], q[1], q[2], q[3], translation);
+  camera::Pose pose = camera::Pose::FromQuaternion(q[0], q[1], q[2], q[3], translation);
   pose.Validate(where);
   return pose;
 }
