@@ -23,6 +23,14 @@ std::vector<std::string> Names(int count) {
   return names;  // reverse order on purpose: splits sort by name
 }
 
+Scheme KFold(int k, uint64_t seed) {
+  Scheme scheme;
+  scheme.kind = SchemeKind::kKFold;
+  scheme.folds = k;
+  scheme.seed = seed;
+  return scheme;
+}
+
 std::string ErrorOf(const std::function<void()>& function) {
   try {
     function();
@@ -92,7 +100,7 @@ TEST(SplitTest, KFoldPropertiesForManySizesAndSeeds) {
       if (k > n) continue;
       for (uint64_t seed : {0ULL, 1ULL, 12345ULL}) {
         const std::vector<std::string> names = Names(n);
-        const Split split = MakeSplit(names, {SchemeKind::kKFold, k, 0, 0.0, seed});
+        const Split split = MakeSplit(names, KFold(k, seed));
         ASSERT_EQ(split.folds.size(), static_cast<size_t>(k));
         std::multiset<std::string> tested;
         size_t min_size = n, max_size = 0;
@@ -112,8 +120,8 @@ TEST(SplitTest, KFoldPropertiesForManySizesAndSeeds) {
     }
   }
   // Same seed, same split; another seed, (here) another split.
-  const Scheme a{SchemeKind::kKFold, 4, 0, 0.0, 7};
-  const Scheme b{SchemeKind::kKFold, 4, 0, 0.0, 8};
+  const Scheme a = KFold(4, 7);
+  const Scheme b = KFold(4, 8);
   EXPECT_EQ(MakeSplit(Names(20), a).folds[0].test, MakeSplit(Names(20), a).folds[0].test);
   EXPECT_NE(MakeSplit(Names(20), a).folds[0].test, MakeSplit(Names(20), b).folds[0].test);
 }
