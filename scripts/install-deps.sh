@@ -6,6 +6,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates
+  clang libclang-rt-14-dev
   libembree-dev libtbb-dev libeigen3-dev
   libturbojpeg0-dev libspng-dev libtinyexr-dev zlib1g-dev
   libmeshoptimizer-dev libtinyobjloader-dev

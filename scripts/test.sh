@@ -1,10 +1,27 @@
 #!/usr/bin/env bash
-# Sets everything up and runs the whole test suite (what CI runs, see .ci/run).
+# Sets everything up and runs the whole test suite (what CI runs, see .ci/run):
 #   1. installs Debian packages, builds Release in ./build, runs every ctest test;
-#   2. builds the scene/image readers' tests under AddressSanitizer + UndefinedBehaviorSanitizer
-#      in ./build-sanitize and runs them, when REPHOTO_SKIP_SANITIZE is not set;
-#   3. runs each libFuzzer target briefly, when scripts/fuzz.sh exists and REPHOTO_SKIP_FUZZ is not set.
+#   2. builds the file readers' tests (scene, split, io, mesh) with AddressSanitizer +
+#      UndefinedBehaviorSanitizer in ./build-sanitize and runs them
+#      (skip with REPHOTO_SKIP_SANITIZE=1);
+#   3. runs each libFuzzer target (one per scene reader) for REPHOTO_FUZZ_SECONDS (default 10)
+#      (skip with REPHOTO_SKIP_FUZZ=1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh
 ctest --test-dir build --output-on-failure -j2
+
+if [ -z "${REPHOTO_SKIP_SANITIZE:-}" ]; then
+  echo "== readers under AddressSanitizer + UndefinedBehaviorSanitizer"
+  cmake --preset sanitize >/dev/null
+  mapfile -t targets < <(cmake --build build-sanitize --target help |
+    sed -n 's/^\(test_\(scene\|split\|io\|mesh\)_[a-z_]*\):.*/\1/p' | sort -u)
+  cmake --build build-sanitize --target "${targets[@]}"
+  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    ctest --test-dir build-sanitize --output-on-failure -j2 -R '^(scene|split|io|mesh)/'
+fi
+
+if [ -z "${REPHOTO_SKIP_FUZZ:-}" ]; then
+  echo "== libFuzzer targets"
+  scripts/fuzz.sh "${REPHOTO_FUZZ_SECONDS:-10}"
+fi
