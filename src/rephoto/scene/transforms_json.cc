@@ -214,6 +214,7 @@ json TransformMatrixFromPose(const camera::Pose& pose) {
 // Adds the keys describing `camera` to `object`.
 void WriteIntrinsics(const camera::Camera& camera, json& object, std::string_view where) {
   using camera::CameraModel;
+  camera.Validate(where);
   const std::vector<double>& p = camera.params;
   std::string model;
   std::vector<std::pair<const char*, double>> distortion;
