@@ -742,11 +742,13 @@ void WriteExr(const fs::path& path, const Image& image) {
       {{"A", 3}, {"B", 2}, {"G", 1}, {"R", 0}}};
   const auto& layout = kLayouts[channels];
   const size_t pixels = image.pixel_count();
-  thread_local std::vector<float> planar;
-  planar.resize(pixels * channels);
+  thread_local std::vector<float> planar_scratch;
+  planar_scratch.resize(pixels * channels);
+  // Worker threads must not name the thread_local (they would see their own, empty one).
+  float* const planar = planar_scratch.data();
   ParallelFor(0, static_cast<int64_t>(pixels), 1 << 16, [&](int64_t b, int64_t e) {
     for (int c = 0; c < channels; ++c) {
-      float* plane = planar.data() + static_cast<size_t>(c) * pixels;
+      float* plane = planar + static_cast<size_t>(c) * pixels;
       const int source = layout[c].second;
       for (int64_t i = b; i < e; ++i) plane[i] = image.data()[i * channels + source];
     }
@@ -757,7 +759,7 @@ void WriteExr(const fs::path& path, const Image& image) {
   for (int c = 0; c < channels; ++c) {
     std::memset(&infos[c], 0, sizeof(EXRChannelInfo));
     std::strncpy(infos[c].name, layout[c].first, sizeof(infos[c].name) - 1);
-    planes[c] = reinterpret_cast<unsigned char*>(planar.data() + static_cast<size_t>(c) * pixels);
+    planes[c] = reinterpret_cast<unsigned char*>(planar + static_cast<size_t>(c) * pixels);
   }
   EXRHeader header;
   InitEXRHeader(&header);

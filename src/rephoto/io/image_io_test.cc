@@ -306,6 +306,26 @@ TEST(ImageIo, ExrAndPfmRoundTripFloatsExactly) {
   ExpectErrorNaming([&] { WriteImage(dir / "x.tif", Image(2, 2, 3)); }, dir / "x.tif", "extension");
 }
 
+TEST(ImageIo, LargeImagesRoundTripAcrossThreads) {
+  // Large enough that conversions are split over several worker threads.
+  auto rng = testing::MakeRng();
+  const fs::path dir = testing::MakeTempDir();
+  const Image image = RandomImage(400, 300, 3, rng);
+  WriteExr(dir / "large.exr", image);
+  WritePfm(dir / "large.pfm", image);
+  WritePng(dir / "large.png", image, PngDepth::k16);
+  const Image exr = ReadImage(dir / "large.exr");
+  const Image pfm = ReadImage(dir / "large.pfm");
+  const Image png = ReadImage(dir / "large.png");
+  ASSERT_EQ(exr.size(), image.size());
+  ASSERT_EQ(png.size(), image.size());
+  for (size_t i = 0; i < image.size(); ++i) {
+    ASSERT_EQ(exr.data()[i], image.data()[i]) << i;
+    ASSERT_EQ(pfm.data()[i], image.data()[i]) << i;
+    ASSERT_EQ(png.data()[i], std::round(image.data()[i] * 65535.f) / 65535.f) << i;
+  }
+}
+
 TEST(ImageIo, ReadIntoReusesTheImage) {
   Image image;
   ReadImage(Fixture("rgba8.png"), &image);
