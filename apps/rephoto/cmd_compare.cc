@@ -1,0 +1,119 @@
+// rephoto compare --photos DIR --renders DIR [--masks DIR] [--photo-masks DIR]
+//                 [--metrics a,b,...|all] [--window N] [--ssim-mode gaussian|skimage]
+//                 [--dark T] [--saturated T] [--resize] [--no-error-images] --out RUN_DIR
+// Parses options into compare::CompareOptions and calls compare::RunCompare (see
+// src/rephoto/compare/compare.h for inputs, outputs and exit codes).
+#include <fmt/format.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "command.h"
+#include "rephoto/compare/compare.h"
+#include "rephoto/core/error.h"
+#include "rephoto/metrics/metrics.h"
+
+namespace rephoto::cli {
+namespace {
+
+struct CompareArguments {
+  compare::CompareOptions options;
+  std::string metrics = "all";
+  std::string ssim_mode = "gaussian";
+  bool no_error_images = false;
+  bool no_prefetch = false;
+};
+
+std::string FormatValue(double value) {
+  if (std::isnan(value)) return "-";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  return fmt::format("{:.4f}", value);
+}
+
+CommandRunner SetupCompare(CLI::App& app) {
+  auto args = std::make_shared<CompareArguments>();
+  compare::CompareOptions& o = args->options;
+  app.add_option("--photos", o.photos, "Folder of photos")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--renders", o.renders,
+                 "Folder of renderings with the photos' file names (stems); alpha = coverage, "
+                 "without alpha pure black = not covered")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--masks", o.render_masks,
+                 "Folder of rendering masks by name (overrides alpha/black; 0 = not covered)")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--photo-masks", o.photo_masks,
+                 "Folder of photo masks by name (0 = ignore the photo pixel)")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--metrics", args->metrics,
+                 "Comma-separated metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim) or all")
+      ->capture_default_str();
+  app.add_option("--window", o.metric_options.window,
+                 "Window side of 1-ncc, zssd, census and completeness (odd)")
+      ->check(CLI::Range(3, 101))
+      ->capture_default_str();
+  app.add_option("--ssim-mode", args->ssim_mode,
+                 "SSIM/DSSIM window: gaussian (11x11, sigma 1.5) or skimage (7x7 uniform, "
+                 "sample covariance: scikit-image's defaults)")
+      ->check(CLI::IsMember({"gaussian", "skimage"}))
+      ->capture_default_str();
+  app.add_option("--dark", o.exposure.dark_threshold,
+                 "Photo pixels with any channel <= this are ill-exposed (negative: off)")
+      ->capture_default_str();
+  app.add_option("--saturated", o.exposure.saturated_threshold,
+                 "Photo pixels with any channel >= this are ill-exposed (> 1: off)")
+      ->capture_default_str();
+  app.add_flag("--resize", o.resize,
+               "Rescale renderings whose size differs to the photo size (area/bilinear)");
+  app.add_flag("--no-error-images", args->no_error_images,
+               "Do not write errors/<name>.<metric>.exr/.png");
+  app.add_flag("--no-prefetch", args->no_prefetch,
+               "Do not decode the next pair while comparing the current one");
+  app.add_option("--out", o.out, "Run folder for per_image.csv, summary.json and errors/")
+      ->required();
+
+  return [args] {
+    compare::CompareOptions options = args->options;
+    options.metrics = metrics::ParseMetricList(args->metrics);
+    if (args->ssim_mode == "skimage") {
+      options.metric_options.ssim_gaussian = false;
+      options.metric_options.ssim_window = 7;
+    }
+    options.write_error_images = !args->no_error_images;
+    options.prefetch = !args->no_prefetch;
+    const compare::CompareResult result = compare::RunCompare(options);
+
+    fmt::print("{} pairs compared, {} without counterpart\n", result.images.size(),
+               result.missing.size());
+    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "over images", "mean", "min",
+               "median", "max", "pooled");
+    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "completeness",
+               FormatValue(result.completeness.mean), FormatValue(result.completeness.min),
+               FormatValue(result.completeness.median), FormatValue(result.completeness.max), "");
+    for (const compare::MetricSummary& m : result.metrics) {
+      fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", metrics::MetricName(m.metric),
+                 FormatValue(m.over_images.mean), FormatValue(m.over_images.min),
+                 FormatValue(m.over_images.median), FormatValue(m.over_images.max),
+                 FormatValue(m.pooled));
+    }
+    for (const compare::MissingImage& missing : result.missing) {
+      fmt::print("missing {} for {}\n",
+                 missing.missing == compare::Missing::kRender ? "rendering" : "photo",
+                 missing.present.string());
+    }
+    fmt::print("Results in {} (summary.json, per_image.csv{})\n", options.out.string(),
+               options.write_error_images ? ", errors/" : "");
+    return static_cast<int>(result.exit_code());
+  };
+}
+
+REPHOTO_COMMAND(20, "compare",
+                "Compare photos with renderings of the same views (paired by file name): "
+                "per-image and overall errors, completeness, error images",
+                SetupCompare);
+
+}  // namespace
+}  // namespace rephoto::cli

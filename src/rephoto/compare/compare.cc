@@ -1,0 +1,653 @@
+#include "rephoto/compare/compare.h"
+
+#include <signal.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <functional>
+#include <future>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include "rephoto/compare/resample.h"
+#include "rephoto/core/colormap.h"
+#include "rephoto/core/file.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/io/csv.h"
+#include "rephoto/io/image_io.h"
+
+#ifndef REPHOTO_VERSION
+#define REPHOTO_VERSION "unknown"
+#endif
+
+namespace rephoto::compare {
+namespace fs = std::filesystem;
+using metrics::Metric;
+
+std::string ToolVersion() { return REPHOTO_VERSION; }
+
+void CompareOptions::Check() const {
+  REPHOTO_CHECK(!photos.empty(), "compare: no photo folder given");
+  REPHOTO_CHECK(!renders.empty(), "compare: no rendering folder given");
+  REPHOTO_CHECK(!out.empty(), "compare: no output folder given");
+  REPHOTO_CHECK(!metrics.empty(), "compare: no metric selected");
+  std::set<Metric> seen;
+  for (Metric metric : metrics) {
+    REPHOTO_CHECK(seen.insert(metric).second, "compare: metric '{}' is listed twice",
+                  metrics::MetricName(metric));
+  }
+  REPHOTO_CHECK(metric_options.window >= 3 && metric_options.window % 2 == 1,
+                "compare: the window must be odd and at least 3 (got {})", metric_options.window);
+  REPHOTO_CHECK(metric_options.ssim_window >= 3 && metric_options.ssim_window % 2 == 1,
+                "compare: the SSIM window must be odd and at least 3 (got {})",
+                metric_options.ssim_window);
+  REPHOTO_CHECK(exposure.dark_threshold < exposure.saturated_threshold,
+                "compare: the dark threshold ({}) must be below the saturation threshold ({})",
+                exposure.dark_threshold, exposure.saturated_threshold);
+}
+
+std::pair<float, float> ErrorColourRange(Metric metric) {
+  switch (metric) {
+    case Metric::kOneMinusNcc:
+      return {0.f, 1.f};
+    case Metric::kCbCr:
+      return {0.f, 0.25f};
+    case Metric::kZssd:
+      return {0.f, 0.05f};
+    case Metric::kDssim:
+      return {0.f, 0.5f};
+    case Metric::kCensus:
+      return {0.f, 0.5f};
+    case Metric::kIcid:
+      return {0.f, 0.5f};
+    case Metric::kPsnr:
+      return {0.f, 0.0625f};
+    case Metric::kSsim:
+      return {1.f, 0.f};
+  }
+  return {0.f, 1.f};
+}
+
+void ColourErrorImage(const Image& error, float low, float high, std::vector<uint8_t>* rgba) {
+  REPHOTO_CHECK(error.channels() == 1, "ColourErrorImage: expected 1 channel, got {}",
+                error.channels());
+  REPHOTO_CHECK(low != high, "ColourErrorImage: empty range [{}, {}]", low, high);
+  rgba->resize(error.pixel_count() * 4);
+  uint8_t* out = rgba->data();
+  const float* in = error.data();
+  const float scale = 1.f / (high - low);
+  ParallelFor(0, static_cast<int64_t>(error.pixel_count()), 1 << 15, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const float v = in[i];
+      uint8_t* px = out + 4 * i;
+      if (std::isnan(v)) {
+        px[0] = px[1] = px[2] = px[3] = 0;
+        continue;
+      }
+      const auto colour = JetColor((v - low) * scale);
+      for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(colour[c] * 255.f + 0.5f);
+      px[3] = 255;
+    }
+  });
+}
+
+namespace {
+
+// A pair with everything known before its pixels are read.
+struct PlannedPair {
+  ImagePair files;
+  fs::path render_mask;  // empty = none
+  fs::path photo_mask;   // empty = none
+  io::ImageHeader photo_header;
+  io::ImageHeader render_header;
+};
+
+// The decoded files of one pair; two of these alternate so that one can be filled while the
+// other is compared.
+struct PairImages {
+  Image photo;
+  Image render;
+  Mask render_mask;
+  Mask photo_mask;
+};
+
+// Buffers reused from pair to pair by the comparison itself.
+struct Workspace {
+  Image photo_rgb;
+  Image render_rgb;
+  Image render_resized;
+  Mask photo_alpha;
+  Mask render_alpha;
+  Mask render_valid_resized;
+  std::vector<metrics::MetricResult> results;
+  tbb::enumerable_thread_specific<std::vector<uint8_t>> rgba;
+};
+
+// One thread that runs jobs in order; lives for the whole run so that the decoders' per-thread
+// buffers are reused from pair to pair.
+class BackgroundWorker {
+ public:
+  BackgroundWorker() : thread_([this] { Loop(); }) {}
+  ~BackgroundWorker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+  BackgroundWorker(const BackgroundWorker&) = delete;
+  BackgroundWorker& operator=(const BackgroundWorker&) = delete;
+
+  std::future<void> Submit(std::function<void()> job) {
+    std::packaged_task<void()> task(std::move(job));
+    std::future<void> done = task.get_future();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      jobs_.push_back(std::move(task));
+    }
+    wake_.notify_one();
+    return done;
+  }
+
+ private:
+  void Loop() {
+    for (;;) {
+      std::packaged_task<void()> task;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stop_ || !jobs_.empty(); });
+        if (jobs_.empty()) return;
+        task = std::move(jobs_.front());
+        jobs_.pop_front();
+      }
+      task();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::packaged_task<void()>> jobs_;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts after the members above exist
+};
+
+std::string SizeText(const io::ImageHeader& h) { return fmt::format("{}x{}", h.width, h.height); }
+
+std::vector<PlannedPair> PlanPairs(const CompareOptions& options, const Pairing& pairing) {
+  std::map<std::string, fs::path> render_masks, photo_masks;
+  if (!options.render_masks.empty()) {
+    render_masks = ImagesByStem(ListImages(options.render_masks, "rendering masks"));
+  }
+  if (!options.photo_masks.empty()) {
+    photo_masks = ImagesByStem(ListImages(options.photo_masks, "photo masks"));
+  }
+  std::vector<PlannedPair> plan;
+  plan.reserve(pairing.pairs.size());
+  for (const ImagePair& pair : pairing.pairs) {
+    PlannedPair planned;
+    planned.files = pair;
+    planned.photo_header = io::ReadImageHeader(pair.photo);
+    planned.render_header = io::ReadImageHeader(pair.render);
+    const io::ImageHeader& ph = planned.photo_header;
+    const io::ImageHeader& rh = planned.render_header;
+    if (!options.resize) {
+      REPHOTO_CHECK(ph.width == rh.width && ph.height == rh.height,
+                    "{}: rendering is {} but its photo {} is {} (--resize rescales renderings "
+                    "to the photo size)",
+                    pair.render.string(), SizeText(rh), pair.photo.string(), SizeText(ph));
+    }
+    if (!options.render_masks.empty()) {
+      auto it = render_masks.find(pair.name);
+      REPHOTO_CHECK(it != render_masks.end(), "{}: no mask named '{}' for rendering {}",
+                    options.render_masks.string(), pair.name, pair.render.string());
+      planned.render_mask = it->second;
+      const io::ImageHeader mh = io::ReadImageHeader(it->second);
+      REPHOTO_CHECK(mh.width == rh.width && mh.height == rh.height,
+                    "{}: mask is {} but its rendering {} is {}", it->second.string(), SizeText(mh),
+                    pair.render.string(), SizeText(rh));
+    }
+    if (!options.photo_masks.empty()) {
+      auto it = photo_masks.find(pair.name);
+      REPHOTO_CHECK(it != photo_masks.end(), "{}: no mask named '{}' for photo {}",
+                    options.photo_masks.string(), pair.name, pair.photo.string());
+      planned.photo_mask = it->second;
+      const io::ImageHeader mh = io::ReadImageHeader(it->second);
+      REPHOTO_CHECK(mh.width == ph.width && mh.height == ph.height,
+                    "{}: mask is {} but its photo {} is {}", it->second.string(), SizeText(mh),
+                    pair.photo.string(), SizeText(ph));
+    }
+    plan.push_back(std::move(planned));
+  }
+  return plan;
+}
+
+void LoadPair(const PlannedPair& pair, PairImages* images) {
+  auto check = [](const fs::path& path, const Image& image, const io::ImageHeader& header) {
+    REPHOTO_CHECK(image.width() == header.width && image.height() == header.height,
+                  "{}: decoded size {}x{} differs from the header's {}", path.string(),
+                  image.width(), image.height(), SizeText(header));
+  };
+  io::ReadImage(pair.files.photo, &images->photo);
+  check(pair.files.photo, images->photo, pair.photo_header);
+  io::ReadImage(pair.files.render, &images->render);
+  check(pair.files.render, images->render, pair.render_header);
+  if (!pair.render_mask.empty()) io::ReadMask(pair.render_mask, &images->render_mask);
+  if (!pair.photo_mask.empty()) io::ReadMask(pair.photo_mask, &images->photo_mask);
+}
+
+// RGB view of `image`: the image itself when it has 3 channels, else grey replicated or alpha
+// dropped into `rgb`. When the image has alpha (2 or 4 channels), `alpha_valid` receives
+// alpha > 0 and true is returned.
+const Image& SplitColour(const Image& image, Image* rgb, Mask* alpha_valid, bool* has_alpha) {
+  const int channels = image.channels();
+  *has_alpha = channels == 2 || channels == 4;
+  if (*has_alpha) alpha_valid->Resize(image.width(), image.height(), 1);
+  if (channels == 3) return image;
+  REPHOTO_CHECK(channels >= 1 && channels <= 4, "unsupported channel count {}", channels);
+  rgb->Resize(image.width(), image.height(), 3);
+  const bool grey = channels <= 2;
+  ParallelFor(0, static_cast<int64_t>(image.pixel_count()), 1 << 15, [&](int64_t b, int64_t e) {
+    const float* in = image.data();
+    float* out = rgb->data();
+    uint8_t* alpha = *has_alpha ? alpha_valid->data() : nullptr;
+    for (int64_t i = b; i < e; ++i) {
+      const float* px = in + i * channels;
+      out[3 * i] = px[0];
+      out[3 * i + 1] = grey ? px[0] : px[1];
+      out[3 * i + 2] = grey ? px[0] : px[2];
+      if (alpha) alpha[i] = px[channels - 1] > 0.f ? 1 : 0;
+    }
+  });
+  return *rgb;
+}
+
+ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
+                        const PairImages& images, const fs::path& error_folder, Workspace* ws) {
+  ImageResult result;
+  result.name = pair.files.name;
+  result.photo = pair.files.photo;
+  result.render = pair.files.render;
+  const int width = images.photo.width(), height = images.photo.height();
+  result.width = width;
+  result.height = height;
+
+  // Photo validity: user mask AND photo alpha, then exposure.
+  bool photo_has_alpha = false;
+  const Image& photo_rgb =
+      SplitColour(images.photo, &ws->photo_rgb, &ws->photo_alpha, &photo_has_alpha);
+  Mask user_mask;
+  if (!pair.photo_mask.empty() && photo_has_alpha) {
+    user_mask = metrics::CombineMasks(images.photo_mask, ws->photo_alpha);
+  } else if (!pair.photo_mask.empty()) {
+    user_mask = images.photo_mask;
+  } else if (photo_has_alpha) {
+    user_mask = ws->photo_alpha;
+  }
+  const Mask photo_valid = metrics::PhotoValidity(photo_rgb, user_mask, options.exposure);
+
+  // Rendering validity (alpha / black / explicit mask) at the rendering's own size.
+  bool render_has_alpha = false;
+  const Image* render_rgb =
+      &SplitColour(images.render, &ws->render_rgb, &ws->render_alpha, &render_has_alpha);
+  Mask render_valid = metrics::RephotoValidity(
+      images.render, pair.render_mask.empty() ? Mask() : images.render_mask);
+  if (!images.render.SameSize(images.photo)) {
+    ResizeImage(*render_rgb, width, height, &ws->render_resized);
+    ResizeMask(render_valid, width, height, &ws->render_valid_resized);
+    render_rgb = &ws->render_resized;
+    std::swap(render_valid, ws->render_valid_resized);
+    result.resized = true;
+  }
+
+  result.completeness =
+      metrics::ComputeCompleteness(photo_valid, render_valid, options.metric_options.window);
+  const Mask valid = metrics::CombineMasks(photo_valid, render_valid);
+  metrics::ComputeMetrics(photo_rgb, *render_rgb, valid, options.metrics, options.metric_options,
+                          &ws->results);
+  for (const metrics::MetricResult& metric : ws->results) {
+    result.metrics.push_back({metric.mean, metric.evaluated});
+  }
+  if (result.resized) std::swap(render_valid, ws->render_valid_resized);  // keep the buffer
+
+  if (options.write_error_images) {
+    // One task per file: EXR and PNG encoders are single-threaded.
+    const int64_t files = static_cast<int64_t>(ws->results.size()) * 2;
+    ParallelFor(0, files, 1, [&](int64_t b, int64_t e) {
+      for (int64_t task = b; task < e; ++task) {
+        const metrics::MetricResult& metric = ws->results[static_cast<size_t>(task / 2)];
+        const std::string stem =
+            fmt::format("{}.{}", pair.files.name, metrics::MetricName(metric.metric));
+        if (task % 2 == 0) {
+          io::WriteExr(error_folder / (stem + ".exr"), metric.error);
+        } else {
+          std::vector<uint8_t>& rgba = ws->rgba.local();
+          const auto [low, high] = ErrorColourRange(metric.metric);
+          ColourErrorImage(metric.error, low, high, &rgba);
+          io::WritePng8(error_folder / (stem + ".png"), rgba, width, height, 4);
+        }
+      }
+    });
+  }
+  return result;
+}
+
+// ------------------------------------------------------------------------------- outputs
+
+std::string MissingStatus(Missing missing) {
+  return missing == Missing::kRender ? "missing_render" : "missing_photo";
+}
+
+std::string PerImageCsv(const CompareOptions& options, const CompareResult& result) {
+  io::CsvWriter csv;
+  std::vector<std::string> header = {"name",
+                                     "status",
+                                     "photo",
+                                     "render",
+                                     "width",
+                                     "height",
+                                     "resized",
+                                     "completeness",
+                                     "valid_photo_windows",
+                                     "valid_both_windows"};
+  for (Metric metric : options.metrics) {
+    header.emplace_back(metrics::MetricName(metric));
+    header.push_back(std::string(metrics::MetricName(metric)) + "_evaluated");
+  }
+  csv.AddRow(header);
+  const size_t columns = header.size();
+  size_t i = 0, m = 0;
+  while (i < result.images.size() || m < result.missing.size()) {
+    std::vector<std::string> row;
+    row.reserve(columns);
+    if (m == result.missing.size() ||
+        (i < result.images.size() && result.images[i].name < result.missing[m].name)) {
+      const ImageResult& image = result.images[i++];
+      row = {image.name,
+             "ok",
+             image.photo.string(),
+             image.render.string(),
+             std::to_string(image.width),
+             std::to_string(image.height),
+             image.resized ? "1" : "0",
+             io::CsvNumber(image.completeness.value),
+             std::to_string(image.completeness.valid_photo),
+             std::to_string(image.completeness.valid_both)};
+      for (const MetricValue& value : image.metrics) {
+        row.push_back(io::CsvNumber(value.mean));
+        row.push_back(std::to_string(value.evaluated));
+      }
+    } else {
+      const MissingImage& missing = result.missing[m++];
+      row = {missing.name, MissingStatus(missing.missing),
+             missing.missing == Missing::kRender ? missing.present.string() : "",
+             missing.missing == Missing::kPhoto ? missing.present.string() : ""};
+      row.resize(columns);
+    }
+    csv.AddRow(row);
+  }
+  return csv.text();
+}
+
+using Json = nlohmann::ordered_json;
+
+// JSON has no NaN or infinity: NaN (nothing evaluated) -> null, infinity -> "inf"/"-inf".
+Json Number(double value) {
+  if (std::isnan(value)) return nullptr;
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  return value;
+}
+
+Json SummaryJson(const Summary& s) {
+  Json j;
+  j["mean"] = Number(s.mean);
+  j["min"] = Number(s.min);
+  j["q1"] = Number(s.q1);
+  j["median"] = Number(s.median);
+  j["q3"] = Number(s.q3);
+  j["max"] = Number(s.max);
+  j["images"] = s.count;
+  return j;
+}
+
+Json OptionalPath(const fs::path& path) {
+  if (path.empty()) return nullptr;
+  return path.string();
+}
+
+std::string SummaryJsonText(const CompareOptions& options, const CompareResult& result) {
+  const metrics::MetricOptions& mo = options.metric_options;
+  Json j;
+  j["schema"] = "rephoto.compare/1";
+  j["tool"] = {{"name", "rephoto"}, {"version", ToolVersion()}};
+  Json metric_names = Json::array();
+  for (Metric metric : options.metrics) metric_names.push_back(metrics::MetricName(metric));
+  j["parameters"] = {{"photos", options.photos.string()},
+                     {"renders", options.renders.string()},
+                     {"render_masks", OptionalPath(options.render_masks)},
+                     {"photo_masks", OptionalPath(options.photo_masks)},
+                     {"metrics", metric_names},
+                     {"window", mo.window},
+                     {"completeness_window", mo.window},
+                     {"ssim_mode", mo.ssim_gaussian ? "gaussian" : "uniform"},
+                     {"ssim_window", mo.ssim_window},
+                     {"ssim_sigma", mo.ssim_sigma},
+                     {"ncc_flat_threshold", mo.ncc_flat_threshold},
+                     {"icid_window", mo.icid_window},
+                     {"icid_sigma", mo.icid_sigma},
+                     {"dark_threshold", options.exposure.dark_threshold},
+                     {"saturated_threshold", options.exposure.saturated_threshold},
+                     {"resize", options.resize},
+                     {"error_images", options.write_error_images}};
+  size_t missing_render = 0, missing_photo = 0, resized = 0;
+  for (const MissingImage& m : result.missing) {
+    (m.missing == Missing::kRender ? missing_render : missing_photo)++;
+  }
+  for (const ImageResult& image : result.images) resized += image.resized ? 1 : 0;
+  j["counts"] = {{"photos", result.photo_count},
+                 {"renders", result.render_count},
+                 {"compared", result.images.size()},
+                 {"missing", result.missing.size()},
+                 {"missing_render", missing_render},
+                 {"missing_photo", missing_photo},
+                 {"resized", resized}};
+  j["completeness"] = SummaryJson(result.completeness);
+  Json metrics_json = Json::object();
+  for (const MetricSummary& summary : result.metrics) {
+    Json m = SummaryJson(summary.over_images);
+    m["pooled"] = Number(summary.pooled);
+    m["evaluated"] = summary.evaluated;
+    m["higher_is_better"] = metrics::HigherIsBetter(summary.metric);
+    const auto [low, high] = ErrorColourRange(summary.metric);
+    m["error_png_range"] = {low, high};
+    metrics_json[std::string(metrics::MetricName(summary.metric))] = m;
+  }
+  j["metrics"] = metrics_json;
+  Json missing = Json::array();
+  for (const MissingImage& m : result.missing) {
+    missing.push_back({{"name", m.name},
+                       {"missing", m.missing == Missing::kRender ? "render" : "photo"},
+                       {"present", m.present.string()}});
+  }
+  j["missing"] = missing;
+  j["files"] = {{"per_image", "per_image.csv"},
+                {"error_images",
+                 options.write_error_images ? Json("errors/<name>.<metric>.exr|png") : Json()}};
+  return j.dump(2) + "\n";
+}
+
+std::vector<MetricSummary> SummarizeMetrics(const CompareOptions& options,
+                                            const std::vector<ImageResult>& images) {
+  std::vector<MetricSummary> summaries;
+  for (size_t k = 0; k < options.metrics.size(); ++k) {
+    MetricSummary s;
+    s.metric = options.metrics[k];
+    std::vector<double> means;
+    double weighted = 0;
+    for (const ImageResult& image : images) {
+      const MetricValue& v = image.metrics[k];
+      means.push_back(v.mean);
+      if (v.evaluated == 0 || std::isnan(v.mean)) continue;
+      // PSNR's mean is 10 log10(1 / MSE): pool the MSEs, not the decibels.
+      const double pooled_term =
+          s.metric == Metric::kPsnr ? std::pow(10.0, -v.mean / 10.0) : v.mean;
+      weighted += pooled_term * static_cast<double>(v.evaluated);
+      s.evaluated += v.evaluated;
+    }
+    s.over_images = Summarize(means);
+    if (s.evaluated == 0) {
+      s.pooled = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      s.pooled = weighted / static_cast<double>(s.evaluated);
+      if (s.metric == Metric::kPsnr) s.pooled = 10.0 * std::log10(1.0 / s.pooled);
+    }
+    summaries.push_back(s);
+  }
+  return summaries;
+}
+
+// --------------------------------------------------------------------------- run folder
+
+constexpr const char* kStagingPrefix = ".rephoto-staging-";
+
+// Removes staging folders left by killed runs (their process no longer exists).
+void RemoveStaleStaging(const fs::path& out) {
+  std::error_code ec;
+  for (fs::directory_iterator it(out, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(kStagingPrefix, 0) != 0) continue;
+    const long pid = std::strtol(name.c_str() + std::strlen(kStagingPrefix), nullptr, 10);
+    if (pid <= 0 || pid == ::getpid()) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == -1 && errno == ESRCH) {
+      std::error_code remove_ec;
+      fs::remove_all(it->path(), remove_ec);
+    }
+  }
+}
+
+void Rename(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::rename(from, to, ec);
+  REPHOTO_CHECK(!ec, "{}: cannot move into place: {}", to.string(), ec.message());
+}
+
+// Moves the staged outputs into `out`; summary.json last, so that its presence means a
+// complete run.
+void CommitRun(const fs::path& staging, const fs::path& out, bool error_images) {
+  std::error_code ec;
+  if (fs::exists(out / "errors", ec)) Rename(out / "errors", staging / "previous-errors");
+  if (error_images) Rename(staging / "errors", out / "errors");
+  Rename(staging / "per_image.csv", out / "per_image.csv");
+  Rename(staging / "summary.json", out / "summary.json");
+  fs::remove_all(staging, ec);
+}
+
+}  // namespace
+
+CompareResult RunCompare(const CompareOptions& options) {
+  options.Check();
+  const std::vector<ImageFile> photos = ListImages(options.photos, "photos");
+  const std::vector<ImageFile> renders = ListImages(options.renders, "renderings");
+  REPHOTO_CHECK(!photos.empty(), "{}: no images in the photo folder (.png .jpg .jpeg .exr .pfm)",
+                options.photos.string());
+  REPHOTO_CHECK(!renders.empty(),
+                "{}: no images in the rendering folder (.png .jpg .jpeg .exr .pfm)",
+                options.renders.string());
+  const Pairing pairing = PairByStem(photos, renders);
+  for (const MissingImage& m : pairing.missing) {
+    if (m.missing == Missing::kRender) {
+      LogWarning(fmt::format("{}: no rendering named '{}' in {}", m.present.string(), m.name,
+                             options.renders.string()));
+    } else {
+      LogWarning(fmt::format("{}: no photo named '{}' in {}", m.present.string(), m.name,
+                             options.photos.string()));
+    }
+  }
+  REPHOTO_CHECK(!pairing.pairs.empty(),
+                "{}: no photo has a rendering with the same name in {} ({} photos, {} "
+                "renderings)",
+                options.photos.string(), options.renders.string(), photos.size(), renders.size());
+  const std::vector<PlannedPair> plan = PlanPairs(options, pairing);
+
+  std::error_code ec;
+  fs::create_directories(options.out, ec);
+  REPHOTO_CHECK(!ec && fs::is_directory(options.out), "{}: cannot create the output folder{}",
+                options.out.string(), ec ? ": " + ec.message() : "");
+  RemoveStaleStaging(options.out);
+  const fs::path staging = options.out / (kStagingPrefix + std::to_string(::getpid()));
+  fs::remove_all(staging, ec);
+  fs::create_directories(staging / "errors", ec);
+  REPHOTO_CHECK(!ec, "{}: cannot create folder: {}", staging.string(), ec.message());
+  struct StagingCleanup {
+    fs::path path;
+    ~StagingCleanup() {
+      std::error_code ignored;
+      fs::remove_all(path, ignored);
+    }
+  } cleanup{staging};
+
+  CompareResult result;
+  result.missing = pairing.missing;
+  result.photo_count = photos.size();
+  result.render_count = renders.size();
+  LogInfo(fmt::format("comparing {} pairs ({} missing counterparts) with {}", plan.size(),
+                      pairing.missing.size(), [&] {
+                        std::string names;
+                        for (Metric m : options.metrics) {
+                          if (!names.empty()) names += ',';
+                          names += metrics::MetricName(m);
+                        }
+                        return names;
+                      }()));
+  {
+    std::array<PairImages, 2> slots;
+    Workspace workspace;
+    Progress progress("compare", plan.size());
+    // Declared after the slots: its destructor finishes a pending load before they go away.
+    std::unique_ptr<BackgroundWorker> worker;
+    if (options.prefetch && plan.size() > 1) worker = std::make_unique<BackgroundWorker>();
+    LoadPair(plan[0], &slots[0]);
+    for (size_t i = 0; i < plan.size(); ++i) {
+      std::future<void> next;
+      if (i + 1 < plan.size()) {
+        if (worker) {
+          next = worker->Submit([&, i] { LoadPair(plan[i + 1], &slots[(i + 1) % 2]); });
+        }
+      }
+      result.images.push_back(
+          ComparePair(options, plan[i], slots[i % 2], staging / "errors", &workspace));
+      if (i + 1 < plan.size()) {
+        if (next.valid()) {
+          next.get();  // rethrows a decoding error of the next pair
+        } else {
+          LoadPair(plan[i + 1], &slots[(i + 1) % 2]);
+        }
+      }
+      progress.Advance(plan[i].files.name);
+    }
+  }
+  std::vector<double> completeness;
+  for (const ImageResult& image : result.images) completeness.push_back(image.completeness.value);
+  result.completeness = Summarize(completeness);
+  result.metrics = SummarizeMetrics(options, result.images);
+
+  WriteTextFileAtomically(staging / "per_image.csv", PerImageCsv(options, result));
+  WriteTextFileAtomically(staging / "summary.json", SummaryJsonText(options, result));
+  CommitRun(staging, options.out, options.write_error_images);
+  return result;
+}
+
+}  // namespace rephoto::compare

@@ -1,0 +1,133 @@
+// `rephoto compare`: photos against renderings of the same views, by file stem.
+//
+// Inputs
+//   photos/       the photos (PNG, JPEG, EXR, PFM; see io/image_io.h).
+//   renders/      renderings with the same stems. Alpha (2 or 4 channels) is the completeness
+//                 mask (alpha 0 = not covered); without alpha, pure black pixels (all channels
+//                 exactly 0) are not covered, as the paper's benchmark does.
+//   render_masks/ optional, by stem: overrides alpha/black; valid where the first channel > 0.
+//                 Must hold a mask for every compared pair, at the rendering's size.
+//   photo_masks/  optional, by stem: user masks of the photos (first channel 0 = ignore the
+//                 pixel, e.g. sky, moving people). Must hold a mask for every compared pair, at
+//                 the photo's size. A photo's own alpha channel, if any, acts the same way.
+//   Photo pixels that are ill-exposed (any colour channel <= dark or >= saturated threshold)
+//   are invalid too (metrics/validity.h). Grey images are replicated to RGB.
+//   Renderings whose size differs from their photo are an error naming both files and sizes,
+//   unless `resize`: then the rendering (and its mask) is rescaled to the photo's size, see
+//   resample.h; validity (alpha/black/mask) is decided before rescaling.
+//
+// Pairing: see pairing.h. A photo without a rendering or a rendering without a photo is a
+// warning line, a row of per_image.csv and an entry of summary.json "missing"; the run then
+// finishes with ExitCode::kIncomplete. No pair at all, or an empty folder, is an Error.
+// All pairs' file headers (sizes) and the presence of all masks are checked before any pixel
+// is compared, so such mistakes fail in seconds, not after hours.
+//
+// Outputs in `out` (the run directory):
+//   per_image.csv  one row per image name, sorted by name. Columns: name, status ("ok",
+//                  "missing_render", "missing_photo"), photo, render (paths), width, height
+//                  (compared size = photo size), resized (0/1), completeness,
+//                  valid_photo_windows, valid_both_windows, then for each metric "<metric>" (the
+//                  image's mean, empty when nothing was evaluated) and "<metric>_evaluated"
+//                  (positions in that mean). Missing rows leave the measurements empty.
+//   summary.json   schema "rephoto.compare/1": tool version, parameters, counts, completeness
+//                  and each metric summarised over images (mean, min, q1, median, q3, max of the
+//                  per-image values, NaN-free; "images" = how many had a value) plus
+//                  "pooled" (all evaluated positions of all images together; for psnr the PSNR
+//                  of the pooled MSE), the colour range of its error PNGs, and the "missing" list.
+//   errors/<name>.<metric>.exr  the per-pixel error image (1 channel float, NaN = not evaluated)
+//   errors/<name>.<metric>.png  the same, jet-coloured over a fixed range per metric
+//                  (ErrorColourRange), transparent where not evaluated.
+// Every file is written atomically. The whole run is staged in a hidden folder inside `out`
+// and moved into place only when everything succeeded (summary.json last), so a failed or
+// interrupted run leaves the previous results of `out` untouched. A rerun recomputes
+// everything and replaces per_image.csv, summary.json and the whole errors/ folder.
+//
+// Memory: one pair at a time (plus the next pair being decoded while the current one is
+// compared); all large buffers are reused between pairs.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rephoto/compare/pairing.h"
+#include "rephoto/core/error.h"
+#include "rephoto/core/stats.h"
+#include "rephoto/metrics/metrics.h"
+#include "rephoto/metrics/validity.h"
+
+namespace rephoto::compare {
+
+struct CompareOptions {
+  std::filesystem::path photos;
+  std::filesystem::path renders;
+  std::filesystem::path render_masks;  // empty = use alpha / black
+  std::filesystem::path photo_masks;   // empty = none
+  std::filesystem::path out;
+  std::vector<metrics::Metric> metrics = metrics::AllMetrics();
+  metrics::MetricOptions metric_options;  // window (also the completeness window), SSIM mode...
+  metrics::ExposureOptions exposure;      // photo dark/saturated thresholds
+  bool resize = false;                    // rescale renderings to their photo's size
+  bool write_error_images = true;         // errors/*.exr and *.png
+  bool prefetch = true;                   // decode the next pair while comparing the current
+
+  // Throws Error on invalid settings (missing folders are reported by RunCompare).
+  void Check() const;
+};
+
+struct MetricValue {
+  double mean = 0;       // the image's masked mean (see metrics.h); NaN if nothing evaluated
+  size_t evaluated = 0;  // positions in that mean
+};
+
+struct ImageResult {
+  std::string name;
+  std::filesystem::path photo;
+  std::filesystem::path render;
+  int width = 0;  // compared size (the photo's)
+  int height = 0;
+  bool resized = false;  // the rendering was rescaled
+  metrics::Completeness completeness;
+  std::vector<MetricValue> metrics;  // in CompareOptions::metrics order
+};
+
+struct MetricSummary {
+  metrics::Metric metric = metrics::Metric::kOneMinusNcc;
+  Summary over_images;   // of the per-image means (NaN means skipped)
+  double pooled = 0;     // over all evaluated positions of all images (psnr: of pooled MSE)
+  size_t evaluated = 0;  // total positions
+};
+
+struct CompareResult {
+  std::vector<ImageResult> images;     // sorted by name
+  std::vector<MissingImage> missing;   // sorted by name
+  std::vector<MetricSummary> metrics;  // in CompareOptions::metrics order
+  Summary completeness;                // over images
+  size_t photo_count = 0;
+  size_t render_count = 0;
+
+  // kOk, or kIncomplete when some image had no counterpart.
+  ExitCode exit_code() const { return missing.empty() ? ExitCode::kOk : ExitCode::kIncomplete; }
+};
+
+// Runs the comparison and writes the outputs (see above). Throws Error (naming the file and
+// the problem) on bad input; nothing of a failed run is left in `out`.
+CompareResult RunCompare(const CompareOptions& options);
+
+// Fixed colour range [low, high] of a metric's jet PNGs, the same for every image so that
+// images can be compared by eye. low maps to dark blue, high (and beyond) to dark red; for
+// ssim low > high (1 = identical is blue). The upper end is the value of unrelated content
+// where there is one (1-ncc 1, dssim 0.5, census 0.5, ssim 0), else a typical large error:
+//   1-ncc [0, 1]   cb+cr [0, 0.25]   zssd [0, 0.05]   dssim [0, 0.5]   census [0, 0.5]
+//   icid [0, 0.5]  psnr (squared error) [0, 0.0625]   ssim [1, 0]
+std::pair<float, float> ErrorColourRange(metrics::Metric metric);
+
+// Colours a 1-channel error image with JetColor over [low, high] (low > high reverses) into
+// 8-bit RGBA, alpha 0 where the value is NaN. `rgba` is resized to width*height*4.
+void ColourErrorImage(const Image& error, float low, float high, std::vector<uint8_t>* rgba);
+
+// The tool version written into summary.json.
+std::string ToolVersion();
+
+}  // namespace rephoto::compare
