@@ -6,6 +6,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/io/image_io.h"
+#include "rephoto/mesh/ply.h"
 #include "rephoto/render/point_radius.h"
 #include "rephoto/testing/testing.h"
 
@@ -384,6 +385,84 @@ TEST(RenderTest, TexturedMeshMagnifiedAndMinified) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("missing.png"));
   }
+}
+
+}  // namespace
+}  // namespace rephoto::render
+
+namespace rephoto::render {
+namespace {
+
+// A smooth procedural texture on the plane z = 1 (x, y in [-1, 1]), rendered with an OPENCV
+// camera and then undistorted (each pinhole pixel centre mapped through ImgFromCam and sampled
+// bilinearly) agrees with the pinhole rendering away from the border.
+TEST(RenderTest, DistortedRenderingUndistortsToThePinholeRendering) {
+  const auto dir = testing::MakeTempDir();
+  Image texture(64, 64, 3);
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      texture.at(x, y, 0) = 0.5f + 0.4f * std::sin(2 * 3.14159265f * x / 32);
+      texture.at(x, y, 1) = 0.5f + 0.4f * std::cos(2 * 3.14159265f * y / 32);
+      texture.at(x, y, 2) = 0.5f + 0.3f * std::sin(2 * 3.14159265f * (x + y) / 64);
+    }
+  }
+  io::WritePng(dir / "smooth.png", texture);
+  mesh::Mesh plane;
+  plane.positions = {Eigen::Vector3f(-1, -1, 1), Eigen::Vector3f(1, -1, 1),
+                     Eigen::Vector3f(1, 1, 1), Eigen::Vector3f(-1, 1, 1)};
+  plane.faces = {{0, 1, 2}, {0, 2, 3}};
+  // Stored as OpenMVS does: wedge texture coordinates and a TextureFile, through a PLY file.
+  const Eigen::Vector2f uv[4] = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+  for (const mesh::Triangle& t : plane.faces) {
+    for (uint32_t i : t) plane.wedge_texcoords.push_back(uv[i]);
+  }
+  plane.materials.push_back({"smooth.png", Eigen::Vector3f::Ones(), "smooth.png"});
+  mesh::WritePly(dir / "plane.ply", plane);
+  RenderModel model(mesh::ReadPly(dir / "plane.ply"));
+  ASSERT_EQ(model.representation(), Representation::kTexturedMesh);
+
+  Camera pinhole = MakePinhole(96, 72, 60.0, 48.0, 36.0);
+  Camera distorted;
+  distorted.model = CameraModel::kOpenCv;
+  distorted.width = 96;
+  distorted.height = 72;
+  distorted.params = {60.0, 60.0, 48.0, 36.0, -0.05, 0.01, 0.002, -0.001};
+  RenderOptions options;
+  options.samples_per_pixel = 1;
+  const Rephoto reference = RenderRephoto(model, pinhole, Pose(), options);
+  const Rephoto warped = RenderRephoto(model, distorted, Pose(), options);
+  double sum = 0, worst = 0;
+  int count = 0, moved = 0;
+  for (int y = 4; y < 68; ++y) {
+    for (int x = 4; x < 92; ++x) {
+      const Eigen::Vector3d ray((x + 0.5 - 48.0) / 60.0, (y + 0.5 - 36.0) / 60.0, 1.0);
+      const auto pixel = distorted.ImgFromCam(ray);
+      ASSERT_TRUE(pixel.has_value());
+      moved += (*pixel - Eigen::Vector2d(x + 0.5, y + 0.5)).norm() > 1.0;
+      const double px = pixel->x() - 0.5, py = pixel->y() - 0.5;
+      const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+      if (x0 < 0 || y0 < 0 || x0 + 1 >= 96 || y0 + 1 >= 72) continue;
+      const double ax = px - x0, ay = py - y0;
+      for (int c = 0; c < 3; ++c) {
+        const double top =
+            (1 - ax) * warped.color.at(x0, y0, c) + ax * warped.color.at(x0 + 1, y0, c);
+        const double bottom =
+            (1 - ax) * warped.color.at(x0, y0 + 1, c) + ax * warped.color.at(x0 + 1, y0 + 1, c);
+        const double difference =
+            std::abs((1 - ay) * top + ay * bottom - reference.color.at(x, y, c));
+        sum += difference;
+        worst = std::max(worst, difference);
+        ++count;
+      }
+    }
+  }
+  std::printf(
+      "undistorted vs pinhole: mean |diff| %.5f, worst %.5f over %d values; %d pixels "
+      "moved by more than 1 px\n",
+      sum / count, worst, count, moved);
+  EXPECT_GT(moved, 500);  // the distortion is not negligible
+  EXPECT_LT(sum / count, 0.001);
+  EXPECT_LT(worst, 0.01);
 }
 
 }  // namespace
