@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "rephoto/core/error.h"
+#include "rephoto/io/image_io.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::scene {
@@ -147,6 +148,40 @@ TEST(BundlerTest, KermitPointsReprojectOntoTheirKeypoints) {
   EXPECT_LT(median, 0.3);
   EXPECT_LT(p90, 0.8);
   EXPECT_GT(median, 0.05);  // a real bundle adjustment residual, not an identity
+}
+
+// The stored point colours are the photos' colours at the observations: the mean absolute
+// difference (0-255 per channel) at the observed pixel is far below that at the same pixel
+// of another, unrelated point (a check independent of the camera conversion).
+TEST(BundlerTest, KermitPointColoursMatchThePhotos) {
+  REPHOTO_REQUIRE_DATA("bundler_kermit");
+  const auto root = testing::SharedDataDir() / "bundler_kermit";
+  const Scene scene = ReadBundlerScene(root / "results.example" / "bundle.out");
+  std::vector<Image> photos;
+  for (const View& view : scene.views) photos.push_back(io::ReadImage(view.image_path));
+  double matched = 0.0;
+  double shuffled = 0.0;
+  size_t count = 0;
+  for (size_t p = 0; p < scene.points.size(); ++p) {
+    const Point3D& point = scene.points[p];
+    const Point3D& other = scene.points[(p + scene.points.size() / 2) % scene.points.size()];
+    for (const Observation& observation : point.track) {
+      const Image& photo = photos[observation.view_index];
+      const int x = std::clamp(static_cast<int>(observation.pixel.x()), 0, photo.width() - 1);
+      const int y = std::clamp(static_cast<int>(observation.pixel.y()), 0, photo.height() - 1);
+      for (int c = 0; c < 3; ++c) {
+        const double value = 255.0 * photo.at(x, y, c);
+        matched += std::abs(value - point.color[c]);
+        shuffled += std::abs(value - other.color[c]);
+      }
+      ++count;
+    }
+  }
+  matched /= 3.0 * count;
+  shuffled /= 3.0 * count;
+  EXPECT_LT(matched, 25.0);
+  EXPECT_GT(shuffled, 2.0 * matched);
+  RecordProperty("mean_abs_colour_difference", std::to_string(matched));
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/scene/mvs_texturing_cam.h"
+#include "rephoto/scene/read_scene.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::scene {
@@ -131,6 +132,14 @@ TEST(MveTest, ReadsSceneFolder) {
   const camera::Camera& distorted = scene.CameraOf(scene.views[1]);
   EXPECT_EQ(distorted.model, camera::CameraModel::kOpenCv);  // pixel aspect 1.1
   EXPECT_DOUBLE_EQ(distorted.params[4], -0.2);
+
+  // Detected by the one entry point from the scene folder, the views folder or a meta.ini.
+  for (const fs::path& path : {root, root / "views", view2 / "meta.ini"}) {
+    SceneSource source;
+    EXPECT_EQ(ReadScene(path, {}, &source).views.size(), 2u) << path;
+    EXPECT_EQ(source.format, SceneFormat::kMve);
+    EXPECT_EQ(source.path, root);
+  }
 }
 
 // mvs-texturing .cam: the same intrinsics, written as "f d0 d1 paspect ppx ppy".
