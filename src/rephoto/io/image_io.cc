@@ -581,6 +581,10 @@ void EncodePng(const fs::path& path, const void* pixels, size_t size, int width,
     SpngPtr ctx(spng_ctx_new(SPNG_CTX_ENCODER));
     REPHOTO_CHECK(ctx, "{}: out of memory", path.string());
     spng_set_png_file(ctx.get(), out.file);
+    // zlib level 6 (the default) took 4 s of CPU for a 12 MP RGBA error image here; level 2
+    // with the "up" filter is several times faster for a modestly larger file.
+    spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, 2);
+    spng_set_option(ctx.get(), SPNG_FILTER_CHOICE, SPNG_FILTER_CHOICE_UP);
     spng_ihdr ihdr{};
     ihdr.width = static_cast<uint32_t>(width);
     ihdr.height = static_cast<uint32_t>(height);
@@ -767,7 +771,9 @@ void WriteExr(const fs::path& path, const Image& image) {
   header.channels = infos.data();
   header.pixel_types = types.data();
   header.requested_pixel_types = types.data();
-  header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+  // Uncompressed: ZIP saved about 5 % on 12 MP float error images (their low mantissa bits are
+  // noise) for 2 s of CPU per file.
+  header.compression_type = TINYEXR_COMPRESSIONTYPE_NONE;
   EXRImage exr;
   InitEXRImage(&exr);
   exr.images = planes.data();

@@ -18,8 +18,9 @@
 //   PFM   "Pf" (grey) -> 1, "PF" (RGB) -> 3, either byte order (sign of the scale).
 // Formats are detected by content (magic bytes), not by extension.
 //
-// Writing: PNG (8 or 16 bit, 1-4 channels, values clamped to [0,1] and rounded, NaN -> 0),
-// EXR (32-bit float, ZIP compression; channel names Y / YA / RGB / RGBA), PFM (1 or 3
+// Writing: PNG (8 or 16 bit, 1-4 channels, values clamped to [0,1] and rounded, NaN -> 0;
+// fast zlib level 2),
+// EXR (32-bit float, uncompressed for speed; channel names Y / YA / RGB / RGBA), PFM (1 or 3
 // channels, little-endian). Always atomically (temporary name + rename, core/file.h).
 //
 // Every failure (missing file, not an image, truncated, corrupt, unsupported variant, write
