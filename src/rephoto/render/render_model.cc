@@ -147,7 +147,7 @@ RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::stri
       point_radii_ = mesh_.radii;
     } else {
       point_radii_ = KthNeighborDistances(mesh_.positions, options_.point_radius_neighbors);
-      float fallback = 0;  // for isolated duplicates: the median positive radius
+      float fallback = 0;  // the median positive radius (also for exact duplicates)
       std::vector<float> positive;
       for (float r : point_radii_) {
         if (r > 0) positive.push_back(r);
@@ -156,8 +156,11 @@ RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::stri
         std::nth_element(positive.begin(), positive.begin() + positive.size() / 2, positive.end());
         fallback = positive[positive.size() / 2];
       }
+      const float cap = options_.point_radius_max_factor > 0
+                            ? options_.point_radius_max_factor * fallback
+                            : std::numeric_limits<float>::infinity();
       for (float& r : point_radii_) {
-        r = (r > 0 ? r : fallback) * options_.point_radius_scale;
+        r = std::min(r > 0 ? r : fallback, cap) * options_.point_radius_scale;
       }
       REPHOTO_CHECK(fallback > 0,
                     "{}: cannot derive a point radius (all points coincide); give "

@@ -13,7 +13,9 @@
 //   ray (a view-facing disc, i.e. the disc through the centre perpendicular to the ray).
 //   Radius: ModelOptions::point_radius if > 0, else the file's per-point radius, else the
 //   distance to the k-th nearest neighbour (k = point_radius_neighbors) times
-//   point_radius_scale.
+//   point_radius_scale, capped at point_radius_max_factor times the median of these radii (an
+//   isolated outlier, e.g. a stray point near a camera, would otherwise become a disc that
+//   covers the whole view).
 // Triangles are two-sided in the BVH; RenderOptions::backfaces decides at render time.
 #pragma once
 
@@ -40,6 +42,7 @@ struct ModelOptions {
   float point_radius = 0;
   int point_radius_neighbors = 6;
   float point_radius_scale = 1.0f;
+  float point_radius_max_factor = 3.0f;  // cap of density radii, times their median (0 = none)
   // Colour of surfaces without colour information, RGB in [0,1].
   Eigen::Vector3f default_color = Eigen::Vector3f::Constant(0.5f);
   // Read the materials' texture images (else textured meshes render as kPlainMesh/vertex colours).

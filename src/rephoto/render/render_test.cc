@@ -467,3 +467,27 @@ TEST(RenderTest, DistortedRenderingUndistortsToThePinholeRendering) {
 
 }  // namespace
 }  // namespace rephoto::render
+
+namespace rephoto::render {
+namespace {
+
+TEST(RenderTest, DensityRadiiAreCappedForOutliers) {
+  mesh::Mesh cloud;
+  for (int y = 0; y < 10; ++y) {
+    for (int x = 0; x < 10; ++x) cloud.positions.emplace_back(0.1f * x, 0.1f * y, 5.0f);
+  }
+  cloud.positions.emplace_back(0.0f, 0.0f, 1.0f);  // a stray point 4 units in front
+  ModelOptions options;
+  const RenderModel model(cloud, options);
+  const auto& radii = model.point_radii();
+  ASSERT_EQ(radii.size(), 101u);
+  // Interior grid points: the 6th neighbour is at 0.1 * sqrt(2); the median over the grid.
+  EXPECT_FLOAT_EQ(radii[55], 0.1f * std::sqrt(2.0f));
+  EXPECT_FLOAT_EQ(radii[100], 3.0f * 0.1f * std::sqrt(2.0f));  // capped (uncapped: about 4)
+  options.point_radius = 0.02f;
+  const RenderModel fixed(cloud, options);
+  EXPECT_EQ(fixed.point_radii()[100], 0.02f);
+}
+
+}  // namespace
+}  // namespace rephoto::render
