@@ -136,19 +136,24 @@ void BoxErrors(const double* __restrict prefix, int w, int r, double inv_count, 
   }
 }
 
-// Copies evaluated values to the output row (NaN elsewhere) and returns their sum.
-double MaskRow(const float* __restrict values, const uint8_t* __restrict ok, int w, int r,
-               float* __restrict out) {
-  double sum = 0;
-  for (int x = 0; x < w; ++x) {
-    if (x >= r && x < w - r && ok[x]) {
-      out[x] = values[x];
-      sum += values[x];
-    } else {
-      out[x] = kNaN;
-    }
+// out[x] = values[x] where ok[x], else NaN, for x in [begin, end); returns the sum of the
+// copied values. `ok` must be 0 where the window leaves the image (WindowValidityRows rows
+// are). Eight partial sums break the add latency chain; their order is fixed.
+REPHOTO_SIMD_CLONES
+double MaskRange(const float* __restrict values, const uint8_t* __restrict ok, int begin, int end,
+                 float* __restrict out) {
+  for (int x = begin; x < end; ++x) out[x] = ok[x] ? values[x] : kNaN;
+  double acc[8] = {};
+  int x = begin;
+  for (; x + 8 <= end; x += 8) {
+    for (int j = 0; j < 8; ++j) acc[j] += ok[x + j] ? static_cast<double>(values[x + j]) : 0.0;
   }
-  return sum;
+  for (; x < end; ++x) acc[0] += ok[x] ? static_cast<double>(values[x]) : 0.0;
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+
+double MaskRow(const float* values, const uint8_t* ok, int w, float* out) {
+  return MaskRange(values, ok, 0, w, out);
 }
 
 size_t CountRow(const uint8_t* __restrict ok, int w, int r) {
@@ -223,7 +228,7 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, Image* ncc, Image
   const int ring = 2 * r + 2;
   const size_t slot_size = static_cast<size_t>(8) * w;
   thread_local std::vector<float> float_buffer;
-  float* slots = Scratch(float_buffer, ring * slot_size + 2 * static_cast<size_t>(w));
+  float* slots = Scratch(float_buffer, ring * slot_size + 3 * static_cast<size_t>(w));
   float* ncc_values = slots + ring * slot_size;
   float* zssd_values = ncc_values + w;
   thread_local std::vector<double> double_buffer;
@@ -266,8 +271,8 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, Image* ncc, Image
     if (box) {
       BoxPrefix(cols, w, prefix);
       BoxErrors(prefix, w, r, inv_count, flat, ncc_values, zssd_values);
-      if (ncc) sums.sum[0] += MaskRow(ncc_values, ok, w, r, ncc->row(yi));
-      if (zssd) sums.sum[1] += MaskRow(zssd_values, ok, w, r, zssd->row(yi));
+      if (ncc) sums.sum[0] += MaskRow(ncc_values, ok, w, ncc->row(yi));
+      if (zssd) sums.sum[1] += MaskRow(zssd_values, ok, w, zssd->row(yi));
       sums.count[0] += evaluated;
       sums.count[1] += evaluated;
     }
@@ -287,16 +292,10 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, Image* ncc, Image
         }
         counts[x - r] = n;
       }
-      float* out = census->row(yi);
-      double s = 0;
-      for (int x = 0; x < w; ++x) {
-        if (x < r || x >= w - r || !ok[x]) {
-          out[x] = kNaN;
-        } else {
-          out[x] = static_cast<float>(counts[x - r]) * inv_bits;
-          s += out[x];
-        }
-      }
+      float* census_values = zssd_values + w;
+      for (int x = r; x < w - r; ++x)
+        census_values[x] = static_cast<float>(counts[x - r]) * inv_bits;
+      const double s = MaskRow(census_values, ok, w, census->row(yi));
       sums.sum[2] += s;
       sums.count[2] += evaluated;
     }
@@ -417,6 +416,9 @@ MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, Image* ssim, Image* 
   float* vertical = Scratch(buffer, static_cast<size_t>(11) * max_elements);
   float* moments = vertical + 5 * max_elements;
   float* element = moments + 5 * max_elements;
+  thread_local std::vector<float> value_buffer;
+  float* ssim_values = Scratch(value_buffer, 2 * static_cast<size_t>(w));
+  float* dssim_values = ssim_values + w;
   std::vector<const float*> p_rows(2 * r + 1), q_rows(2 * r + 1);
   for (int x0 = 0; x0 < w; x0 += kStripPixels) {
     const int x1 = std::min(w, x0 + kStripPixels);
@@ -434,30 +436,17 @@ MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, Image* ssim, Image* 
       }
       SsimFormula(moments, r, m, setup.cov_norm, element);
       const uint8_t* ok = band_ok + static_cast<size_t>(y - c0) * w;
-      float* ssim_row = ssim ? ssim->row(yi) : nullptr;
-      float* dssim_row = dssim ? dssim->row(yi) : nullptr;
-      double ssim_sum = 0, dssim_sum = 0;
-      size_t evaluated = 0;
-      for (int x = x0; x < x1; ++x) {
-        if (x < r || x >= w - r || !ok[x]) {
-          if (ssim_row) ssim_row[x] = kNaN;
-          if (dssim_row) dssim_row[x] = kNaN;
-          continue;
-        }
+      const int xa = std::max(x0, r), xb = std::min(x1, w - r);
+      for (int x = xa; x < xb; ++x) {
         const float* e = element + 3 * x - e0;
-        const float s = (e[0] + e[1] + e[2]) / 3.0f;
-        ++evaluated;
-        if (ssim_row) {
-          ssim_row[x] = s;
-          ssim_sum += s;
-        }
-        if (dssim_row) {
-          dssim_row[x] = (1.0f - s) * 0.5f;
-          dssim_sum += dssim_row[x];
-        }
+        const float v = (e[0] + e[1] + e[2]) / 3.0f;
+        ssim_values[x] = v;
+        dssim_values[x] = (1.0f - v) * 0.5f;
       }
-      sums.sum[0] += ssim_sum;
-      sums.sum[1] += dssim_sum;
+      size_t evaluated = 0;
+      for (int x = x0; x < x1; ++x) evaluated += ok[x] != 0;
+      if (ssim) sums.sum[0] += MaskRange(ssim_values, ok, x0, x1, ssim->row(yi));
+      if (dssim) sums.sum[1] += MaskRange(dssim_values, ok, x0, x1, dssim->row(yi));
       sums.count[0] += evaluated;
       sums.count[1] += evaluated;
     }
