@@ -547,9 +547,11 @@ std::vector<Metric> ParseMetricList(std::string_view list) {
 
 bool HigherIsBetter(Metric metric) { return metric == Metric::kPsnr || metric == Metric::kSsim; }
 
-void ComputeMetrics(const Image& photo, const Image& rephoto, const Mask& valid,
-                    const std::vector<Metric>& metrics, const MetricOptions& options,
-                    std::vector<MetricResult>* results) {
+namespace {
+
+void ComputeMetricsOnFinite(const Image& photo, const Image& rephoto, const Mask& valid,
+                            const std::vector<Metric>& metrics, const MetricOptions& options,
+                            std::vector<MetricResult>* results) {
   REPHOTO_CHECK(photo.channels() == 3 && rephoto.channels() == 3,
                 "metrics: need 3-channel RGB images, got {} (photo) and {} (rendering) channels",
                 photo.channels(), rephoto.channels());
@@ -638,6 +640,33 @@ void ComputeMetrics(const Image& photo, const Image& rephoto, const Mask& valid,
       }
     }
   }
+}
+
+}  // namespace
+
+void ComputeMetrics(const Image& photo, const Image& rephoto, const Mask& valid,
+                    const std::vector<Metric>& metrics, const MetricOptions& options,
+                    std::vector<MetricResult>* results) {
+  ComputeMetricsOnFinite(photo, rephoto, valid, metrics, options, results);
+  // A non-finite input value poisons the running sums, which shows as a NaN mean. Only then
+  // (no cost otherwise): treat pixels with a non-finite value as invalid and recompute on
+  // copies where they are 0.
+  bool poisoned = false;
+  for (const MetricResult& res : *results) poisoned |= res.evaluated > 0 && std::isnan(res.mean);
+  if (!poisoned) return;
+  Image p = photo, q = rephoto;
+  Mask v(photo.width(), photo.height(), 1);
+  for (size_t i = 0; i < v.size(); ++i) {
+    bool finite = true;
+    for (int c = 0; c < 3; ++c) {
+      finite = finite && std::isfinite(p.data()[3 * i + c]) && std::isfinite(q.data()[3 * i + c]);
+    }
+    if (!finite) {
+      for (int c = 0; c < 3; ++c) p.data()[3 * i + c] = q.data()[3 * i + c] = 0.0f;
+    }
+    v.data()[i] = finite && (valid.empty() || valid.data()[i] != 0);
+  }
+  ComputeMetricsOnFinite(p, q, v, metrics, options, results);
 }
 
 std::vector<MetricResult> ComputeMetrics(const Image& photo, const Image& rephoto,

@@ -33,8 +33,7 @@
 // thread count. Row kernels have AVX-512 / AVX2 / baseline variants picked at run time; they
 // agree bit for bit except the SSIM filters, which use FMA where available (last-bit
 // differences between CPUs). Identical images give exactly 0 (ssim exactly 1, psnr +inf).
-// Inputs must be finite; a NaN in an image makes the windows that contain it NaN and the mean
-// NaN.
+// Pixels with a non-finite value (NaN, infinity) in either image are treated as invalid.
 #pragma once
 
 #include <optional>

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -457,6 +458,24 @@ TEST(Metrics, ResultsDoNotDependOnThreadCount) {
     one = ComputeMetrics(p, q, {}, AllMetrics());
   }
   for (size_t m = 0; m < all.size(); ++m) EXPECT_EQ(all[m].mean, one[m].mean) << m;
+}
+
+TEST(Metrics, NonFinitePixelsAreInvalid) {
+  auto rng = testing::MakeRng();
+  const Image photo = RandomImage(rng, 40, 30), rephoto = RandomImage(rng, 40, 30);
+  Image broken = rephoto;
+  broken.at(20, 15, 1) = std::numeric_limits<float>::quiet_NaN();
+  broken.at(3, 27, 0) = std::numeric_limits<float>::infinity();
+  Mask valid(40, 30, 1, 1);
+  valid.at(20, 15) = 0;
+  valid.at(3, 27) = 0;
+  const auto expected = ComputeMetrics(photo, rephoto, valid, AllMetrics());
+  const auto got = ComputeMetrics(photo, broken, {}, AllMetrics());
+  for (size_t m = 0; m < got.size(); ++m) {
+    SCOPED_TRACE(std::string(MetricName(got[m].metric)));
+    EXPECT_EQ(got[m].evaluated, expected[m].evaluated);
+    EXPECT_NEAR(got[m].mean, expected[m].mean, 1e-6);
+  }
 }
 
 TEST(Metrics, SmallImagesAndBadInput) {
