@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -651,8 +652,16 @@ void ComputeMetrics(const Image& photo, const Image& rephoto, const Mask& valid,
   // A non-finite input value poisons the running sums, which shows as a NaN mean. Only then
   // (no cost otherwise): treat pixels with a non-finite value as invalid and recompute on
   // copies where they are 0.
+  // (NaN tested on the bits: an optimised -fno-trapping-math build was seen to drop the
+  // floating-point test here.)
   bool poisoned = false;
-  for (const MetricResult& res : *results) poisoned |= res.evaluated > 0 && std::isnan(res.mean);
+  for (const MetricResult& res : *results) {
+    uint64_t bits;
+    std::memcpy(&bits, &res.mean, sizeof(bits));
+    const bool nan = (bits & 0x7ff0000000000000ull) == 0x7ff0000000000000ull &&
+                     (bits & 0x000fffffffffffffull) != 0;
+    poisoned = poisoned || (res.evaluated > 0 && nan);
+  }
   if (!poisoned) return;
   Image p = photo, q = rephoto;
   Mask v(photo.width(), photo.height(), 1);

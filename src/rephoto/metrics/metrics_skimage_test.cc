@@ -104,7 +104,8 @@ TEST(MetricsSkimage, SyntheticPairs) {
 }
 
 TEST(MetricsSkimage, LabMatchesRgb2lab) {
-  for (const json& item : LoadReference()["lab"]) {
+  const json reference = LoadReference();
+  for (const json& item : reference["lab"]) {
     double lab[3];
     SrgbToLab(item["rgb"][0], item["rgb"][1], item["rgb"][2], lab);
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(lab[i], item["lab"][i].get<double>(), 1e-4) << item;
