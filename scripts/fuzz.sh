@@ -15,7 +15,9 @@ shift || true
 build_dir="${BUILD_DIR:-build-fuzz}"
 data_dir="${DATA_DIR:-../shared/data}"
 
-cmake --preset fuzz -B "$build_dir" >/dev/null
+# Configure with the fuzz preset unless the folder is already configured (scripts/test.sh
+# passes the sanitize build, which holds the fuzz targets too).
+if [ ! -f "$build_dir/CMakeCache.txt" ]; then cmake --preset fuzz -B "$build_dir" >/dev/null; fi
 mapfile -t all_targets < <(cmake --build "$build_dir" --target help | sed -n 's/^\(fuzz_[a-z_]*\):.*/\1/p' | sort -u)
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then targets=("${all_targets[@]}"); fi

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Sets everything up and runs the whole test suite (what CI runs, see .ci/run):
 #   1. installs Debian packages, builds Release in ./build, runs every ctest test;
-#   2. builds the file readers' tests (scene, split, io, mesh) with AddressSanitizer +
-#      UndefinedBehaviorSanitizer in ./build-sanitize and runs them
-#      (skip with REPHOTO_SKIP_SANITIZE=1);
+#   2. builds the file readers' tests (scene, split, io, mesh) and the libFuzzer targets with
+#      clang, AddressSanitizer + UndefinedBehaviorSanitizer in ./build-sanitize (preset
+#      "sanitize") and runs the tests (skip with REPHOTO_SKIP_SANITIZE=1);
 #   3. runs each libFuzzer target (one per scene reader) for REPHOTO_FUZZ_SECONDS (default 10)
-#      (skip with REPHOTO_SKIP_FUZZ=1).
+#      on that build (skipped with REPHOTO_SKIP_SANITIZE=1 or REPHOTO_SKIP_FUZZ=1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh
@@ -15,13 +15,14 @@ if [ -z "${REPHOTO_SKIP_SANITIZE:-}" ]; then
   echo "== readers under AddressSanitizer + UndefinedBehaviorSanitizer"
   cmake --preset sanitize >/dev/null
   mapfile -t targets < <(cmake --build build-sanitize --target help |
-    sed -n 's/^\(test_\(scene\|split\|io\|mesh\)_[a-z_]*\):.*/\1/p' | sort -u)
+    sed -n 's/^\(test_\(scene\|split\|io\|mesh\)_[a-z_]*\|fuzz_[a-z_]*\):.*/\1/p' | sort -u)
   cmake --build build-sanitize --target "${targets[@]}"
-  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir build-sanitize --output-on-failure -j2 -R '^(scene|split|io|mesh)/'
 fi
 
-if [ -z "${REPHOTO_SKIP_FUZZ:-}" ]; then
+if [ -z "${REPHOTO_SKIP_SANITIZE:-}" ] && [ -z "${REPHOTO_SKIP_FUZZ:-}" ]; then
   echo "== libFuzzer targets"
-  scripts/fuzz.sh "${REPHOTO_FUZZ_SECONDS:-10}"
+  BUILD_DIR=build-sanitize scripts/fuzz.sh "${REPHOTO_FUZZ_SECONDS:-10}"
 fi
