@@ -133,11 +133,13 @@ void ComputeIcid(const Image& photo, const Image& rephoto, const Mask& valid,
         const double cov_c = std::min(std::abs(at(kC1C2, x) - mu_c1 * mu_c2), sd_c12);
         const double dl = mu_l1 - mu_l2, dc = mu_c1 - mu_c2, dh = at(kHue, x);
         const double lightness_difference = 1.0 / (0.002 * dl * dl + 1.0);
-        const double lightness_contrast = (10.0 + 2.0 * sd_l12) / (10.0 + var_l1 + var_l2);
+        // 10 + (a + b), not 10 + a + b: with identical images a == b and the numerator 10 + 2a
+        // rounds once, so the term is exactly 1 (two roundings could differ by an ulp).
+        const double lightness_contrast = (10.0 + 2.0 * sd_l12) / (10.0 + (var_l1 + var_l2));
         const double lightness_structure = (10.0 + cov_l) / (10.0 + sd_l12);
         const double chroma_difference = 1.0 / (0.002 * dc * dc + 1.0);
         const double hue_difference = 1.0 / (0.002 * dh * dh + 1.0);
-        const double chroma_contrast = (10.0 + 2.0 * sd_c12) / (10.0 + var_c1 + var_c2);
+        const double chroma_contrast = (10.0 + 2.0 * sd_c12) / (10.0 + (var_c1 + var_c2));
         const double chroma_structure = (10.0 + cov_c) / (10.0 + sd_c12);
         const double similarity = lightness_difference * lightness_contrast * lightness_structure *
                                   lightness_structure * lightness_structure * chroma_difference *

@@ -381,6 +381,18 @@ TEST(Metrics, IdenticalImagesGiveExactlyZero) {
   }
 }
 
+// Regression: iCID's contrast terms once rounded 10 + a + b twice and gave 2e-16 instead of 0 on
+// identical dark, noisy 8-bit content (like the near-black parts of a photo).
+TEST(Metrics, IcidIsExactlyZeroOnIdenticalDarkNoisyImages) {
+  auto rng = testing::MakeRng();
+  std::uniform_int_distribution<int> level(0, 6);
+  Image img(64, 48, 3);
+  for (size_t i = 0; i < img.size(); ++i) img.data()[i] = static_cast<float>(level(rng)) / 255.f;
+  const MetricResult res = ComputeMetric(Metric::kIcid, img, img, {});
+  ASSERT_GT(res.evaluated, 0u);
+  EXPECT_EQ(res.mean, 0.0);
+}
+
 TEST(Metrics, NccAndCensusInvariantUnderGainAndOffset) {
   auto rng = testing::MakeRng();
   // 8-bit values, so no two different lumas are closer than the rounding of gain * v + offset.
