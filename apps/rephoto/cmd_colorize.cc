@@ -19,6 +19,7 @@
 #include "rephoto/render/colorize.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/split/split.h"
+#include "scene_args.h"
 
 namespace rephoto::cli {
 namespace {
@@ -27,8 +28,7 @@ struct ColorizeArguments {
   std::string mesh;
   std::string scene;
   std::string images;
-  std::string format;
-  std::string image_root;
+  SceneArguments scene_args;
   std::string out;
   bool ascii = false;
   double min_cosine = 0.0;
@@ -47,20 +47,10 @@ CommandRunner SetupColorize(CLI::App& app) {
       ->check(CLI::Range(-1.0, 1.0))
       ->capture_default_str();
   app.add_flag("--ascii", args->ascii, "Write an ASCII PLY (default: binary little endian)");
-  app.add_option("--format", args->format,
-                 "Scene format instead of detection: " + scene::SceneFormatList());
-  app.add_option("--image-root", args->image_root,
-                 "Folder the image names are relative to (default: the format's)");
+  AddSceneOptions(app, &args->scene_args);
   app.add_option("--out", args->out, "Output PLY")->required();
   return [args]() {
-    scene::ReadSceneOptions scene_options;
-    if (!args->format.empty()) {
-      scene_options.format = scene::ParseSceneFormat(args->format);
-      REPHOTO_CHECK(scene_options.format.has_value(),
-                    "--format '{}': unknown format (supported: {})", args->format,
-                    scene::SceneFormatList());
-    }
-    if (!args->image_root.empty()) scene_options.image_root = args->image_root;
+    const scene::ReadSceneOptions scene_options = MakeReadSceneOptions(args->scene_args);
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     std::vector<size_t> views;
     if (args->images.empty()) {

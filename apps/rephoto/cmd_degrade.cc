@@ -49,8 +49,7 @@ CommandRunner SetupDegrade(CLI::App& app) {
     const mesh::Mesh degraded = degrade::Degrade(model, args->options, &report);
     mesh::WritePly(args->out, degraded);
     LogInfo(fmt::format("degrade: {} -> {} ({} -> {} vertices, extent {:.4g})", args->model,
-                        args->out, report.vertices_before, report.vertices_after,
-                        report.extent));
+                        args->out, report.vertices_before, report.vertices_after, report.extent));
     return static_cast<int>(ExitCode::kOk);
   };
 }

@@ -21,6 +21,7 @@
 #include "rephoto/render/render.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/split/split.h"
+#include "scene_args.h"
 
 namespace rephoto::cli {
 namespace {
@@ -29,8 +30,7 @@ struct RenderArguments {
   std::string model;
   std::string scene;
   std::string images;
-  std::string format;
-  std::string image_root;
+  SceneArguments scene_args;
   std::string out;
   int spp = 4;
   bool no_backfaces = false;
@@ -74,21 +74,11 @@ CommandRunner SetupRender(CLI::App& app) {
                  "k of the k-th nearest neighbour radius")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
-  app.add_option("--format", args->format,
-                 "Scene format instead of detection: " + scene::SceneFormatList());
-  app.add_option("--image-root", args->image_root,
-                 "Folder the image names are relative to (default: the format's)");
+  AddSceneOptions(app, &args->scene_args);
   app.add_option("--out", args->out, "Output folder for <name>.png and <name>.depth.exr")
       ->required();
   return [args]() {
-    scene::ReadSceneOptions scene_options;
-    if (!args->format.empty()) {
-      scene_options.format = scene::ParseSceneFormat(args->format);
-      REPHOTO_CHECK(scene_options.format.has_value(),
-                    "--format '{}': unknown format (supported: {})", args->format,
-                    scene::SceneFormatList());
-    }
-    if (!args->image_root.empty()) scene_options.image_root = args->image_root;
+    const scene::ReadSceneOptions scene_options = MakeReadSceneOptions(args->scene_args);
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     const std::vector<size_t> views = SelectViews(scene, args->images);
 

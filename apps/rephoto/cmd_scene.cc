@@ -12,49 +12,31 @@
 #include "rephoto/core/error.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/scene/scene_info.h"
+#include "scene_args.h"
 
 namespace rephoto::cli {
 namespace {
 
 struct SceneInfoArguments {
   std::string scene;
-  std::string format;
-  std::string image_root;
+  SceneArguments scene_args;
   bool json = false;
   bool no_size_check = false;
 };
-
-// Shared by the scene commands: --format and --image-root into ReadSceneOptions.
-scene::ReadSceneOptions MakeReadOptions(const std::string& format, const std::string& image_root,
-                                        bool check_sizes) {
-  scene::ReadSceneOptions options;
-  if (!format.empty()) {
-    options.format = scene::ParseSceneFormat(format);
-    REPHOTO_CHECK(options.format.has_value(), "--format '{}': unknown format (supported: {})",
-                  format, scene::SceneFormatList());
-  }
-  if (!image_root.empty()) options.image_root = image_root;
-  options.check_image_sizes = check_sizes;
-  return options;
-}
 
 CommandRunner SetupScene(CLI::App& app) {
   app.require_subcommand(1);
   CLI::App* info = app.add_subcommand("info", "Summarize a scene (images, cameras, extent)");
   auto args = std::make_shared<SceneInfoArguments>();
   info->add_option("scene", args->scene, "Scene file or folder (format detected)")->required();
-  info->add_option("--format", args->format,
-                   "Scene format instead of detection: " + scene::SceneFormatList());
-  info->add_option("--image-root", args->image_root,
-                   "Folder the image names are relative to (default: the format's)");
+  AddSceneOptions(*info, &args->scene_args);
   info->add_flag("--json", args->json, "Print one JSON object instead of text");
   info->add_flag("--no-size-check", args->no_size_check,
                  "Do not check image sizes on disk against the cameras");
   return [args]() {
     scene::SceneSource source;
     const scene::Scene scene = scene::ReadScene(
-        args->scene, MakeReadOptions(args->format, args->image_root, !args->no_size_check),
-        &source);
+        args->scene, MakeReadSceneOptions(args->scene_args, !args->no_size_check), &source);
     const scene::SceneInfo info = scene::ComputeSceneInfo(
         scene, source.path.string(), std::string(scene::SceneFormatName(source.format)));
     if (args->json) {

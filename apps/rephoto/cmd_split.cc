@@ -13,6 +13,7 @@
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/split/split.h"
 #include "rephoto/split/split_writer.h"
+#include "scene_args.h"
 
 namespace rephoto::cli {
 namespace {
@@ -21,8 +22,7 @@ struct SplitArguments {
   std::string scene;
   std::string scheme;
   std::string out;
-  std::string format;
-  std::string image_root;
+  SceneArguments scene_args;
 };
 
 CommandRunner SetupSplit(CLI::App& app) {
@@ -33,19 +33,10 @@ CommandRunner SetupSplit(CLI::App& app) {
                  "fraction:F[:SEED] | lists:TRAIN,TEST | none")
       ->required();
   app.add_option("--out", args->out, "Output folder (fold_XX/..., split.json)")->required();
-  app.add_option("--format", args->format,
-                 "Scene format instead of detection: " + scene::SceneFormatList());
-  app.add_option("--image-root", args->image_root,
-                 "Folder the image names are relative to (default: the format's)");
+  AddSceneOptions(app, &args->scene_args);
   return [args]() {
     const split::Scheme scheme = split::ParseScheme(args->scheme);
-    scene::ReadSceneOptions options;
-    if (!args->format.empty()) {
-      options.format = scene::ParseSceneFormat(args->format);
-      REPHOTO_CHECK(options.format.has_value(), "--format '{}': unknown format (supported: {})",
-                    args->format, scene::SceneFormatList());
-    }
-    if (!args->image_root.empty()) options.image_root = args->image_root;
+    const scene::ReadSceneOptions options = MakeReadSceneOptions(args->scene_args);
     scene::SceneSource source;
     const scene::Scene scene = scene::ReadScene(args->scene, options, &source);
     std::vector<std::string> names;

@@ -1,13 +1,12 @@
 // rephoto: novel view prediction error for 3D reconstruction (virtual rephotography).
 // Exit codes: see rephoto::ExitCode in src/rephoto/core/error.h.
-#include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "command.h"
 #include "rephoto/core/error.h"
@@ -23,8 +22,9 @@ std::vector<CommandInfo>& CommandTable() {
 
 int main(int argc, char** argv) {
   using namespace rephoto;
-  CLI::App app{"rephoto: how good does a 3D reconstruction look? Virtual rephotography "
-               "(Waechter et al. 2017): render held-out views and compare them with the photos."};
+  CLI::App app{
+      "rephoto: how good does a 3D reconstruction look? Virtual rephotography "
+      "(Waechter et al. 2017): render held-out views and compare them with the photos."};
   app.set_version_flag("--version", std::string(REPHOTO_VERSION));
   app.require_subcommand(1);
   int threads = 0;
