@@ -4,6 +4,7 @@
 // rephoto/degrade/degrade.h for the definitions. Deterministic for a seed.
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <memory>
 
 #include "command.h"
@@ -25,7 +26,10 @@ struct DegradeArguments {
 CommandRunner SetupDegrade(CLI::App& app) {
   auto args = std::make_shared<DegradeArguments>();
   app.add_option("MODEL", args->model, "Mesh or point cloud (PLY, OBJ)")->required();
-  app.add_option("--out", args->out, "Output PLY")->required();
+  app.add_option("--out", args->out,
+                 "Output PLY; noisy textures of a textured mesh are written next to it as "
+                 "<stem>_<material>.png")
+      ->required();
   app.add_option("--texture-noise", args->options.texture_noise,
                  "Maximum offset per RGB channel, colour units in [0,1]")
       ->check(CLI::NonNegativeNumber)
@@ -45,9 +49,19 @@ CommandRunner SetupDegrade(CLI::App& app) {
   app.add_option("--seed", args->options.seed, "Noise seed")->capture_default_str();
   return [args] {
     const mesh::Mesh model = mesh::ReadMesh(args->model);
+    const std::filesystem::path out = std::filesystem::absolute(args->out);
+    args->options.texture_dir = out.parent_path();
+    args->options.texture_prefix = out.stem().string();
     degrade::DegradeReport report;
-    const mesh::Mesh degraded = degrade::Degrade(model, args->options, &report);
-    mesh::WritePly(args->out, degraded);
+    mesh::Mesh degraded = degrade::Degrade(model, args->options, &report);
+    // Texture paths relative to the PLY's folder where possible, so the files move together.
+    for (auto& material : degraded.materials) {
+      if (material.diffuse_texture.empty()) continue;
+      const auto relative = std::filesystem::absolute(material.diffuse_texture)
+                                .lexically_relative(out.parent_path());
+      if (!relative.empty() && *relative.begin() != "..") material.diffuse_texture = relative;
+    }
+    mesh::WritePly(out, degraded);
     LogInfo(fmt::format("degrade: {} -> {} ({} -> {} vertices, extent {:.4g})", args->model,
                         args->out, report.vertices_before, report.vertices_after, report.extent));
     return static_cast<int>(ExitCode::kOk);

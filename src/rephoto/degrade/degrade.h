@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
+#include <string>
 
 #include "rephoto/mesh/mesh.h"
 
@@ -12,13 +14,26 @@ namespace rephoto::degrade {
 struct DegradeOptions {
   // Maximum offset per RGB channel, in colour units ([0,1] = full range): each channel is
   // offset by texture_noise * SimplexNoise(p), independently per channel, then clamped to
-  // [0,1]. Needs vertex colours (texel noise on textured meshes is not implemented).
+  // [0,1], where p is the surface point (before geometry noise) the colour belongs to.
+  // The noise goes where the renderer takes colours from (render/render_model.h): the texels
+  // of a textured mesh (every texel a face covers, p from the face's barycentric coordinates;
+  // texels within one texel of a face too, so bilinear filtering at chart borders sees noisy
+  // values; other texels are unchanged), else the vertex colours.
   float texture_noise = 0;
+  // Texel noise writes each modified texture as 8-bit PNG "<texture_prefix>_<material>.png"
+  // into this folder (created if needed) and points the material at it (absolute path).
+  // Required when texel noise is applied.
+  std::filesystem::path texture_dir;
+  std::string texture_prefix = "degraded";
   // Maximum displacement along the vertex normal, as a fraction of the scene extent (the
   // diagonal of the model's bounding box). Normals come from the file, else from the faces.
   float geometry_noise = 0;
-  // Fraction of vertices to remove by edge collapse (meshoptimizer's meshopt_simplify), in
-  // [0,1). Colours, normals, radii and per-vertex texture coordinates carry over.
+  // Fraction of faces to remove by edge collapse (meshoptimizer's meshopt_simplify), in [0,1);
+  // the vertex count falls by about the same fraction. Colours, normals, radii, scalars and
+  // texture coordinates carry over: per-face (wedge) texture coordinates are first turned into
+  // per-vertex ones by splitting vertices along texture seams (meshoptimizer keeps such seams
+  // consistent), and each material's faces are simplified separately so faces keep their
+  // material.
   float simplify = 0;
   // Noise features per scene extent (the noise is evaluated at p * frequency / extent).
   float noise_frequency = 40;
@@ -33,8 +48,9 @@ struct DegradeReport {
 };
 
 // Returns the degraded copy. Throws Error when a requested defect cannot be applied (texture
-// noise without vertex colours, geometry noise on a point cloud without normals, simplification
-// of a point cloud, parameters out of range).
+// noise on a model with neither a texture nor vertex colours, texel noise without texture_dir,
+// geometry noise on a point cloud without normals, simplification of a point cloud, parameters out
+// of range).
 mesh::Mesh Degrade(const mesh::Mesh& model, const DegradeOptions& options,
                    DegradeReport* report = nullptr);
 
