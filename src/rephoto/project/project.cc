@@ -1,0 +1,472 @@
+#include "rephoto/project/project.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <set>
+
+#include "rephoto/core/colormap.h"
+#include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/core/image.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/core/stats.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/render/render.h"
+
+namespace rephoto::project {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+std::string ViewLabel(const ProjectView& view) {
+  return view.name.empty() ? view.error_image.string() : view.name;
+}
+
+void CheckOptions(const ProjectOptions& options) {
+  REPHOTO_CHECK(options.low_percentile >= 0 && options.low_percentile <= options.high_percentile &&
+                    options.high_percentile <= 100,
+                "project: percentiles {} and {} must satisfy 0 <= low <= high <= 100",
+                options.low_percentile, options.high_percentile);
+  REPHOTO_CHECK(std::isfinite(options.depth_tolerance) && options.depth_tolerance >= 0,
+                "project: depth tolerance {} must be finite and >= 0", options.depth_tolerance);
+  REPHOTO_CHECK(std::isfinite(options.footprint_tolerance) && options.footprint_tolerance >= 0,
+                "project: footprint tolerance {} must be finite and >= 0",
+                options.footprint_tolerance);
+  if (options.fixed_range) {
+    REPHOTO_CHECK(
+        std::isfinite(options.fixed_range->first) && std::isfinite(options.fixed_range->second),
+        "project: colour range [{}, {}] must be finite", options.fixed_range->first,
+        options.fixed_range->second);
+  }
+}
+
+// Checks every view's camera, pose and error image header before any work is done.
+void CheckViews(const std::vector<ProjectView>& views) {
+  for (const ProjectView& view : views) {
+    const std::string label = ViewLabel(view);
+    view.camera.Validate(label);
+    view.cam_from_world.Validate(label);
+    const io::ImageHeader header = io::ReadImageHeader(view.error_image);
+    REPHOTO_CHECK(header.channels == 1, "{}: error image has {} channels, expected 1",
+                  view.error_image.string(), header.channels);
+    REPHOTO_CHECK(header.width == view.camera.width && header.height == view.camera.height,
+                  "{}: image is {}x{} but its camera is {}x{}", view.error_image.string(),
+                  header.width, header.height, view.camera.width, view.camera.height);
+  }
+}
+
+// What one view gives one vertex.
+struct Sample {
+  bool visible = false;    // passes the visibility test
+  double error = 0;        // valid when has_error
+  bool has_error = false;  // some qualifying pixel had a finite error
+};
+
+// Everything fixed for one view.
+struct ViewContext {
+  const camera::Camera& camera;
+  const camera::Pose& pose;
+  const render::CameraRays& rays;
+  const Image& depth;
+  const Image& error;
+  double relative_tolerance;  // depth_tolerance + footprint_tolerance / f
+  double fx, fy;
+};
+
+inline bool DepthAgrees(float d, double z, double tolerance) {
+  return std::isfinite(d) && std::abs(z - static_cast<double>(d)) <= tolerance;
+}
+
+Sample SampleVertex(const ViewContext& view, const Eigen::Vector3d& world, double radius) {
+  Sample sample;
+  const Eigen::Vector3d cam = view.pose.CamFromWorld(world);
+  const double z = cam.z();
+  if (!(z > 0)) return sample;
+  const std::optional<Eigen::Vector2d> pixel = view.camera.ImgFromCam(cam);
+  if (!pixel) return sample;
+  const double px = pixel->x(), py = pixel->y();
+  const int width = view.depth.width(), height = view.depth.height();
+  if (!(px >= 0 && px < width && py >= 0 && py < height)) return sample;
+  // The renderer's ray through p must point back at the vertex (rejects fold-over of the
+  // distortion outside the usable field of view).
+  float xn = 0, yn = 0;
+  if (!view.rays.Ray(static_cast<float>(px), static_cast<float>(py), &xn, &yn)) return sample;
+  const double u = cam.x() / z, v = cam.y() / z;
+  const double slack = 1.0 + u * u + v * v;  // one pixel, widened off-axis (fisheye)
+  if (std::abs(xn - u) * view.fx > slack || std::abs(yn - v) * view.fy > slack) return sample;
+
+  const double tolerance = view.relative_tolerance * z + radius;
+  const int ix = std::min(static_cast<int>(px), width - 1);
+  const int iy = std::min(static_cast<int>(py), height - 1);
+  if (!DepthAgrees(view.depth.at(ix, iy), z, tolerance)) return sample;
+  sample.visible = true;
+
+  // Bilinear over the 4 pixel centres around p, qualifying pixels only.
+  const double gx = px - 0.5, gy = py - 0.5;
+  const int x0 = static_cast<int>(std::floor(gx)), y0 = static_cast<int>(std::floor(gy));
+  const double ax = gx - x0, ay = gy - y0;
+  double sum = 0, weight_sum = 0;
+  for (int j = 0; j < 2; ++j) {
+    const int y = y0 + j;
+    if (y < 0 || y >= height) continue;
+    const double wy = j == 0 ? 1 - ay : ay;
+    for (int i = 0; i < 2; ++i) {
+      const int x = x0 + i;
+      if (x < 0 || x >= width) continue;
+      const double w = (i == 0 ? 1 - ax : ax) * wy;
+      if (!(w > 0)) continue;
+      const float e = view.error.at(x, y);
+      if (!std::isfinite(e) || !DepthAgrees(view.depth.at(x, y), z, tolerance)) continue;
+      sum += w * e;
+      weight_sum += w;
+    }
+  }
+  if (weight_sum > 0) {
+    sample.error = sum / weight_sum;
+    sample.has_error = true;
+  }
+  return sample;
+}
+
+double Seconds(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Stems an error image of `name` may have (file stem first, then the relative path).
+std::vector<std::string> StemCandidates(const std::string& name) {
+  std::vector<std::string> stems;
+  const fs::path path(name);
+  stems.push_back(path.stem().generic_string());
+  const std::string relative = fs::path(path).replace_extension("").generic_string();
+  if (relative != stems.front()) stems.push_back(relative);
+  return stems;
+}
+
+struct ErrorsFolder {
+  std::string prefix;  // "fold_00/" or ""
+  fs::path folder;
+};
+
+// The errors folders of a run directory (evaluate: per fold, in name order; compare: one).
+// Throws when the run directory does not exist or has neither layout (if `required`).
+std::vector<ErrorsFolder> ErrorsFolders(const fs::path& run_dir, bool required) {
+  std::error_code ec;
+  if (!fs::is_directory(run_dir, ec)) {
+    if (!required) return {};
+    ThrowError("{}: run directory does not exist{}", run_dir.string(),
+               fs::exists(run_dir, ec) ? " (not a folder)" : "");
+  }
+  std::vector<ErrorsFolder> folders;
+  if (fs::is_directory(run_dir / "folds", ec)) {
+    std::vector<fs::path> folds;
+    for (const fs::directory_entry& entry : fs::directory_iterator(run_dir / "folds")) {
+      if (entry.is_directory()) folds.push_back(entry.path());
+    }
+    std::sort(folds.begin(), folds.end());
+    for (const fs::path& fold : folds) {
+      if (fs::is_directory(fold / "errors", ec)) {
+        folders.push_back({fold.filename().string() + "/", fold / "errors"});
+      }
+    }
+    return folders;  // an evaluate run whose folds have no errors yet: nothing found
+  }
+  if (fs::is_directory(run_dir / "errors", ec)) return {{"", run_dir / "errors"}};
+  if (!required) return {};
+  ThrowError(
+      "{}: not a run directory of rephoto evaluate (folds/*/errors/) or rephoto compare "
+      "(errors/)",
+      run_dir.string());
+}
+
+// Relative paths (generic, without the ".exr") of the .exr files under `folder`.
+std::vector<std::string> ExrStems(const fs::path& folder) {
+  std::vector<std::string> stems;
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(folder)) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path& path = entry.path();
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".exr") continue;
+    stems.push_back(
+        fs::path(path).replace_extension("").lexically_relative(folder).generic_string());
+  }
+  std::sort(stems.begin(), stems.end());
+  return stems;
+}
+
+template <typename T>
+void Put(std::string& buffer, T value) {
+  static_assert(std::endian::native == std::endian::little, "PLY writer assumes little endian");
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  buffer.append(bytes, sizeof(T));
+}
+
+}  // namespace
+
+ProjectResult ProjectErrors(const mesh::Mesh& model, const std::vector<ProjectView>& views,
+                            const ProjectOptions& options) {
+  REPHOTO_CHECK(model.vertex_count() > 0, "project: the model has no vertices");
+  CheckOptions(options);
+  CheckViews(views);    // before the BVH is built: bad input fails fast
+  mesh::Mesh geometry;  // what the depth maps need
+  geometry.positions = model.positions;
+  geometry.faces = model.faces;
+  if (model.is_point_cloud()) {
+    geometry.normals = model.normals;  // disc orientation
+    geometry.radii = model.radii;
+  }
+  render::ModelOptions model_options = options.model_options;
+  model_options.load_textures = false;
+  const render::RenderModel render_model(std::move(geometry), model_options, "model");
+  return ProjectErrors(render_model, views, options);
+}
+
+ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<ProjectView>& views,
+                            const ProjectOptions& options) {
+  const mesh::Mesh& mesh = model.mesh();
+  const size_t n = mesh.vertex_count();
+  REPHOTO_CHECK(n > 0, "project: the model has no vertices");
+  CheckOptions(options);
+  CheckViews(views);
+  const bool points = model.representation() == render::Representation::kPointCloud;
+  const std::vector<float>& radii = model.point_radii();
+
+  std::vector<double> sums(n, 0.0);
+  ProjectResult result;
+  result.view_count.assign(n, 0);
+  result.view_seen_vertices.assign(views.size(), 0);
+  std::vector<uint8_t> visible(n, 0);
+
+  render::RenderOptions render_options;
+  render_options.samples_per_pixel = 1;
+  render_options.pattern = render::SamplePattern::kRegular;
+  render_options.backfaces = options.backfaces;
+  render::Rephoto rephoto;
+  Image error;
+  std::unique_ptr<Progress> progress;
+  if (options.show_progress) progress = std::make_unique<Progress>("project", views.size());
+
+  for (size_t v = 0; v < views.size(); ++v) {
+    const ProjectView& view = views[v];
+    auto start = std::chrono::steady_clock::now();
+    io::ReadImage(view.error_image, &error);
+    REPHOTO_CHECK(error.channels() == 1 && error.width() == view.camera.width &&
+                      error.height() == view.camera.height,
+                  "{}: image is {}x{} with {} channels but its camera is {}x{} (1 channel)",
+                  view.error_image.string(), error.width(), error.height(), error.channels(),
+                  view.camera.width, view.camera.height);
+    result.project_seconds += Seconds(start);
+
+    start = std::chrono::steady_clock::now();
+    const std::shared_ptr<const render::CameraRays> rays = model.RaysFor(view.camera);
+    render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
+    result.render_seconds += Seconds(start);
+
+    start = std::chrono::steady_clock::now();
+    const ViewContext context{
+        view.camera,
+        view.cam_from_world,
+        *rays,
+        rephoto.depth,
+        error,
+        options.depth_tolerance + options.footprint_tolerance / view.camera.MeanFocalLength(),
+        view.camera.FocalLengthX(),
+        view.camera.FocalLengthY()};
+    result.view_seen_vertices[v] =
+        ParallelSum<size_t>(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
+          size_t seen = 0;
+          for (int64_t i = begin; i < end; ++i) {
+            const double radius = points && !radii.empty() ? radii[i] : 0.0;
+            const Sample s = SampleVertex(context, mesh.positions[i].cast<double>(), radius);
+            if (!s.visible) continue;
+            visible[i] = 1;
+            if (!s.has_error) continue;
+            sums[i] += s.error;
+            ++result.view_count[i];
+            ++seen;
+          }
+          return seen;
+        });
+    result.project_seconds += Seconds(start);
+    if (progress) progress->Advance(ViewLabel(view));
+  }
+  if (progress) progress->Finish();
+
+  result.vertex_error.assign(n, kNaN);
+  std::vector<double> finite;
+  finite.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    result.visible_vertices += visible[i];
+    if (result.view_count[i] == 0) continue;
+    const double mean = sums[i] / result.view_count[i];
+    result.vertex_error[i] = static_cast<float>(mean);
+    finite.push_back(result.vertex_error[i]);
+  }
+  result.seen_vertices = finite.size();
+  if (options.fixed_range) {
+    result.low = options.fixed_range->first;
+    result.high = options.fixed_range->second;
+  } else if (finite.empty()) {
+    result.low = result.high = kNaN;
+  } else {
+    result.low = static_cast<float>(Quantile(finite, options.low_percentile / 100.0));
+    result.high = static_cast<float>(Quantile(finite, options.high_percentile / 100.0));
+  }
+  return result;
+}
+
+std::array<uint8_t, 3> ErrorColour(float error, float low, float high) {
+  if (!std::isfinite(error)) return {128, 128, 128};
+  float t = 0;
+  if (high > low) {
+    t = (error - low) / (high - low);
+  } else if (high < low) {  // reversed range (higher is better)
+    t = (low - error) / (low - high);
+  }
+  const std::array<float, 3> c = JetColor(std::clamp(t, 0.0f, 1.0f));
+  return {static_cast<uint8_t>(std::lround(255.0f * c[0])),
+          static_cast<uint8_t>(std::lround(255.0f * c[1])),
+          static_cast<uint8_t>(std::lround(255.0f * c[2]))};
+}
+
+void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
+                       const std::filesystem::path& out) {
+  const size_t n = model.vertex_count();
+  REPHOTO_CHECK(result.vertex_error.size() == n && result.view_count.size() == n,
+                "{}: the projection has {} vertices but the model has {}", out.string(),
+                result.vertex_error.size(), n);
+  const bool normals = model.normals.size() == n && n > 0;
+  std::string header = "ply\nformat binary_little_endian 1.0\n";
+  header += "comment rephoto project: per-vertex mean of the projected error images\n";
+  header += fmt::format("comment colour range (jet) low {} high {}; grey = not seen\n", result.low,
+                        result.high);
+  header += fmt::format("comment seen vertices {} of {}\n", result.seen_vertices, n);
+  header += fmt::format("element vertex {}\n", n);
+  header += "property float x\nproperty float y\nproperty float z\n";
+  if (normals) header += "property float nx\nproperty float ny\nproperty float nz\n";
+  header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  header += "property float error\nproperty uint views\n";
+  if (!model.faces.empty()) {
+    header += fmt::format("element face {}\n", model.faces.size());
+    header += "property list uchar int vertex_indices\n";
+  }
+  header += "end_header\n";
+
+  WriteFileAtomically(out, [&](const fs::path& temporary) {
+    std::ofstream file(temporary, std::ios::binary);
+    REPHOTO_CHECK(file.good(), "{}: cannot open for writing", out.string());
+    file.write(header.data(), static_cast<std::streamsize>(header.size()));
+    std::string buffer;
+    constexpr size_t kFlush = 1 << 20;
+    buffer.reserve(kFlush + 64);
+    auto flush = [&](bool force) {
+      if (buffer.size() >= kFlush || (force && !buffer.empty())) {
+        file.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+        buffer.clear();
+      }
+    };
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3f& p = model.positions[i];
+      Put(buffer, p.x());
+      Put(buffer, p.y());
+      Put(buffer, p.z());
+      if (normals) {
+        Put(buffer, model.normals[i].x());
+        Put(buffer, model.normals[i].y());
+        Put(buffer, model.normals[i].z());
+      }
+      const std::array<uint8_t, 3> rgb =
+          ErrorColour(result.vertex_error[i], result.low, result.high);
+      buffer.append(reinterpret_cast<const char*>(rgb.data()), 3);
+      Put(buffer, result.vertex_error[i]);
+      Put(buffer, result.view_count[i]);
+      flush(false);
+    }
+    for (const mesh::Triangle& face : model.faces) {
+      Put(buffer, static_cast<uint8_t>(3));
+      for (uint32_t index : face) Put(buffer, static_cast<int32_t>(index));
+      flush(false);
+    }
+    flush(true);
+    file.flush();
+    REPHOTO_CHECK(file.good(), "{}: write failed", out.string());
+  });
+}
+
+std::vector<ProjectView> FindErrorImages(const scene::Scene& scene,
+                                         const std::filesystem::path& run_dir,
+                                         std::string_view metric, size_t* views_without_errors,
+                                         size_t* unmatched_images) {
+  REPHOTO_CHECK(!metric.empty() && metric.find('/') == std::string_view::npos &&
+                    metric.find('.') == std::string_view::npos,
+                "{}: invalid metric name '{}'", run_dir.string(), metric);
+  const std::vector<ErrorsFolder> folders = ErrorsFolders(run_dir, /*required=*/true);
+  const std::string suffix = fmt::format(".{}.exr", metric);
+  std::vector<std::vector<std::string>> candidates(scene.views.size());
+  std::set<std::string> known;  // every stem a scene view may have
+  for (size_t v = 0; v < scene.views.size(); ++v) {
+    candidates[v] = StemCandidates(scene.views[v].name);
+    known.insert(candidates[v].begin(), candidates[v].end());
+  }
+  std::vector<ProjectView> views;
+  std::vector<uint8_t> found(scene.views.size(), 0);
+  size_t unmatched = 0;
+  std::error_code ec;
+  for (const ErrorsFolder& folder : folders) {
+    for (size_t v = 0; v < scene.views.size(); ++v) {
+      for (const std::string& stem : candidates[v]) {
+        const fs::path path = folder.folder / (stem + suffix);
+        if (!fs::is_regular_file(path, ec)) continue;
+        const scene::View& view = scene.views[v];
+        views.push_back({scene.CameraOf(view), view.cam_from_world, path, folder.prefix + stem});
+        found[v] = 1;
+        break;
+      }
+    }
+    const std::string metric_ext = fmt::format(".{}", metric);
+    for (const std::string& stem : ExrStems(folder.folder)) {
+      if (stem.size() <= metric_ext.size() ||
+          stem.compare(stem.size() - metric_ext.size(), metric_ext.size(), metric_ext) != 0) {
+        continue;
+      }
+      unmatched += !known.contains(stem.substr(0, stem.size() - metric_ext.size()));
+    }
+  }
+  if (views_without_errors != nullptr) {
+    *views_without_errors = static_cast<size_t>(std::count(found.begin(), found.end(), 0));
+  }
+  if (unmatched_images != nullptr) *unmatched_images = unmatched;
+  return views;
+}
+
+std::vector<std::string> ListErrorMetrics(const std::filesystem::path& run_dir) {
+  std::set<std::string> metrics;
+  for (const ErrorsFolder& folder : ErrorsFolders(run_dir, /*required=*/false)) {
+    for (const std::string& stem : ExrStems(folder.folder)) {
+      const size_t slash = stem.rfind('/');
+      const size_t dot = stem.rfind('.');
+      if (dot == std::string::npos || dot + 1 == stem.size() ||
+          (slash != std::string::npos && dot < slash) ||
+          dot == (slash == std::string::npos ? 0 : slash + 1)) {
+        continue;
+      }
+      metrics.insert(stem.substr(dot + 1));
+    }
+  }
+  return {metrics.begin(), metrics.end()};
+}
+
+}  // namespace rephoto::project
