@@ -324,18 +324,15 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
   } else {
     result.low = static_cast<float>(Quantile(finite, options.low_percentile / 100.0));
     result.high = static_cast<float>(Quantile(finite, options.high_percentile / 100.0));
+    if (options.higher_is_better) std::swap(result.low, result.high);
   }
   return result;
 }
 
 std::array<uint8_t, 3> ErrorColour(float error, float low, float high) {
   if (!std::isfinite(error)) return {128, 128, 128};
-  float t = 0;
-  if (high > low) {
-    t = (error - low) / (high - low);
-  } else if (high < low) {  // reversed range (higher is better)
-    t = (low - error) / (low - high);
-  }
+  // With low > high the same formula runs the map backwards (a reversed range).
+  const float t = high != low ? (error - low) / (high - low) : 0.0f;
   const std::array<float, 3> c = JetColor(std::clamp(t, 0.0f, 1.0f));
   return {static_cast<uint8_t>(std::lround(255.0f * c[0])),
           static_cast<uint8_t>(std::lround(255.0f * c[1])),

@@ -38,9 +38,10 @@
 // interpolation between order statistics, numpy's default, see core/stats.h) of the finite
 // vertex errors (each vertex counts once, whatever its view count), unless a fixed range is
 // given. A vertex's colour is JetColor(t) (core/colormap.h), t = (error - low) / (high - low)
-// clamped to [0,1] (t = 0 when high <= low, e.g. all errors equal), so low and below are dark
-// blue, high and above dark red. For metrics where higher is better (ssim, psnr) pass the range
-// reversed via fixed_range to keep red = bad. Unseen vertices are grey (128, 128, 128).
+// clamped to [0,1] (t = 0 when high == low, e.g. all errors equal), so low and below are dark
+// blue, high and above dark red (with low > high the map runs the other way). For error images
+// where higher is better (ssim) set higher_is_better (or pass a reversed fixed_range) to keep red =
+// bad. Unseen vertices are grey (128, 128, 128).
 #pragma once
 
 #include <array>
@@ -68,6 +69,11 @@ struct ProjectOptions {
   // Colour range [low, high] in error units used instead of the percentiles (e.g. the same
   // range for several models so their colours compare); low > high reverses the map.
   std::optional<std::pair<float, float>> fixed_range;
+  // The error image holds a similarity (higher = better, e.g. ssim; see
+  // compare::ErrorColourRange, whose low > high marks such metrics): the percentile range is
+  // reversed (result.low = the high percentile, result.high = the low one) so that red still
+  // means bad. Not applied to fixed_range, which is taken as given.
+  bool higher_is_better = false;
   // Depth agreement, see the file comment: relative to the depth (0.01 = 1 % of z) ...
   double depth_tolerance = 0.01;
   // ... plus this many pixel footprints z / f.

@@ -195,6 +195,13 @@ TEST(ProjectErrors, PercentilesInterpolateBetweenOrderStatistics) {
   // Equal ends: t = 0.
   EXPECT_THAT(ErrorColour(0.7f, 0.7f, 0.7f), ::testing::ElementsAre(0, 0, 128));
 
+  options.higher_is_better = true;  // a similarity: the range runs backwards
+  const ProjectResult reversed = ProjectErrors(MakeScene(false), ConstantViews(dir), options);
+  EXPECT_NEAR(reversed.low, 0.41f, 1e-6);
+  EXPECT_NEAR(reversed.high, 0.312f, 1e-6);
+  EXPECT_THAT(ErrorColour(0.2f, reversed.low, reversed.high), ::testing::ElementsAre(128, 0, 0));
+  options.higher_is_better = false;
+
   options.fixed_range = std::make_pair(0.0f, 2.0f);
   const ProjectResult fixed = ProjectErrors(MakeScene(false), ConstantViews(dir), options);
   EXPECT_EQ(fixed.low, 0.0f);
