@@ -11,6 +11,7 @@
 #include "rephoto/core/progress.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/render/render_model.h"
+#include "rephoto/render/weighted_median.h"
 
 namespace rephoto::render {
 namespace {
@@ -39,20 +40,6 @@ Eigen::Vector3f SampleBilinear(const Image& photo, double px, double py) {
     out[k] = top + ay * (bottom - top);
   }
   return out;
-}
-
-// Weighted median of (value, weight) pairs: the smallest value whose cumulative weight reaches
-// half the total. `pairs` is reordered.
-float WeightedMedian(std::vector<std::pair<float, float>>& pairs) {
-  std::sort(pairs.begin(), pairs.end());
-  double total = 0;
-  for (const auto& p : pairs) total += p.second;
-  double cumulative = 0;
-  for (const auto& p : pairs) {
-    cumulative += p.second;
-    if (cumulative >= 0.5 * total) return p.first;
-  }
-  return pairs.back().first;
 }
 
 Eigen::Vector3f RobustMean(const Observation* obs, size_t n, int iterations,

@@ -1,0 +1,137 @@
+// Image-based representations (paper Section 5.1): render a novel view directly from the
+// training photos, with a global mesh as geometry proxy (view-dependent texturing, VDT) or with
+// one depth map per training photo (image-based rendering, IBR).
+//
+// Both share one per-pixel fusion (the unstructured lumigraph of Buehler et al. 2001 with a
+// weighted per-channel median, as the paper's implementation):
+// 1. Novel-view geometry: each pixel's surface point X (at the pixel centre, one sample per
+//    pixel) and its camera-frame depth z.
+//    - VDT: the proxy mesh ray-cast with Embree (render::RenderRephoto).
+//    - IBR: every training depth map is turned into a mesh (a grid of its pixels every
+//      `proxy_grid_spacing` photo pixels, unprojected once at construction; triangles that
+//      their own camera sees at less than `proxy_edge_angle` degrees from edge-on are cut: they
+//      join a foreground to a background across an occlusion edge) and
+//      forward-warped into the novel view by rasterization with a z-buffer (perspective-correct
+//      1/z interpolation; the novel camera's distortion applied at the vertices). Each pixel
+//      keeps the 4 nearest surfaces of different training views; its depth is the nearest one
+//      that a second view confirms within `depth_tolerance` (relative), else the nearest one
+//      (so that one view's stereo outlier does not occlude the others).
+// 2. Candidate views: the training views nearest to the novel view (by the angle between
+//    their camera centres seen from the novel view's central scene point, at most 32 views).
+//    X is projected into each (its own camera, distortion and resolution). A view is a
+//    candidate when X lies inside its photo (at least half a pixel from the border) and is
+//    visible there: the training view's depth map (VDT: the proxy rendered at that view at
+//    construction; IBR: its own depth map), interpolated at the projection (1/z bilinear
+//    between the four surrounding depth pixels, or the nearest one when some have no depth),
+//    agrees with X's depth z_i in that view: |D - z_i| <= depth_tolerance * z_i. The colour is
+//    sampled bilinearly from the photo (the nearest photo pixel where the depth was taken from
+//    the nearest depth pixel, so colours do not bleed across depth-map holes).
+// 3. Penalty of candidate i: p_i = a_i + depth_penalty * e_i with a_i the angle (radians)
+//    between the rays from X to the training camera's centre and to the novel camera's centre
+//    (Buehler's angular penalty) and e_i = |D - z_i| / (depth_tolerance * z_i) in [0, 1] the
+//    depth-consistency penalty (the role of the TS3 term in the paper: a view whose own
+//    geometry disagrees with the rendered surface is trusted less; 0 for an exact proxy).
+// 4. The k_best candidates with the smallest penalties are fused. Weights follow Buehler's
+//    k-nearest blending, w_i = (1 - p_i / p_th) / (p_i + epipole_epsilon), p_th = the penalty
+//    of the (k_best+1)-th candidate (twice the largest penalty when there are at most k_best),
+//    so that the weight falls to 0 for the first view left out (no popping); the division by
+//    p_i + epsilon makes a training camera that coincides with the novel camera dominate
+//    (epipole consistency: it reproduces its own photo; this is why evaluation must hold
+//    the test photos out of the training set). If all weights are 0, all count equally.
+// 5. Colour: the weighted median of each channel separately (render/weighted_median.h).
+//
+// Output (render::Rephoto, like render::RenderRephoto): color RGBA, RGB = the fused colour as
+// the photos store it ([0,1]), alpha = 1 where at least one training photo sees the pixel's
+// surface and 0 elsewhere (RGB 0): the completeness mask; depth = the novel camera-frame z of
+// the surface where alpha is 1, NaN elsewhere.
+//
+// Memory: photos are stored as 8-bit RGB (3 bytes per pixel: 20 photos of 1920x1080 take
+// 124 MB) plus one float depth map per view (VDT: at the photo's resolution, 166 MB for the same
+// 20 photos; IBR: the given/estimated depth maps) plus, for IBR, the unprojected proxy grid.
+// Rendering reuses scratch buffers between calls (guarded by a mutex; concurrent Render calls
+// work, the ones that find the buffers busy allocate their own).
+// Thread safety: Render is const and may be called from several threads.
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rephoto/camera/camera.h"
+#include "rephoto/core/image.h"
+#include "rephoto/ibr/plane_sweep.h"
+#include "rephoto/mesh/mesh.h"
+#include "rephoto/render/render.h"
+
+namespace rephoto::ibr {
+
+struct TrainingView {
+  std::string name;       // for messages
+  camera::Camera camera;  // intrinsics of the photo (scaled to the photo when sizes differ)
+  camera::Pose cam_from_world;
+  std::filesystem::path photo;      // any format io::ReadImage reads (grey, RGB, RGBA)
+  std::filesystem::path depth_map;  // optional, IBR only (depth_map_io.h); empty = estimate
+};
+
+struct ImageBasedOptions {
+  int k_best = 4;                  // views fused per pixel (>= 1)
+  double epipole_epsilon = 0.002;  // radians (about 0.1 degrees), > 0
+  double depth_tolerance = 0.02;   // relative depth agreement for visibility (> 0)
+  double depth_penalty = 0.1;      // radians of penalty for a full-tolerance depth mismatch
+  // IBR proxies.
+  double proxy_grid_spacing = 4;  // photo pixels between proxy mesh vertices (>= 1)
+  double proxy_edge_angle = 5;    // degrees; flatter proxy triangles are cut (occlusion edges)
+  // IBR without depth-map files: plane-sweep stereo (plane_sweep.h) over the `sweep_neighbors`
+  // neighbours of each training view chosen by SelectNeighbors. The depth range of a view,
+  // unless plane_sweep.min_depth/max_depth are set, comes from `scene_points` (the 2nd and 98th
+  // percentile of the depths of the points that project into the view, widened by a factor
+  // 1.25 each way) or, without points, from the depth d at which the view's optical axis
+  // passes closest to its neighbours' optical axes (median over the neighbours):
+  // [d / 2.5, 2.5 d].
+  PlaneSweepOptions plane_sweep;
+  int sweep_neighbors = 4;
+  std::vector<Eigen::Vector3d> scene_points;  // world points (e.g. a sparse model), optional
+  bool show_progress = false;  // Progress lines while loading photos / estimating depth
+};
+
+class ImageBasedRenderer {
+ public:
+  // View-dependent texturing on `proxy` (a triangle mesh; colours are ignored). Reads every
+  // training photo (errors name the file) and renders the proxy's depth at every training
+  // camera. Throws Error for an empty training set, invalid options or cameras, an invalid
+  // mesh or a mesh without triangles.
+  static ImageBasedRenderer Vdt(const mesh::Mesh& proxy, std::vector<TrainingView> training,
+                                const ImageBasedOptions& options);
+  // Image-based rendering with per-view depth maps: read from TrainingView::depth_map when
+  // given (depth_map_io.h; any resolution), else computed by plane-sweep stereo (needs at
+  // least 2 training views). Throws Error as Vdt does and for unreadable depth maps.
+  static ImageBasedRenderer Ibr(std::vector<TrainingView> training,
+                                const ImageBasedOptions& options);
+
+  ImageBasedRenderer(ImageBasedRenderer&&) noexcept;
+  ImageBasedRenderer& operator=(ImageBasedRenderer&&) noexcept;
+  ~ImageBasedRenderer();
+
+  // Renders the novel view (image size camera.width x camera.height); see the output
+  // convention above. Throws Error for an invalid camera or pose.
+  render::Rephoto Render(const camera::Camera& camera, const camera::Pose& cam_from_world) const;
+  // The same into `out`, reusing its buffers.
+  void Render(const camera::Camera& camera, const camera::Pose& cam_from_world,
+              render::Rephoto* out) const;
+
+  size_t view_count() const;
+  const TrainingView& view(size_t index) const;
+  // The depth map used for a training view (VDT: the proxy's; IBR: read or estimated), in the
+  // convention of depth_map_io.h.
+  const Image& depth_map(size_t index) const;
+
+  struct State;  // implementation (image_based_renderer.cc)
+
+ private:
+  explicit ImageBasedRenderer(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace rephoto::ibr
