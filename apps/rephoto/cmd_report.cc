@@ -1,0 +1,94 @@
+// rephoto report RUN_DIR [RUN_DIR ...] --out report.html [--labels a,b,...] [--title T]
+//                [--metric M] [--examples N] [--thumbnail-width PX]
+// One run directory: report::WriteRunReport; several: report::WriteCollectionReport (ranking
+// table, boxplots per run, best/worst images of each). See src/rephoto/report/report.h.
+#include <fmt/format.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "command.h"
+#include "rephoto/core/error.h"
+#include "rephoto/report/report.h"
+
+namespace rephoto::cli {
+namespace {
+
+struct ReportArguments {
+  std::vector<std::string> runs;
+  std::string out;
+  std::vector<std::string> labels;
+  std::string title;
+  std::string metric = "1-ncc";
+  int examples = -1;         // -1: the default of the report type
+  int thumbnail_width = -1;  // -1: the default of the report type
+  bool keep_order = false;
+};
+
+CommandRunner SetupReport(CLI::App& app) {
+  auto args = std::make_shared<ReportArguments>();
+  app.add_option("runs", args->runs,
+                 "Run directories (`rephoto evaluate` or `rephoto compare` outputs); several "
+                 "give one comparison report")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--out", args->out, "The HTML file to write")->required();
+  app.add_option("--labels", args->labels,
+                 "Comma-separated labels of the runs (default: the directory names)")
+      ->delimiter(',');
+  app.add_option("--title", args->title, "Title of the report");
+  app.add_option("--metric", args->metric,
+                 "Primary metric: ranks the runs and picks the worst/best images")
+      ->capture_default_str();
+  app.add_option("--examples", args->examples,
+                 "Worst and best images shown (each; default 3 for one run, 1 per run for "
+                 "several)")
+      ->check(CLI::Range(0, 100));
+  app.add_option("--thumbnail-width", args->thumbnail_width,
+                 "Maximum width of the embedded images in pixels (default 480 / 320)")
+      ->check(CLI::Range(16, 4096));
+  app.add_flag("--keep-order", args->keep_order,
+               "Several runs: keep the given order instead of ranking by the primary metric");
+
+  return [args] {
+    if (!args->labels.empty() && args->labels.size() != args->runs.size()) {
+      ThrowError("--labels: {} labels for {} run directories", args->labels.size(),
+                 args->runs.size());
+    }
+    if (args->runs.size() == 1) {
+      report::ReportOptions options;
+      options.title = args->title;
+      options.primary_metric = args->metric;
+      if (args->examples >= 0) options.example_images = args->examples;
+      if (args->thumbnail_width > 0) options.thumbnail_width = args->thumbnail_width;
+      if (options.title.empty() && !args->labels.empty()) options.title = args->labels[0];
+      report::WriteRunReport(args->runs[0], args->out, options);
+    } else {
+      std::vector<report::CollectionEntry> entries;
+      for (size_t i = 0; i < args->runs.size(); ++i) {
+        report::CollectionEntry entry;
+        entry.run_dir = args->runs[i];
+        if (!args->labels.empty()) entry.label = args->labels[i];
+        entries.push_back(std::move(entry));
+      }
+      report::CollectionOptions options;
+      options.title = args->title;
+      options.primary_metric = args->metric;
+      options.rank = !args->keep_order;
+      if (args->examples >= 0) options.example_images = args->examples;
+      if (args->thumbnail_width > 0) options.thumbnail_width = args->thumbnail_width;
+      report::WriteCollectionReport(entries, args->out, options);
+    }
+    fmt::print("Report written to {}\n", args->out);
+    return static_cast<int>(ExitCode::kOk);
+  };
+}
+
+REPHOTO_COMMAND(90, "report",
+                "Write a self-contained HTML report (tables, boxplots, worst/best images) of one "
+                "run directory, or a comparison of several",
+                SetupReport);
+
+}  // namespace
+}  // namespace rephoto::cli

@@ -1,0 +1,264 @@
+#include "rephoto/report/boxplot.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+
+#include "rephoto/core/colormap.h"
+#include "rephoto/report/html.h"
+
+namespace rephoto::report {
+namespace {
+
+constexpr const char* kSeriesColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                                          "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+
+std::string Colour(int series) {
+  return kSeriesColours[static_cast<size_t>(series) % std::size(kSeriesColours)];
+}
+
+// A "nice" tick step (1, 2 or 5 times a power of ten) giving about `count` ticks over `range`.
+double NiceStep(double range, int count) {
+  const double raw = range / count;
+  const double power = std::pow(10.0, std::floor(std::log10(raw)));
+  const double fraction = raw / power;
+  const double nice = fraction <= 1 ? 1 : fraction <= 2 ? 2 : fraction <= 5 ? 5 : 10;
+  return nice * power;
+}
+
+std::string Coordinate(double v) { return fmt::format("{:.1f}", v); }
+
+std::string Truncate(const std::string& text, size_t length) {
+  if (text.size() <= length) return text;
+  return text.substr(0, length - 1) + "\u2026";
+}
+
+}  // namespace
+
+std::string BoxPlotSvg(const BoxPlot& plot) {
+  // Summaries and the finite y range.
+  std::vector<Summary> stats;
+  double low = std::numeric_limits<double>::infinity();
+  double high = -low;
+  for (const BoxPlotBox& box : plot.boxes) {
+    stats.push_back(Summarize(box.values));
+    for (double v : box.values) {
+      if (std::isfinite(v)) {
+        low = std::min(low, v);
+        high = std::max(high, v);
+      }
+    }
+  }
+  if (!std::isfinite(low)) {
+    low = 0;
+    high = 1;
+  }
+  if (high - low < 1e-12) {
+    const double pad = std::max(std::abs(low) * 0.05, 1e-3);
+    low -= pad;
+    high += pad;
+  }
+  const double step = NiceStep(high - low, 5);
+  const double axis_low = std::floor(low / step) * step;
+  const double axis_high = std::ceil(high / step) * step;
+
+  const int categories = std::max<int>(1, static_cast<int>(plot.categories.size()));
+  const int series = std::max<int>(1, static_cast<int>(plot.series.size()));
+  const double box_width = series > 1 ? 16 : 26;
+  const double slot = std::max(56.0, series * (box_width + 6) + 22);
+  bool rotate = false;
+  for (const std::string& c : plot.categories) rotate = rotate || c.size() * 6.5 > slot - 4;
+  const double left = 62, right = 16, top = 30;
+  const double bottom = (rotate ? 86 : 40) + (plot.x_label.empty() ? 0 : 16);
+  const double legend_height = plot.series.size() > 1 ? 18.0 * ((plot.series.size() + 3) / 4) : 0;
+  const double plot_height = 200;
+  const double width = std::max(300.0, left + right + categories * slot);
+  const double height = top + legend_height + plot_height + bottom;
+  const double y0 = top + legend_height;  // top of the plotting area
+  auto Y = [&](double v) {
+    if (v == std::numeric_limits<double>::infinity()) return y0;
+    if (v == -std::numeric_limits<double>::infinity()) return y0 + plot_height;
+    return y0 + plot_height * (axis_high - v) / (axis_high - axis_low);
+  };
+  auto X = [&](int category, int s) {
+    const double centre = left + (category + 0.5) * slot;
+    return centre + (s - (series - 1) / 2.0) * (box_width + 6);
+  };
+
+  std::string svg = fmt::format(
+      "<svg class=\"boxplot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
+      "height=\"{1}\" viewBox=\"0 0 {0} {1}\" role=\"img\" aria-label=\"{2}\">\n",
+      Coordinate(width), Coordinate(height), HtmlEscape(plot.title));
+  svg += fmt::format("<text class=\"title\" x=\"{}\" y=\"18\" text-anchor=\"middle\">{}</text>\n",
+                     Coordinate(width / 2), HtmlEscape(plot.title));
+  // Legend.
+  if (plot.series.size() > 1) {
+    for (size_t s = 0; s < plot.series.size(); ++s) {
+      const double lx = left + (s % 4) * ((width - left) / 4);
+      const double ly = top + 4 + 18.0 * (s / 4);
+      svg += fmt::format(
+          "<rect x=\"{}\" y=\"{}\" width=\"12\" height=\"10\" fill=\"{}\" fill-opacity=\"0.35\" "
+          "stroke=\"{}\"/><text class=\"legend\" x=\"{}\" y=\"{}\">{}</text>\n",
+          Coordinate(lx), Coordinate(ly), Colour(static_cast<int>(s)), Colour(static_cast<int>(s)),
+          Coordinate(lx + 16), Coordinate(ly + 9), HtmlEscape(Truncate(plot.series[s], 28)));
+    }
+  }
+  // Axes, grid and ticks.
+  for (double t = axis_low; t <= axis_high + step * 1e-6; t += step) {
+    const double y = Y(t);
+    const double shown = std::abs(t) < step * 1e-9 ? 0.0 : t;
+    svg += fmt::format(
+        "<line class=\"grid\" x1=\"{0}\" x2=\"{1}\" y1=\"{2}\" y2=\"{2}\"/>"
+        "<text class=\"tick\" x=\"{3}\" y=\"{4}\" text-anchor=\"end\">{5}</text>\n",
+        Coordinate(left), Coordinate(width - right), Coordinate(y), Coordinate(left - 5),
+        Coordinate(y + 4), fmt::format("{:.6g}", shown));
+  }
+  svg += fmt::format(
+      "<line class=\"axis\" x1=\"{0}\" x2=\"{0}\" y1=\"{1}\" y2=\"{2}\"/>"
+      "<line class=\"axis\" x1=\"{0}\" x2=\"{3}\" y1=\"{2}\" y2=\"{2}\"/>\n",
+      Coordinate(left), Coordinate(y0), Coordinate(y0 + plot_height), Coordinate(width - right));
+  svg += fmt::format(
+      "<text class=\"label\" transform=\"translate(14,{}) rotate(-90)\" "
+      "text-anchor=\"middle\">{}</text>\n",
+      Coordinate(y0 + plot_height / 2), HtmlEscape(plot.y_label));
+  for (size_t c = 0; c < plot.categories.size(); ++c) {
+    const double x = left + (c + 0.5) * slot;
+    const double y = y0 + plot_height + 14;
+    if (rotate) {
+      svg += fmt::format(
+          "<text class=\"category\" transform=\"translate({},{}) rotate(-35)\" "
+          "text-anchor=\"end\">{}<title>{}</title></text>\n",
+          Coordinate(x + 4), Coordinate(y), HtmlEscape(Truncate(plot.categories[c], 18)),
+          HtmlEscape(plot.categories[c]));
+    } else {
+      svg += fmt::format(
+          "<text class=\"category\" x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n",
+          Coordinate(x), Coordinate(y), HtmlEscape(plot.categories[c]));
+    }
+  }
+  if (!plot.x_label.empty()) {
+    svg += fmt::format("<text class=\"label\" x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n",
+                       Coordinate(left + (width - left - right) / 2), Coordinate(height - 6),
+                       HtmlEscape(plot.x_label));
+  }
+  // Median lines per series (sweeps).
+  if (plot.connect_medians) {
+    for (int s = 0; s < series; ++s) {
+      std::vector<std::pair<int, double>> points;
+      for (size_t b = 0; b < plot.boxes.size(); ++b) {
+        if (plot.boxes[b].series == s && stats[b].count > 0 && std::isfinite(stats[b].median)) {
+          points.push_back({plot.boxes[b].category, stats[b].median});
+        }
+      }
+      std::sort(points.begin(), points.end());
+      if (points.size() < 2) continue;
+      std::string path;
+      for (const auto& [category, median] : points) {
+        path += fmt::format("{}{},{}", path.empty() ? "M" : " L", Coordinate(X(category, s)),
+                            Coordinate(Y(median)));
+      }
+      svg += fmt::format(
+          "<path class=\"median-line\" d=\"{}\" fill=\"none\" stroke=\"{}\" "
+          "stroke-dasharray=\"4 3\"/>\n",
+          path, Colour(s));
+    }
+  }
+  // Boxes.
+  for (size_t b = 0; b < plot.boxes.size(); ++b) {
+    const BoxPlotBox& box = plot.boxes[b];
+    const Summary& s = stats[b];
+    if (s.count == 0) continue;
+    const std::string colour = Colour(box.series);
+    const double x = X(box.category, box.series);
+    const double half = box_width / 2;
+    const std::string category = box.category < static_cast<int>(plot.categories.size())
+                                     ? plot.categories[box.category]
+                                     : "";
+    const std::string series_name =
+        box.series < static_cast<int>(plot.series.size()) ? plot.series[box.series] : "";
+    svg += fmt::format(
+        "<g class=\"box\" data-category=\"{}\" data-series=\"{}\" data-count=\"{}\" "
+        "data-mean=\"{}\" data-min=\"{}\" data-q1=\"{}\" data-median=\"{}\" data-q3=\"{}\" "
+        "data-max=\"{}\">",
+        HtmlEscape(category), HtmlEscape(series_name), s.count, DataNumber(s.mean),
+        DataNumber(s.min), DataNumber(s.q1), DataNumber(s.median), DataNumber(s.q3),
+        DataNumber(s.max));
+    svg +=
+        fmt::format("<title>{}{}{}: n={} min={} Q1={} median={} Q3={} max={} mean={}</title>",
+                    HtmlEscape(category), series_name.empty() ? "" : " / ", HtmlEscape(series_name),
+                    s.count, DisplayNumber(s.min), DisplayNumber(s.q1), DisplayNumber(s.median),
+                    DisplayNumber(s.q3), DisplayNumber(s.max), DisplayNumber(s.mean));
+    // Whiskers with caps.
+    svg += fmt::format(
+        "<line x1=\"{0}\" x2=\"{0}\" y1=\"{1}\" y2=\"{2}\" stroke=\"{5}\"/>"
+        "<line x1=\"{0}\" x2=\"{0}\" y1=\"{3}\" y2=\"{4}\" stroke=\"{5}\"/>",
+        Coordinate(x), Coordinate(Y(s.max)), Coordinate(Y(s.q3)), Coordinate(Y(s.q1)),
+        Coordinate(Y(s.min)), colour);
+    for (double v : {s.min, s.max}) {
+      svg +=
+          fmt::format("<line x1=\"{0}\" x2=\"{1}\" y1=\"{2}\" y2=\"{2}\" stroke=\"{3}\"/>",
+                      Coordinate(x - half / 2), Coordinate(x + half / 2), Coordinate(Y(v)), colour);
+    }
+    svg += fmt::format(
+        "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\" fill-opacity=\"0.3\" "
+        "stroke=\"{}\"/>",
+        Coordinate(x - half), Coordinate(Y(s.q3)), Coordinate(box_width),
+        Coordinate(std::max(0.5, Y(s.q1) - Y(s.q3))), colour, colour);
+    svg += fmt::format(
+        "<line class=\"median\" x1=\"{0}\" x2=\"{1}\" y1=\"{2}\" y2=\"{2}\" stroke=\"#000\" "
+        "stroke-width=\"2\"/>",
+        Coordinate(x - half), Coordinate(x + half), Coordinate(Y(s.median)));
+    if (std::isfinite(s.mean)) {
+      const double my = Y(s.mean);
+      svg += fmt::format(
+          "<path d=\"M{0},{1} L{2},{3} L{0},{4} L{5},{3} Z\" fill=\"#fff\" stroke=\"#000\"/>",
+          Coordinate(x), Coordinate(my - 3), Coordinate(x + 3), Coordinate(my), Coordinate(my + 3),
+          Coordinate(x - 3));
+    }
+    // Dots for small sets, in a deterministic spread beside the box.
+    if (box.values.size() <= 40) {
+      int i = 0;
+      for (double v : box.values) {
+        if (std::isnan(v)) continue;
+        const double dx = half + 3 + (i++ % 3) * 2.5;
+        svg += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"1.8\" fill=\"{}\"/>",
+                           Coordinate(x + dx), Coordinate(Y(v)), colour);
+      }
+    }
+    svg += "</g>\n";
+  }
+  svg += "</svg>\n";
+  return svg;
+}
+
+std::string JetColourBarSvg(double low, double high, const std::string& label, int width) {
+  std::string stops;
+  constexpr int kStops = 16;
+  for (int i = 0; i <= kStops; ++i) {
+    const float t = static_cast<float>(i) / kStops;
+    const auto rgb = JetColor(t);
+    stops += fmt::format("<stop offset=\"{:.4f}\" stop-color=\"rgb({},{},{})\"/>", t,
+                         std::lround(rgb[0] * 255), std::lround(rgb[1] * 255),
+                         std::lround(rgb[2] * 255));
+  }
+  // The gradient id depends only on the content: bars with the same range share one gradient.
+  std::string id = "jet-" + DataNumber(low) + "-" + DataNumber(high);
+  for (char& c : id) {
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  }
+  const int height = 34;
+  return fmt::format(
+      "<svg class=\"colourbar\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
+      "height=\"{1}\" viewBox=\"0 0 {0} {1}\" role=\"img\" aria-label=\"{2} colour bar\">"
+      "<defs><linearGradient id=\"{3}\">{4}</linearGradient></defs>"
+      "<rect x=\"0\" y=\"0\" width=\"{0}\" height=\"14\" fill=\"url(#{3})\"/>"
+      "<text x=\"0\" y=\"28\">{5}</text><text x=\"{6}\" y=\"28\" text-anchor=\"middle\">{2}</text>"
+      "<text x=\"{0}\" y=\"28\" text-anchor=\"end\">{7}</text></svg>",
+      width, height, HtmlEscape(label), id, stops, DisplayNumber(low), width / 2,
+      (high >= low ? "\u2265 " : "\u2264 ") + DisplayNumber(high));
+}
+
+}  // namespace rephoto::report

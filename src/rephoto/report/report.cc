@@ -1,0 +1,299 @@
+#include "rephoto/report/report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/core/stats.h"
+#include "rephoto/metrics/metrics.h"
+#include "rephoto/report/boxplot.h"
+#include "rephoto/report/html.h"
+#include "rephoto/report/report_page.h"
+#include "rephoto/report/run_data.h"
+
+namespace rephoto::report {
+namespace fs = std::filesystem;
+using namespace internal;
+
+namespace {
+
+bool HigherIsBetter(const std::string& metric) {
+  const auto m = metrics::ParseMetric(metric);
+  return m && metrics::HigherIsBetter(*m);
+}
+
+std::string DirName(const fs::path& dir) {
+  fs::path p = dir;
+  if (p.filename().empty()) p = p.parent_path();
+  return p.filename().string();
+}
+
+// The primary metric's index, falling back to the first metric (with a warning).
+int PrimaryIndex(const RunData& run, const std::string& primary) {
+  const int index = run.MetricIndex(primary);
+  if (index >= 0 || run.metrics.empty()) return index;
+  LogWarning(fmt::format("{}: no \"{}\" column; ranking images by {}", run.dir.string(), primary,
+                         run.metrics[0]));
+  return 0;
+}
+
+std::string PlotsHtml(const std::vector<BoxPlot>& plots) {
+  std::string html = "<div class=\"plots\">\n";
+  for (const BoxPlot& plot : plots) html += BoxPlotSvg(plot);
+  return html + "</div>\n";
+}
+
+}  // namespace
+
+void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
+                    const ReportOptions& options) {
+  const RunData run = LoadRun(run_dir);
+  const std::string title =
+      options.title.empty() ? "rephoto report: " + DirName(run_dir) : options.title;
+  std::string html = PageStart(title);
+  html += fmt::format("<header><h1>{}</h1>\n", HtmlEscape(title));
+  html += SettingsHtml(run, /*collapsed=*/true);
+  html += "</header>\n";
+  html += ProblemsHtml(run);
+
+  html += "<section id=\"summary\"><h2>Summary</h2>\n" + SummaryHtml(run) + "</section>\n";
+
+  std::vector<BoxPlot> plots;
+  const std::string unit = run.Unit();
+  for (int m = -1; m < static_cast<int>(run.metrics.size()); ++m) {
+    const std::string name = m < 0 ? "completeness" : run.metrics[m];
+    BoxPlot plot;
+    plot.title = fmt::format("{} {} {}", name, run.AcrossFolds() ? "across" : "over", unit);
+    plot.y_label = name + (m >= 0 && HigherIsBetter(name) ? " (higher = better)" : "");
+    plot.categories = {DirName(run_dir)};
+    plot.series = {name};
+    plot.boxes.push_back({0, 0, run.Values(m)});
+    plots.push_back(std::move(plot));
+  }
+  html += fmt::format(
+      "<section id=\"plots\"><h2>Boxplots {} {}</h2><p class=\"muted\">Box Q1\u2013Q3, black line "
+      "median, diamond mean, whiskers min and max, dots the single values.</p>\n",
+      run.AcrossFolds() ? "across" : "over", unit);
+  html += PlotsHtml(plots) + "</section>\n";
+
+  const int primary = PrimaryIndex(run, options.primary_metric);
+  if (primary >= 0 && options.example_images > 0) {
+    html += fmt::format("<section id=\"examples\"><h2>Worst and best images by {}</h2>\n",
+                        HtmlEscape(run.metrics[primary]));
+    html += ExamplesHtml(run, primary, options.example_images, options.thumbnail_width);
+    html += "</section>\n";
+  }
+  html += fmt::format(
+      "<section id=\"images\"><h2>Per image ({})</h2><p class=\"muted\">Click a column header "
+      "to sort (again: descending).</p>\n",
+      run.images.size());
+  html += PerImageTableHtml(run, "per-image") + "</section>\n";
+  html += PageEnd();
+  WriteTextFileAtomically(out_html, html);
+}
+
+void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs::path& out_html,
+                           const CollectionOptions& options) {
+  REPHOTO_CHECK(!entries.empty(), "{}: no runs given for the report", out_html.string());
+  const bool sweep = entries[0].setting.has_value();
+  for (const CollectionEntry& e : entries) {
+    REPHOTO_CHECK(e.setting.has_value() == sweep,
+                  "{}: entry \"{}\" ({}) {} a setting while entry \"{}\" {}; give every entry a "
+                  "setting (a sweep) or none",
+                  out_html.string(), e.label, e.run_dir.string(), sweep ? "lacks" : "has",
+                  entries[0].label, sweep ? "has one" : "has none");
+  }
+  struct Loaded {
+    CollectionEntry entry;
+    RunData run;
+    int primary = -1;
+    double primary_median = NAN;
+    double completeness_median = NAN;
+    size_t count = 0;
+  };
+  std::vector<Loaded> runs;
+  std::vector<std::string> metric_names;  // union, first-seen order
+  for (const CollectionEntry& e : entries) {
+    Loaded l{e, LoadRun(e.run_dir)};
+    if (l.entry.label.empty()) l.entry.label = DirName(e.run_dir);
+    l.primary = l.run.MetricIndex(options.primary_metric);
+    const std::vector<double> primary_values =
+        l.primary >= 0 ? l.run.Values(l.primary) : std::vector<double>{};
+    const Summary s = Summarize(primary_values);
+    l.primary_median = s.median;
+    l.count = s.count;
+    l.completeness_median = Summarize(l.run.Values(-1)).median;
+    for (const std::string& m : l.run.metrics) {
+      if (std::find(metric_names.begin(), metric_names.end(), m) == metric_names.end()) {
+        metric_names.push_back(m);
+      }
+    }
+    runs.push_back(std::move(l));
+  }
+  REPHOTO_CHECK(
+      std::any_of(runs.begin(), runs.end(), [](const Loaded& l) { return l.primary >= 0; }),
+      "{}: no run has the primary metric \"{}\"", out_html.string(), options.primary_metric);
+  const bool higher_better = HigherIsBetter(options.primary_metric);
+  if (options.rank) {
+    std::stable_sort(runs.begin(), runs.end(), [&](const Loaded& a, const Loaded& b) {
+      const bool a_nan = std::isnan(a.primary_median), b_nan = std::isnan(b.primary_median);
+      if (a_nan || b_nan) return !a_nan && b_nan;
+      return higher_better ? a.primary_median > b.primary_median
+                           : a.primary_median < b.primary_median;
+    });
+  }
+
+  const std::string title = options.title.empty()
+                                ? fmt::format("rephoto comparison of {} runs", runs.size())
+                                : options.title;
+  std::string html = PageStart(title);
+  html += fmt::format(
+      "<header><h1>{}</h1><p class=\"meta\"><span>{} runs</span><span>primary "
+      "metric {}{}</span>{}</p></header>\n",
+      HtmlEscape(title), runs.size(), HtmlEscape(options.primary_metric),
+      higher_better ? " (higher is better)" : " (lower is better)",
+      sweep
+          ? fmt::format("<span>sweep over {}</span>",
+                        HtmlEscape(options.setting_name.empty() ? "setting" : options.setting_name))
+          : "");
+
+  // Ranking table.
+  bool any_series = false;
+  for (const Loaded& l : runs) any_series = any_series || !l.entry.series.empty();
+  const std::string setting_name = options.setting_name.empty() ? "setting" : options.setting_name;
+  html += fmt::format(
+      "<section id=\"ranking\"><h2>{}</h2><p class=\"muted\">Medians {}; completeness next to "
+      "the primary metric. Click a column header to sort.</p>\n<div class=\"scroll\"><table "
+      "class=\"sortable ranking\" id=\"ranking-table\"><thead><tr><th data-col=\"rank\">#</th>"
+      "<th class=\"text\" data-col=\"label\">run</th>",
+      options.rank ? "Ranking" : "Runs",
+      "across folds (evaluate runs with several folds) or over images");
+  if (any_series) html += "<th class=\"text\" data-col=\"series\">series</th>";
+  if (sweep) {
+    html += fmt::format("<th data-col=\"setting\">{}</th>", HtmlEscape(setting_name));
+  }
+  html += fmt::format(
+      "<th data-col=\"count\">n</th><th data-col=\"{0}\">{0} median</th>"
+      "<th data-col=\"completeness\">completeness median</th>",
+      HtmlEscape(options.primary_metric));
+  for (const std::string& m : metric_names) {
+    if (m == options.primary_metric) continue;
+    html += fmt::format("<th data-col=\"{0}\">{0}</th>", HtmlEscape(m));
+  }
+  html +=
+      "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>"
+      "<th class=\"text\" data-col=\"description\">description</th></tr></thead><tbody>\n";
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const Loaded& l = runs[i];
+    html += fmt::format(
+        "<tr data-label=\"{}\"><td data-v=\"{}\">{}</td><td class=\"text\"><a "
+        "href=\"#entry-{}\">{}</a></td>",
+        HtmlEscape(l.entry.label), i + 1, i + 1, i, HtmlEscape(l.entry.label));
+    if (any_series) html += fmt::format("<td class=\"text\">{}</td>", HtmlEscape(l.entry.series));
+    if (sweep) {
+      html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(*l.entry.setting),
+                          fmt::format("{:g}", *l.entry.setting));
+    }
+    html += fmt::format("<td data-v=\"{0}\">{0} {1}</td>", l.count, l.run.Unit());
+    html += fmt::format(
+        "<td data-v=\"{}\"{}>{}</td><td data-v=\"{}\">{}</td>", DataNumber(l.primary_median),
+        i == 0 && options.rank ? " class=\"best\"" : "", DisplayNumber(l.primary_median),
+        DataNumber(l.completeness_median), DisplayNumber(l.completeness_median));
+    for (const std::string& m : metric_names) {
+      if (m == options.primary_metric) continue;
+      const int index = l.run.MetricIndex(m);
+      const double median = index >= 0 ? Summarize(l.run.Values(index)).median : NAN;
+      html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(median), DisplayNumber(median));
+    }
+    html += fmt::format(
+        "<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>"
+        "<td class=\"text\">{2}</td></tr>\n",
+        l.run.failed_folds.size(), l.run.missing.size(), HtmlEscape(l.entry.description));
+  }
+  html += "</tbody></table></div></section>\n";
+
+  // Boxplots: per entry, or per setting and series.
+  std::vector<std::string> categories, series;
+  std::vector<std::pair<int, int>> position(runs.size());  // (category, series)
+  if (sweep) {
+    std::vector<double> settings;
+    for (const Loaded& l : runs) settings.push_back(*l.entry.setting);
+    std::sort(settings.begin(), settings.end());
+    settings.erase(std::unique(settings.begin(), settings.end()), settings.end());
+    for (double s : settings) categories.push_back(fmt::format("{:g}", s));
+    for (const CollectionEntry& e : entries) {  // series in the caller's order
+      if (std::find(series.begin(), series.end(), e.series) == series.end()) {
+        series.push_back(e.series);
+      }
+    }
+    for (size_t i = 0; i < runs.size(); ++i) {
+      position[i] = {
+          static_cast<int>(
+              std::lower_bound(settings.begin(), settings.end(), *runs[i].entry.setting) -
+              settings.begin()),
+          static_cast<int>(std::find(series.begin(), series.end(), runs[i].entry.series) -
+                           series.begin())};
+    }
+  } else {
+    for (size_t i = 0; i < runs.size(); ++i) {
+      categories.push_back(runs[i].entry.label);
+      position[i] = {static_cast<int>(i), 0};
+    }
+    series = {""};
+  }
+  std::vector<BoxPlot> plots;
+  std::vector<std::string> plotted = {options.primary_metric, "completeness"};
+  for (const std::string& m : metric_names) {
+    if (m != options.primary_metric) plotted.push_back(m);
+  }
+  for (const std::string& name : plotted) {
+    BoxPlot plot;
+    plot.title = name;
+    plot.y_label = name + (HigherIsBetter(name) ? " (higher = better)" : "");
+    plot.x_label = sweep ? setting_name : "";
+    plot.categories = categories;
+    plot.series = series;
+    plot.connect_medians = sweep;
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const int index = name == "completeness" ? -1 : runs[i].run.MetricIndex(name);
+      if (name != "completeness" && index < 0) continue;
+      plot.boxes.push_back({position[i].first, position[i].second, runs[i].run.Values(index)});
+    }
+    plots.push_back(std::move(plot));
+  }
+  html +=
+      "<section id=\"plots\"><h2>Boxplots</h2><p class=\"muted\">Each box: the run's values "
+      "across folds (evaluate runs with several folds) or over images. Box Q1\u2013Q3, "
+      "black line median, diamond mean, whiskers min and max.</p>\n" +
+      PlotsHtml(plots) + "</section>\n";
+
+  // Per entry: problems, examples, per-image table and settings.
+  html += "<section id=\"entries\"><h2>Runs</h2>\n";
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const Loaded& l = runs[i];
+    html += fmt::format(
+        "<div class=\"entry\" id=\"entry-{}\"><h3>{}{}</h3>", i, HtmlEscape(l.entry.label),
+        l.entry.description.empty()
+            ? ""
+            : " <span class=\"muted\">\u2014 " + HtmlEscape(l.entry.description) + "</span>");
+    html += SettingsHtml(l.run, /*collapsed=*/true);
+    html += ProblemsHtml(l.run);
+    if (l.primary >= 0 && options.example_images > 0) {
+      html += ExamplesHtml(l.run, l.primary, options.example_images, options.thumbnail_width);
+    }
+    html += fmt::format("<details><summary>Summary and per-image table ({} images)</summary>\n",
+                        l.run.images.size());
+    html += SummaryHtml(l.run);
+    html += PerImageTableHtml(l.run, fmt::format("per-image-{}", i));
+    html += "</details></div>\n";
+  }
+  html += "</section>\n" + PageEnd();
+  WriteTextFileAtomically(out_html, html);
+}
+
+}  // namespace rephoto::report

@@ -1,0 +1,93 @@
+// report.html: one self-contained HTML file per run or per collection of runs.
+//
+// The file has inline CSS and JavaScript, images as base64 data URIs and plots as inline SVG;
+// it loads nothing from the network and opens offline in any browser. All text taken from the
+// run's files (names, paths, messages, settings) is HTML-escaped.
+//
+// Run report (WriteRunReport), for one run directory of `rephoto evaluate` or `rephoto compare`
+// (layouts: run_data.h):
+//   - header: title, run directory, layout, tool version and the run's settings (run.json
+//     "settings"/"config", summary.json "parameters" and top-level facts, flattened to a
+//     key/value table);
+//   - failed folds with their messages, missing or failed images;
+//   - summary table: for completeness and each metric the mean, min, Q1, median, Q3, max and
+//     count across folds (evaluate runs with several folds; from per_fold.csv) and over images
+//     (from per_image.csv, images with status ok), statistics as core/stats.h Summarize; every
+//     metric row carries the mean completeness of the same folds/images next to it;
+//   - boxplots (SVG, boxplot.h): one per metric and one for completeness, across folds or over
+//     images as above;
+//   - the `example_images` worst and best images by the primary metric (psnr and ssim: higher
+//     is better): photo, rephoto, mask (the rephoto's alpha) and jet error image side by side,
+//     thumbnails at most `thumbnail_width` wide, with the colour bar and the range of the
+//     error images (compare::ErrorColourRange);
+//   - the per-image table, sortable by clicking any column header (click again: descending;
+//     empty values stay last); rows of missing or failed images show their status.
+// Collection report (WriteCollectionReport), for several runs:
+//   - a ranking table, one row per entry: label, description, series/setting (sweeps), count
+//     of folds/images, the median of the primary metric with the median completeness next to
+//     it, the median of each other metric, failed folds and missing images; sorted by the
+//     median primary metric, best first (entries without a value last) when `rank`;
+//   - boxplots per metric and completeness: one box per entry, or for sweeps (entries with a
+//     `setting`) one box per setting along x and per series, medians connected, like the
+//     paper's Fig. 7; values are across folds for evaluate runs with several folds, else over
+//     images;
+//   - per entry, the `example_images` worst and best images (as above) and, collapsed, its
+//     per-image table and settings.
+// Sorting hook for tests and links: a URL fragment "#sort=<column>" (or "#sort=-<column>" for
+// descending) clicks that column's header of the first table that has it after loading;
+// <column> is the header's data-col (e.g. "name", "completeness", "1-ncc"). When the script
+// has run, <body> gets data-ready="1"; an uncaught script error is recorded in
+// <body data-js-error="...">.
+//
+// Failure behaviour: a run directory that cannot be read (no per_image.csv, malformed CSV or
+// JSON, evaluate run without per_fold.csv) throws rephoto::Error naming the file; unreadable
+// photos, renderings or error images only replace that thumbnail by the reason. The HTML is
+// written atomically (core/file.h); parent folders are created.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rephoto::report {
+
+struct ReportOptions {
+  std::string title;                     // "" = "rephoto report: <run directory name>"
+  std::string primary_metric = "1-ncc";  // ranks the example images; absent: the first metric
+  int example_images = 3;                // that many worst and that many best images (0 = none)
+  int thumbnail_width = 480;             // pixels; thumbnails are never enlarged
+};
+
+// One run directory (evaluate or compare layout) -> one self-contained HTML file.
+void WriteRunReport(const std::filesystem::path& run_dir, const std::filesystem::path& out_html,
+                    const ReportOptions& options = {});
+
+struct CollectionEntry {
+  std::string label;        // shown in tables and on the plots' x axis ("" = directory name)
+  std::string description;  // one line, shown in the ranking table
+  std::filesystem::path run_dir;
+  std::string series;             // sweeps: one line/group per series, empty = none
+  std::optional<double> setting;  // sweeps: x value; all entries or none must have one
+};
+
+struct CollectionOptions {
+  std::string title;                     // "" = "rephoto comparison of N runs"
+  std::string primary_metric = "1-ncc";  // must be a metric of at least one entry
+  std::string setting_name;              // x-axis label for sweeps ("" = "setting")
+  // Sort the ranking table by the median primary metric (across folds, or over images for
+  // single-fold/compare runs), best first; false keeps the entries' order.
+  bool rank = true;
+  int example_images = 1;
+  int thumbnail_width = 320;
+};
+
+// Several runs (the demo's reconstructions; a sweep's settings) -> one HTML: ranking table,
+// boxplots per entry (or vs setting per series), and the best/worst images of each entry.
+// Throws Error for no entries, an unreadable run directory (naming it), entries of which only
+// some have a setting, or a primary metric that no entry has.
+void WriteCollectionReport(const std::vector<CollectionEntry>& entries,
+                           const std::filesystem::path& out_html,
+                           const CollectionOptions& options = {});
+
+}  // namespace rephoto::report

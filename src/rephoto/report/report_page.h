@@ -1,0 +1,27 @@
+// Internal building blocks of report.cc (HTML fragments of one run), shared by the run and
+// the collection report. Not part of the public API.
+#pragma once
+
+#include <string>
+
+#include "rephoto/report/run_data.h"
+
+namespace rephoto::report::internal {
+
+// The page skeleton: <!DOCTYPE html> ... <body>, with the inline CSS and the error hook.
+std::string PageStart(const std::string& title);
+// The inline script (sortable tables, #sort= hook, data-ready) and </body></html>.
+std::string PageEnd();
+
+// Key facts and the flattened settings table (collapsed when `collapsed`).
+std::string SettingsHtml(const RunData& run, bool collapsed);
+// Failed folds with messages and missing/failed images ("" when there are none).
+std::string ProblemsHtml(const RunData& run);
+// The summary table(s): across folds (when RunData::AcrossFolds) and over images.
+std::string SummaryHtml(const RunData& run);
+// The per-image table (class "sortable", id `table_id`).
+std::string PerImageTableHtml(const RunData& run, const std::string& table_id);
+// The `count` worst and best images by metric `metric` (index into run.metrics).
+std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnail_width);
+
+}  // namespace rephoto::report::internal

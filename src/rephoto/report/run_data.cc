@@ -1,0 +1,270 @@
+#include "rephoto/report/run_data.h"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/io/csv.h"
+#include "rephoto/metrics/metrics.h"
+
+namespace rephoto::report {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A parsed CSV with named columns and the file name for messages.
+class Table {
+ public:
+  Table(const fs::path& path) : name_(path.string()) {
+    rows_ = io::ParseCsv(ReadFileToString(path), name_);
+    REPHOTO_CHECK(!rows_.empty(), "{}: empty file (no header line)", name_);
+    for (size_t i = 0; i < rows_[0].size(); ++i) columns_[rows_[0][i]] = static_cast<int>(i);
+  }
+  const std::vector<std::string>& header() const { return rows_[0]; }
+  size_t size() const { return rows_.size() - 1; }
+  bool Has(const std::string& column) const { return columns_.count(column) > 0; }
+  int Column(const std::string& column) const {
+    auto it = columns_.find(column);
+    REPHOTO_CHECK(it != columns_.end(), "{}: no column \"{}\"", name_, column);
+    return it->second;
+  }
+  // Field of data row `row` (0-based, without the header); "" when the row is short.
+  const std::string& Field(size_t row, int column) const {
+    static const std::string kEmpty;
+    const std::vector<std::string>& r = rows_[row + 1];
+    return column < static_cast<int>(r.size()) ? r[column] : kEmpty;
+  }
+  // A number; "" = NaN; "inf"/"-inf" accepted. Throws naming line and column otherwise.
+  double Number(size_t row, int column) const {
+    const std::string& text = Field(row, column);
+    if (text.empty()) return kNaN;
+    if (text == "inf" || text == "+inf") return std::numeric_limits<double>::infinity();
+    if (text == "-inf") return -std::numeric_limits<double>::infinity();
+    double value = 0;
+    const char* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+    REPHOTO_CHECK(ec == std::errc() && ptr == end,
+                  "{}: line {}: column \"{}\": \"{}\" is not a number", name_, row + 2,
+                  header()[column], text);
+    return value;
+  }
+  int Integer(size_t row, int column) const {
+    const double value = Number(row, column);
+    if (std::isnan(value)) return 0;
+    REPHOTO_CHECK(value == std::floor(value) && std::abs(value) < 2e9,
+                  "{}: line {}: column \"{}\": \"{}\" is not an integer", name_, row + 2,
+                  header()[column], Field(row, column));
+    return static_cast<int>(value);
+  }
+
+ private:
+  std::string name_;
+  std::vector<std::vector<std::string>> rows_;
+  std::map<std::string, int> columns_;
+};
+
+nlohmann::ordered_json ReadJson(const fs::path& path) {
+  const std::string text = ReadFileToString(path);
+  try {
+    return nlohmann::ordered_json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    ThrowError("{}: not valid JSON: {}", path.string(), e.what());
+  }
+}
+
+std::string JsonText(const nlohmann::ordered_json& j) {
+  return j.is_string() ? j.get<std::string>() : j.dump();
+}
+
+}  // namespace
+
+int RunData::MetricIndex(const std::string& metric) const {
+  for (size_t i = 0; i < metrics.size(); ++i) {
+    if (metrics[i] == metric) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::vector<double> RunData::ImageValues(int metric) const {
+  std::vector<double> values;
+  for (const ImageRow& image : images) {
+    if (image.status != "ok") continue;
+    values.push_back(metric < 0 ? image.completeness : image.metrics[metric]);
+  }
+  return values;
+}
+
+std::vector<double> RunData::FoldValues(int metric) const {
+  std::vector<double> values;
+  for (const FoldRow& fold : folds) {
+    if (fold.status != "ok") continue;
+    values.push_back(metric < 0 ? fold.completeness : fold.metrics[metric]);
+  }
+  return values;
+}
+
+std::vector<double> RunData::Values(int metric) const {
+  return AcrossFolds() ? FoldValues(metric) : ImageValues(metric);
+}
+
+fs::path RunData::ImageDir(const ImageRow& image) const {
+  if (layout == RunLayout::kCompare || image.fold.empty()) return dir;
+  int number = 0;
+  const char* end = image.fold.data() + image.fold.size();
+  const auto [ptr, ec] = std::from_chars(image.fold.data(), end, number);
+  if (ec == std::errc() && ptr == end) return dir / "folds" / fmt::format("fold_{:02d}", number);
+  return dir / "folds" / image.fold;
+}
+
+namespace {
+
+fs::path Resolve(const std::string& written, const std::vector<fs::path>& bases) {
+  if (written.empty()) return {};
+  const fs::path path(written);
+  std::error_code ec;
+  if (path.is_absolute()) return fs::exists(path, ec) ? path : fs::path();
+  for (const fs::path& base : bases) {
+    if (fs::exists(base / path, ec)) return base / path;
+  }
+  if (fs::exists(path, ec)) return path;
+  return {};
+}
+
+}  // namespace
+
+fs::path RunData::RenderPath(const ImageRow& image) const {
+  return Resolve(image.render, {ImageDir(image), dir});
+}
+
+fs::path RunData::PhotoPath(const ImageRow& image) const {
+  return Resolve(image.photo, {ImageDir(image), dir});
+}
+
+RunData LoadRun(const fs::path& dir) {
+  RunData run;
+  run.dir = dir;
+  std::error_code ec;
+  REPHOTO_CHECK(fs::is_directory(dir, ec), "{}: not a directory", dir.string());
+  const fs::path per_image_path = dir / "per_image.csv";
+  REPHOTO_CHECK(fs::exists(per_image_path, ec),
+                "{}: not a run directory (no per_image.csv; expected the output of `rephoto "
+                "evaluate` or `rephoto compare`)",
+                dir.string());
+  if (fs::exists(dir / "summary.json", ec)) run.summary = ReadJson(dir / "summary.json");
+  if (fs::exists(dir / "run.json", ec)) run.run = ReadJson(dir / "run.json");
+
+  const Table per_image(per_image_path);
+  const bool has_fold = !per_image.header().empty() && per_image.header()[0] == "fold";
+  const std::string schema = run.summary.is_object() && run.summary.contains("schema")
+                                 ? JsonText(run.summary["schema"])
+                                 : "";
+  run.layout = has_fold || schema.rfind("rephoto.evaluate", 0) == 0 ? RunLayout::kEvaluate
+                                                                    : RunLayout::kCompare;
+
+  std::vector<int> metric_columns;
+  for (size_t i = 0; i < per_image.header().size(); ++i) {
+    const std::string& column = per_image.header()[i];
+    if (metrics::ParseMetric(column)) {
+      run.metrics.push_back(column);
+      metric_columns.push_back(static_cast<int>(i));
+    }
+  }
+  const int name = per_image.Column("name");
+  const int status = per_image.Column("status");
+  const int completeness = per_image.Column("completeness");
+  const int fold = has_fold ? 0 : -1;
+  const int photo = per_image.Has("photo") ? per_image.Column("photo") : -1;
+  const int render = per_image.Has("render") ? per_image.Column("render") : -1;
+  const int width = per_image.Has("width") ? per_image.Column("width") : -1;
+  const int height = per_image.Has("height") ? per_image.Column("height") : -1;
+  for (size_t r = 0; r < per_image.size(); ++r) {
+    ImageRow row;
+    if (fold >= 0) row.fold = per_image.Field(r, fold);
+    row.name = per_image.Field(r, name);
+    row.status = per_image.Field(r, status);
+    REPHOTO_CHECK(!row.name.empty(), "{}: line {}: empty name", per_image_path.string(), r + 2);
+    if (photo >= 0) row.photo = per_image.Field(r, photo);
+    if (render >= 0) row.render = per_image.Field(r, render);
+    if (width >= 0) row.width = per_image.Integer(r, width);
+    if (height >= 0) row.height = per_image.Integer(r, height);
+    row.completeness = per_image.Number(r, completeness);
+    for (int column : metric_columns) row.metrics.push_back(per_image.Number(r, column));
+    if (row.status != "ok") {
+      run.missing.push_back(
+          fmt::format("{}{}: {}", row.fold.empty() ? "" : row.fold + "/", row.name, row.status));
+    }
+    run.images.push_back(std::move(row));
+  }
+
+  if (run.layout == RunLayout::kEvaluate) {
+    const fs::path per_fold_path = dir / "per_fold.csv";
+    REPHOTO_CHECK(fs::exists(per_fold_path, ec),
+                  "{}: evaluate run without per_fold.csv (incomplete run directory)", dir.string());
+    const Table per_fold(per_fold_path);
+    const int f_fold = per_fold.Column("fold");
+    const int f_status = per_fold.Column("status");
+    const int f_completeness = per_fold.Column("completeness");
+    const int f_test = per_fold.Has("test_images") ? per_fold.Column("test_images") : -1;
+    const int f_evaluated =
+        per_fold.Has("evaluated_images") ? per_fold.Column("evaluated_images") : -1;
+    const int f_seconds = per_fold.Has("seconds") ? per_fold.Column("seconds") : -1;
+    std::vector<int> f_metrics;
+    for (const std::string& metric : run.metrics) {
+      f_metrics.push_back(per_fold.Has(metric) ? per_fold.Column(metric) : -1);
+    }
+    for (size_t r = 0; r < per_fold.size(); ++r) {
+      FoldRow row;
+      row.fold = per_fold.Field(r, f_fold);
+      row.status = per_fold.Field(r, f_status);
+      if (f_test >= 0) row.test_images = per_fold.Integer(r, f_test);
+      if (f_evaluated >= 0) row.evaluated_images = per_fold.Integer(r, f_evaluated);
+      if (f_seconds >= 0) row.seconds = per_fold.Number(r, f_seconds);
+      row.completeness = per_fold.Number(r, f_completeness);
+      for (int column : f_metrics) {
+        row.metrics.push_back(column >= 0 ? per_fold.Number(r, column) : kNaN);
+      }
+      run.folds.push_back(std::move(row));
+    }
+  }
+
+  // Failed folds: summary.json's list (with messages), else the per_fold.csv status.
+  if (run.summary.is_object() && run.summary.contains("failed_folds") &&
+      run.summary["failed_folds"].is_array()) {
+    for (const auto& f : run.summary["failed_folds"]) {
+      FailedFold failed;
+      if (f.is_object()) {
+        if (f.contains("fold")) failed.fold = JsonText(f["fold"]);
+        if (f.contains("message")) failed.message = JsonText(f["message"]);
+      } else {
+        failed.fold = JsonText(f);
+      }
+      run.failed_folds.push_back(std::move(failed));
+    }
+  } else {
+    for (const FoldRow& f : run.folds) {
+      if (f.status != "ok") run.failed_folds.push_back({f.fold, f.status});
+    }
+  }
+  // Missing entries of summary.json not already listed by a per_image.csv row.
+  if (run.summary.is_object() && run.summary.contains("missing") &&
+      run.summary["missing"].is_array() && run.missing.empty()) {
+    for (const auto& m : run.summary["missing"]) {
+      if (m.is_object() && m.contains("name")) {
+        run.missing.push_back(
+            fmt::format("{}: missing {}", JsonText(m["name"]),
+                        m.contains("missing") ? JsonText(m["missing"]) : std::string("?")));
+      } else {
+        run.missing.push_back(JsonText(m));
+      }
+    }
+  }
+  return run;
+}
+
+}  // namespace rephoto::report

@@ -1,0 +1,183 @@
+#include "rephoto/report/thumbnails.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "rephoto/compare/compare.h"
+#include "rephoto/compare/resample.h"
+#include "rephoto/core/error.h"
+#include "rephoto/io/image_encode.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/report/html.h"
+
+namespace rephoto::report {
+namespace fs = std::filesystem;
+namespace {
+
+// Thumbnail size for a width x height image.
+void ThumbnailSize(int width, int height, int max_width, int* out_width, int* out_height) {
+  if (max_width <= 0 || width <= max_width) {
+    *out_width = width;
+    *out_height = height;
+    return;
+  }
+  *out_width = max_width;
+  *out_height =
+      std::max(1, static_cast<int>(std::lround(static_cast<double>(height) * max_width / width)));
+}
+
+Image Shrink(const Image& image, int max_width) {
+  int w = 0, h = 0;
+  ThumbnailSize(image.width(), image.height(), max_width, &w, &h);
+  if (w == image.width() && h == image.height()) return image;
+  Image out;
+  compare::ResizeImage(image, w, h, &out);
+  return out;
+}
+
+uint8_t ToByte(float v) {
+  const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;  // NaN -> 0
+  return static_cast<uint8_t>(clamped * 255.f + 0.5f);
+}
+
+// RGB bytes of an image with 1-4 channels; alpha (2 or 4 channels) composites over black.
+std::vector<uint8_t> RgbBytes(const Image& image) {
+  std::vector<uint8_t> rgb(image.pixel_count() * 3);
+  const int c = image.channels();
+  const bool alpha = c == 2 || c == 4;
+  for (size_t i = 0; i < image.pixel_count(); ++i) {
+    const float* p = image.data() + i * c;
+    const float a = alpha ? std::clamp(p[c - 1], 0.f, 1.f) : 1.f;
+    for (int k = 0; k < 3; ++k) rgb[i * 3 + k] = ToByte(p[c >= 3 ? k : 0] * a);
+  }
+  return rgb;
+}
+
+Thumbnail Jpeg(const Image& image, const std::string& name) {
+  Thumbnail t;
+  t.width = image.width();
+  t.height = image.height();
+  t.data_uri = DataUri("image/jpeg",
+                       io::EncodeJpegToMemory(RgbBytes(image), t.width, t.height, 3, 85, name));
+  return t;
+}
+
+// Colour-mapped RGBA -> JPEG (4:4:4, quality 80; about a third of the size of an RGBA PNG of noisy
+// error images), transparent pixels shown as a grey checkerboard of 8-pixel squares (jet has no
+// greys, so "not evaluated" stays recognisable).
+Thumbnail ErrorJpeg(const std::vector<uint8_t>& rgba, int width, int height,
+                    const std::string& name) {
+  std::vector<uint8_t> rgb(static_cast<size_t>(width) * height * 3);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const size_t i = static_cast<size_t>(y) * width + x;
+      const float a = rgba[4 * i + 3] / 255.f;
+      const float checker = ((x / 8 + y / 8) % 2) ? 200.f : 150.f;
+      for (int k = 0; k < 3; ++k) {
+        rgb[3 * i + k] =
+            static_cast<uint8_t>(std::lround(rgba[4 * i + k] * a + checker * (1.f - a)));
+      }
+    }
+  }
+  Thumbnail t;
+  t.width = width;
+  t.height = height;
+  t.data_uri = DataUri("image/jpeg", io::EncodeJpegToMemory(rgb, width, height, 3, 80, name,
+                                                            /*full_chroma=*/true));
+  return t;
+}
+
+Thumbnail Failed(const std::string& message) {
+  Thumbnail t;
+  t.error = message;
+  return t;
+}
+
+}  // namespace
+
+Thumbnail PhotoThumbnail(const fs::path& photo, int width) {
+  if (photo.empty()) return Failed("no photo");
+  try {
+    return Jpeg(Shrink(io::ReadImage(photo), width), photo.string());
+  } catch (const Error& e) {
+    return Failed(e.what());
+  }
+}
+
+void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask) {
+  if (render.empty()) {
+    *rephoto = *mask = Failed("no rendering");
+    return;
+  }
+  try {
+    const Image image = io::ReadImage(render);
+    // Coverage before shrinking: alpha, else not pure black.
+    const int c = image.channels();
+    Image coverage(image.width(), image.height(), 1);
+    for (size_t i = 0; i < image.pixel_count(); ++i) {
+      const float* p = image.data() + i * c;
+      if (c == 2 || c == 4) {
+        coverage.data()[i] = p[c - 1] > 0.f ? 1.f : 0.f;
+      } else {
+        bool black = true;
+        for (int k = 0; k < c; ++k) black = black && p[k] == 0.f;
+        coverage.data()[i] = black ? 0.f : 1.f;
+      }
+    }
+    *rephoto = Jpeg(Shrink(image, width), render.string());
+    const Image small = Shrink(coverage, width);
+    std::vector<uint8_t> grey(small.pixel_count());
+    for (size_t i = 0; i < grey.size(); ++i) grey[i] = ToByte(small.data()[i]);
+    mask->width = small.width();
+    mask->height = small.height();
+    mask->error.clear();
+    mask->data_uri = DataUri("image/png", io::EncodePngToMemory(grey, small.width(), small.height(),
+                                                                1, render.string()));
+  } catch (const Error& e) {
+    *rephoto = *mask = Failed(e.what());
+  }
+}
+
+Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metric metric,
+                         int width) {
+  std::error_code ec;
+  try {
+    if (!exr.empty() && fs::exists(exr, ec)) {
+      const Image error = io::ReadImage(exr);
+      REPHOTO_CHECK(error.channels() == 1, "{}: error image has {} channels, expected 1",
+                    exr.string(), error.channels());
+      // NaN-aware shrinking: (value * weight, weight) with weight 1 where evaluated.
+      Image weighted(error.width(), error.height(), 2);
+      for (size_t i = 0; i < error.pixel_count(); ++i) {
+        const float v = error.data()[i];
+        const bool ok = std::isfinite(v);
+        weighted.data()[2 * i] = ok ? v : 0.f;
+        weighted.data()[2 * i + 1] = ok ? 1.f : 0.f;
+      }
+      const Image small = Shrink(weighted, width);
+      Image values(small.width(), small.height(), 1);
+      for (size_t i = 0; i < values.pixel_count(); ++i) {
+        const float w = small.data()[2 * i + 1];
+        values.data()[i] = w >= 0.5f ? small.data()[2 * i] / w : std::nanf("");
+      }
+      const auto [low, high] = compare::ErrorColourRange(metric);
+      std::vector<uint8_t> rgba;
+      compare::ColourErrorImage(values, low, high, &rgba);
+      return ErrorJpeg(rgba, values.width(), values.height(), exr.string());
+    }
+    if (!png.empty() && fs::exists(png, ec)) {
+      const Image small = Shrink(io::ReadImage(png), width);
+      REPHOTO_CHECK(small.channels() == 4, "{}: error PNG has {} channels, expected RGBA",
+                    png.string(), small.channels());
+      std::vector<uint8_t> rgba(small.size());
+      for (size_t i = 0; i < rgba.size(); ++i) rgba[i] = ToByte(small.data()[i]);
+      return ErrorJpeg(rgba, small.width(), small.height(), png.string());
+    }
+    return Failed("no error image (" + png.filename().string() + ")");
+  } catch (const Error& e) {
+    return Failed(e.what());
+  }
+}
+
+}  // namespace rephoto::report
