@@ -111,6 +111,7 @@ step() {
 }
 
 step list "$python" "$here/known_poses.py" list "$sparse" "$images" "$work/images.txt"
+sed 's/^/  /' "$out/logs/list.log" >&2
 n_images=$(wc -l <"$work/images.txt")
 
 step features colmap feature_extractor \

@@ -5,7 +5,8 @@ Subcommands (each exits with a one-line "known_poses.py: error: ..." message on 
 
   list SPARSE IMAGE_DIR OUT_LIST
       Writes the image names of SPARSE/images.txt, one per line, for
-      `colmap feature_extractor --image_list_path`. Fails if a named photo is missing.
+      `colmap feature_extractor --image_list_path`. Names without a photo in IMAGE_DIR are
+      skipped (and reported); fails if fewer than 2 photos remain.
 
   prepare SPARSE DATABASE OUT_MODEL [--pairs FILE --neighbors K --max-angle DEG]
       Makes a COLMAP database written by `feature_extractor` agree with the known model, as
@@ -15,17 +16,21 @@ Subcommands (each exits with a one-line "known_poses.py: error: ..." message on 
       - if a photo's pixel size differs from its model camera's size by a uniform factor (a
         down-scaled copy of the photos), its keypoints are rescaled to the camera's pixels;
       - OUT_MODEL/{cameras,images,points3D}.txt is the model with the DATABASE's image ids
-        (matched by name), no 2D points and no 3D points.
+        (matched by name), no 2D points and no 3D points; model images absent from the database
+        (no photo) are left out.
       With --pairs it also writes an image-pair list for `colmap matches_importer` chosen from the
       known poses: each image is paired with its K nearest cameras (by centre distance) whose
       viewing directions differ by at most DEG degrees.
 
   export MODEL OUT_PLY [--neighbors K] [--min-track N] [--max-error PX]
+                       [--outlier-std S] [--outlier-neighbors M]
       Reads a triangulated COLMAP text model and writes its 3D points as a binary PLY with
       x, y, z (float, model frame and units), nx, ny, nz (unit normals from a PCA of the K nearest
       points, each oriented towards the cameras that observed the point) and red, green, blue
       (uchar, the colours COLMAP averaged from the photos). Points seen in fewer than N images or
-      with a mean reprojection error above PX pixels are dropped.
+      with a mean reprojection error above PX pixels are dropped, and so are statistical
+      outliers: points whose mean distance to their M (default 20) nearest points exceeds the
+      mean over all points by S (default 2; 0 = keep all) standard deviations.
 
 Only the Python standard library plus numpy and scipy (Debian python3-numpy, python3-scipy).
 """
@@ -169,15 +174,20 @@ def read_model(sparse):
 
 def cmd_list(args):
     _, images = read_model(args.sparse)
-    missing = [im["name"] for im in images
-               if not os.path.isfile(os.path.join(args.image_dir, im["name"]))]
-    if missing:
-        fail(f"{args.image_dir}: {len(missing)} photo(s) named in {args.sparse}/images.txt are "
-             f"missing, e.g. '{missing[0]}'")
+    present = [im["name"] for im in images
+               if os.path.isfile(os.path.join(args.image_dir, im["name"]))]
+    missing = len(images) - len(present)
+    if len(present) < 2:
+        fail(f"{args.image_dir}: only {len(present)} of the {len(images)} photos named in "
+             f"{args.sparse}/images.txt exist: at least 2 are needed")
     with open(args.out_list, "w", encoding="utf-8") as f:
-        for im in images:
-            f.write(im["name"] + "\n")
-    print(f"{len(images)} images")
+        for name in present:
+            f.write(name + "\n")
+    message = f"{len(present)} images"
+    if missing:
+        first = next(im["name"] for im in images if im["name"] not in set(present))
+        message += f" ({missing} named in images.txt have no photo and are skipped, e.g. '{first}')"
+    print(message)
 
 
 def choose_pairs(images, neighbors, max_angle_deg):
@@ -209,9 +219,10 @@ def cmd_prepare(args):
             "FROM images JOIN cameras ON images.camera_id = cameras.camera_id").fetchall()
         by_name = {name: (image_id, w, h) for image_id, name, w, h in rows}
         missing = [im["name"] for im in images if im["name"] not in by_name]
-        if missing:
-            fail(f"{args.database}: {len(missing)} model image(s) have no features "
-                 f"(feature extraction failed?), e.g. '{missing[0]}'")
+        images = [im for im in images if im["name"] in by_name]
+        if len(images) < 2:
+            fail(f"{args.database}: only {len(images)} model image(s) have features: at least 2 "
+                 f"are needed")
         extra = set(by_name) - {im["name"] for im in images}
         if extra:
             fail(f"{args.database}: holds images that are not in the model, e.g. "
@@ -277,6 +288,8 @@ def cmd_prepare(args):
         f.write("# POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] (empty)\n")
 
     message = f"{len(images)} images, {len(used)} camera(s)"
+    if missing:
+        message += f" ({len(missing)} without a photo or features skipped, e.g. '{missing[0]}')"
     if rescaled:
         message += f", keypoints of {rescaled} image(s) rescaled to the camera size"
     if args.pairs:
@@ -356,8 +369,21 @@ def cmd_export(args):
     if keep.sum() < 3:
         fail(f"{args.model}/points3D.txt: only {int(keep.sum())} point(s) with track length >= "
              f"{args.min_track}: too few to export (did matching fail?)")
+    n_total = len(keep)
     xyz, rgb = xyz[keep], rgb[keep]
     tracks = [t for t, k in zip(tracks, keep) if k]
+    if args.outlier_std > 0 and len(xyz) > args.outlier_neighbors:
+        # Statistical outlier removal (as PCL/Open3D): a point whose mean distance to its K
+        # nearest neighbours exceeds the mean of that over all points by S standard deviations
+        # is dropped. Isolated wrong triangulations would otherwise float in front of the
+        # cameras and inflate the bounding box (and so coarsen the Poisson octree).
+        from scipy.spatial import cKDTree
+
+        distance, _ = cKDTree(xyz).query(xyz, k=args.outlier_neighbors + 1)
+        mean_distance = distance[:, 1:].mean(axis=1)
+        inlier = mean_distance <= mean_distance.mean() + args.outlier_std * mean_distance.std()
+        xyz, rgb = xyz[inlier], rgb[inlier]
+        tracks = [t for t, k in zip(tracks, inlier) if k]
     normals = pca_normals(xyz, args.neighbors)
     # Orient each normal towards the mean viewing direction of the cameras that saw the point.
     view = np.zeros_like(xyz)
@@ -370,8 +396,10 @@ def cmd_export(args):
     flip = np.einsum("ni,ni->n", normals, view) < 0
     normals[flip] *= -1
     write_ply(args.out_ply, xyz, normals, rgb)
-    print(f"{len(xyz)} points (of {len(keep)}; min track {args.min_track}"
-          + (f", max error {args.max_error} px" if args.max_error > 0 else "") + ")")
+    print(f"{len(xyz)} points (of {n_total}; min track {args.min_track}"
+          + (f", max error {args.max_error} px" if args.max_error > 0 else "")
+          + (f", outliers beyond {args.outlier_std} std of the mean distance to "
+             f"{args.outlier_neighbors} neighbours dropped" if args.outlier_std > 0 else "") + ")")
 
 
 def main():
@@ -396,6 +424,8 @@ def main():
     p.add_argument("--neighbors", type=int, default=12)
     p.add_argument("--min-track", type=int, default=2)
     p.add_argument("--max-error", type=float, default=0.0)
+    p.add_argument("--outlier-std", type=float, default=2.0)
+    p.add_argument("--outlier-neighbors", type=int, default=20)
     p.set_defaults(run=cmd_export)
     args = parser.parse_args()
     try:
