@@ -143,13 +143,22 @@ double Seconds(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Stems an error image of `name` may have (file stem first, then the relative path).
-std::vector<std::string> StemCandidates(const std::string& name) {
+// The output stem of every view, as `rephoto evaluate` names its files: the file name without
+// extension when these are unique in the scene, else the relative path without extension for
+// every view.
+std::vector<std::string> ViewStems(const scene::Scene& scene) {
   std::vector<std::string> stems;
-  const fs::path path(name);
-  stems.push_back(path.stem().generic_string());
-  const std::string relative = fs::path(path).replace_extension("").generic_string();
-  if (relative != stems.front()) stems.push_back(relative);
+  std::set<std::string> seen;
+  bool unique = true;
+  for (const scene::View& view : scene.views) {
+    stems.push_back(fs::path(view.name).stem().generic_string());
+    unique &= seen.insert(stems.back()).second;
+  }
+  if (!unique) {
+    for (size_t v = 0; v < scene.views.size(); ++v) {
+      stems[v] = fs::path(scene.views[v].name).replace_extension("").generic_string();
+    }
+  }
   return stems;
 }
 
@@ -412,26 +421,19 @@ std::vector<ProjectView> FindErrorImages(const scene::Scene& scene,
                 "{}: invalid metric name '{}'", run_dir.string(), metric);
   const std::vector<ErrorsFolder> folders = ErrorsFolders(run_dir, /*required=*/true);
   const std::string suffix = fmt::format(".{}.exr", metric);
-  std::vector<std::vector<std::string>> candidates(scene.views.size());
-  std::set<std::string> known;  // every stem a scene view may have
-  for (size_t v = 0; v < scene.views.size(); ++v) {
-    candidates[v] = StemCandidates(scene.views[v].name);
-    known.insert(candidates[v].begin(), candidates[v].end());
-  }
+  const std::vector<std::string> stems = ViewStems(scene);
+  const std::set<std::string> known(stems.begin(), stems.end());
   std::vector<ProjectView> views;
   std::vector<uint8_t> found(scene.views.size(), 0);
   size_t unmatched = 0;
   std::error_code ec;
   for (const ErrorsFolder& folder : folders) {
     for (size_t v = 0; v < scene.views.size(); ++v) {
-      for (const std::string& stem : candidates[v]) {
-        const fs::path path = folder.folder / (stem + suffix);
-        if (!fs::is_regular_file(path, ec)) continue;
-        const scene::View& view = scene.views[v];
-        views.push_back({scene.CameraOf(view), view.cam_from_world, path, folder.prefix + stem});
-        found[v] = 1;
-        break;
-      }
+      const fs::path path = folder.folder / (stems[v] + suffix);
+      if (!fs::is_regular_file(path, ec)) continue;
+      const scene::View& view = scene.views[v];
+      views.push_back({scene.CameraOf(view), view.cam_from_world, path, folder.prefix + stems[v]});
+      found[v] = 1;
     }
     const std::string metric_ext = fmt::format(".{}", metric);
     for (const std::string& stem : ExrStems(folder.folder)) {

@@ -144,9 +144,11 @@ void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
 // directory:
 //   `rephoto evaluate`: RUN/folds/<fold>/errors/<stem>.<metric>.exr, folds in name order;
 //   `rephoto compare`:  RUN/errors/<stem>.<metric>.exr.
-// <stem> is the view name's file name without extension ("images/IMG_1.JPG" -> "IMG_1"), or
-// else the name's relative path without extension ("images/IMG_1"). Returns one ProjectView per
-// error image found, folds outer and scene views inner (scene order); a view evaluated in
+// <stem> is the view name's file name without extension ("images/IMG_1.JPG" -> "IMG_1") when
+// these are unique within the scene, else (two views share a file name in different folders)
+// the relative path without extension for every view ("images/IMG_1"), as `rephoto evaluate`
+// names its outputs. Returns one ProjectView per error image found, folds outer and scene views
+// inner (scene order); a view evaluated in
 // several folds appears once per fold (each fold's evaluation counts as one view), named
 // "<fold>/<stem>" (evaluate) or "<stem>" (compare). `views_without_errors` (optional) receives
 // the number of scene views without any error image; `unmatched_images` (optional) the number

@@ -362,11 +362,14 @@ TEST(WriteProjectedPly, ReadsBackWithErrorAndViewsProperties) {
   EXPECT_THROW(WriteProjectedPly(other, result, dir / "bad.ply"), Error);
 }
 
-// A scene whose views are named like real formats: a subfolder, extensions, one without error.
-scene::Scene MakeNamedScene() {
+// A scene whose views are named like real formats: a subfolder, extensions; `clash` adds a
+// view whose file name repeats another's in a different folder.
+scene::Scene MakeNamedScene(bool clash = false) {
   scene::Scene scene;
   scene.cameras[1] = Pinhole();
-  for (const char* name : {"images/a.jpg", "b.png", "c.png", "sub/d.png"}) {
+  std::vector<std::string> names = {"images/a.jpg", "b.png", "c.png", "sub/d.png"};
+  if (clash) names.push_back("other/a.jpg");
+  for (const std::string& name : names) {
     scene::View view;
     view.name = name;
     view.camera_id = 1;
@@ -379,7 +382,7 @@ scene::Scene MakeNamedScene() {
 TEST(FindErrorImages, CompareRunDirectory) {
   const fs::path run = testing::MakeTempDir();
   for (const char* file : {"a.1-ncc.exr", "a.1-ncc.png", "b.1-ncc.exr", "b.dssim.exr",
-                           "zzz.1-ncc.exr", "sub/d.1-ncc.exr"}) {
+                           "zzz.1-ncc.exr", "d.1-ncc.exr", "sub/d.1-ncc.exr"}) {
     WriteConstant(run / "errors" / file, 0.5f);
   }
   const scene::Scene scene = MakeNamedScene();
@@ -392,15 +395,35 @@ TEST(FindErrorImages, CompareRunDirectory) {
   EXPECT_EQ(views[0].camera, Pinhole());
   EXPECT_EQ(views[1].name, "b");
   EXPECT_EQ(views[1].cam_from_world, scene.views[1].cam_from_world);
-  EXPECT_EQ(views[2].name, "sub/d");  // found by its relative path
+  EXPECT_EQ(views[2].name, "d");  // file stems are unique: "sub/d.png" -> "d"
+  EXPECT_EQ(views[2].error_image, run / "errors" / "d.1-ncc.exr");
   EXPECT_EQ(views[2].cam_from_world, scene.views[3].cam_from_world);
   EXPECT_EQ(without, 1u);    // c
-  EXPECT_EQ(unmatched, 1u);  // zzz
+  EXPECT_EQ(unmatched, 2u);  // zzz, sub/d
   EXPECT_EQ(FindErrorImages(scene, run, "dssim", &without).size(), 1u);
   EXPECT_EQ(without, 3u);
   EXPECT_TRUE(FindErrorImages(scene, run, "census", &without).empty());
   EXPECT_EQ(without, 4u);
   EXPECT_THAT(ListErrorMetrics(run), ::testing::ElementsAre("1-ncc", "dssim"));
+}
+
+TEST(FindErrorImages, ClashingFileNamesUseRelativePaths) {
+  const fs::path run = testing::MakeTempDir();
+  for (const char* file :
+       {"a.1-ncc.exr", "images/a.1-ncc.exr", "other/a.1-ncc.exr", "b.1-ncc.exr"}) {
+    WriteConstant(run / "errors" / file, 0.5f);
+  }
+  const scene::Scene scene = MakeNamedScene(/*clash=*/true);
+  size_t without = 99, unmatched = 99;
+  const std::vector<ProjectView> views = FindErrorImages(scene, run, "1-ncc", &without, &unmatched);
+  ASSERT_EQ(views.size(), 3u);
+  EXPECT_EQ(views[0].name, "images/a");
+  EXPECT_EQ(views[0].cam_from_world, scene.views[0].cam_from_world);
+  EXPECT_EQ(views[1].name, "b");
+  EXPECT_EQ(views[2].name, "other/a");
+  EXPECT_EQ(views[2].cam_from_world, scene.views[4].cam_from_world);
+  EXPECT_EQ(without, 2u);    // c, sub/d
+  EXPECT_EQ(unmatched, 1u);  // the bare "a" belongs to neither a view
 }
 
 TEST(FindErrorImages, EvaluateRunDirectory) {
@@ -418,7 +441,7 @@ TEST(FindErrorImages, EvaluateRunDirectory) {
   EXPECT_EQ(views[1].name, "fold_01/a");
   EXPECT_EQ(views[2].name, "fold_01/b");
   EXPECT_EQ(views[2].error_image, run / "folds" / "fold_01" / "errors" / "b.1-ncc.exr");
-  EXPECT_EQ(without, 2u);  // c, sub/d
+  EXPECT_EQ(without, 2u);  // c, d
   EXPECT_THAT(ListErrorMetrics(run), ::testing::ElementsAre("1-ncc", "dssim"));
 }
 
