@@ -10,7 +10,7 @@ packages=(
   libembree-dev libtbb-dev libeigen3-dev
   libturbojpeg0-dev libspng-dev libtinyexr-dev zlib1g-dev
   libmeshoptimizer-dev libtinyobjloader-dev
-  libcli11-dev nlohmann-json3-dev libfmt-dev
+  libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev libxxhash-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-skimage python3-numpy python3-scipy
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri

@@ -104,7 +104,24 @@ void ColourErrorImage(const Image& error, float low, float high, std::vector<uin
   });
 }
 
+// Buffers reused from pair to pair by the comparison itself.
+struct CompareWorkspace::Buffers {
+  Image photo_rgb;
+  Image render_rgb;
+  Image render_resized;
+  Mask photo_alpha;
+  Mask render_alpha;
+  Mask render_valid_resized;
+  std::vector<metrics::MetricResult> results;
+  tbb::enumerable_thread_specific<std::vector<uint8_t>> rgba;
+};
+
+CompareWorkspace::CompareWorkspace() : buffers(std::make_unique<Buffers>()) {}
+CompareWorkspace::~CompareWorkspace() = default;
+
 namespace {
+
+using Workspace = CompareWorkspace::Buffers;
 
 // A pair with everything known before its pixels are read.
 struct PlannedPair {
@@ -122,18 +139,6 @@ struct PairImages {
   Image render;
   Mask render_mask;
   Mask photo_mask;
-};
-
-// Buffers reused from pair to pair by the comparison itself.
-struct Workspace {
-  Image photo_rgb;
-  Image render_rgb;
-  Image render_resized;
-  Mask photo_alpha;
-  Mask render_alpha;
-  Mask render_valid_resized;
-  std::vector<metrics::MetricResult> results;
-  tbb::enumerable_thread_specific<std::vector<uint8_t>> rgba;
 };
 
 // One thread that runs jobs in order; lives for the whole run so that the decoders' per-thread
@@ -275,25 +280,44 @@ const Image& SplitColour(const Image& image, Image* rgb, Mask* alpha_valid, bool
   return *rgb;
 }
 
-ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
-                        const PairImages& images, const fs::path& error_folder, Workspace* ws) {
+}  // namespace
+
+ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::string& name,
+                                  const fs::path& photo_path, const fs::path& render_path,
+                                  const Image& photo, const Image& render, const Mask* photo_mask,
+                                  const Mask* render_mask, const fs::path& error_folder,
+                                  CompareWorkspace* workspace) {
+  Workspace* ws = workspace->buffers.get();
+  if (!options.resize) {
+    REPHOTO_CHECK(photo.SameSize(render),
+                  "{}: rendering is {}x{} but its photo {} is {}x{} (--resize rescales "
+                  "renderings to the photo size)",
+                  render_path.string(), render.width(), render.height(), photo_path.string(),
+                  photo.width(), photo.height());
+  }
+  REPHOTO_CHECK(!photo_mask || photo_mask->SameSize(photo), "{}: photo mask is {}x{}, photo {}x{}",
+                photo_path.string(), photo_mask ? photo_mask->width() : 0,
+                photo_mask ? photo_mask->height() : 0, photo.width(), photo.height());
+  REPHOTO_CHECK(!render_mask || render_mask->SameSize(render),
+                "{}: rendering mask is {}x{}, rendering {}x{}", render_path.string(),
+                render_mask ? render_mask->width() : 0, render_mask ? render_mask->height() : 0,
+                render.width(), render.height());
   ImageResult result;
-  result.name = pair.files.name;
-  result.photo = pair.files.photo;
-  result.render = pair.files.render;
-  const int width = images.photo.width(), height = images.photo.height();
+  result.name = name;
+  result.photo = photo_path;
+  result.render = render_path;
+  const int width = photo.width(), height = photo.height();
   result.width = width;
   result.height = height;
 
   // Photo validity: user mask AND photo alpha, then exposure.
   bool photo_has_alpha = false;
-  const Image& photo_rgb =
-      SplitColour(images.photo, &ws->photo_rgb, &ws->photo_alpha, &photo_has_alpha);
+  const Image& photo_rgb = SplitColour(photo, &ws->photo_rgb, &ws->photo_alpha, &photo_has_alpha);
   Mask user_mask;
-  if (!pair.photo_mask.empty() && photo_has_alpha) {
-    user_mask = metrics::CombineMasks(images.photo_mask, ws->photo_alpha);
-  } else if (!pair.photo_mask.empty()) {
-    user_mask = images.photo_mask;
+  if (photo_mask && photo_has_alpha) {
+    user_mask = metrics::CombineMasks(*photo_mask, ws->photo_alpha);
+  } else if (photo_mask) {
+    user_mask = *photo_mask;
   } else if (photo_has_alpha) {
     user_mask = ws->photo_alpha;
   }
@@ -302,10 +326,9 @@ ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
   // Rendering validity (alpha / black / explicit mask) at the rendering's own size.
   bool render_has_alpha = false;
   const Image* render_rgb =
-      &SplitColour(images.render, &ws->render_rgb, &ws->render_alpha, &render_has_alpha);
-  Mask render_valid = metrics::RephotoValidity(
-      images.render, pair.render_mask.empty() ? Mask() : images.render_mask);
-  if (!images.render.SameSize(images.photo)) {
+      &SplitColour(render, &ws->render_rgb, &ws->render_alpha, &render_has_alpha);
+  Mask render_valid = metrics::RephotoValidity(render, render_mask ? *render_mask : Mask());
+  if (!render.SameSize(photo)) {
     ResizeImage(*render_rgb, width, height, &ws->render_resized);
     ResizeMask(render_valid, width, height, &ws->render_valid_resized);
     render_rgb = &ws->render_resized;
@@ -329,8 +352,7 @@ ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
     ParallelFor(0, files, 1, [&](int64_t b, int64_t e) {
       for (int64_t task = b; task < e; ++task) {
         const metrics::MetricResult& metric = ws->results[static_cast<size_t>(task / 2)];
-        const std::string stem =
-            fmt::format("{}.{}", pair.files.name, metrics::MetricName(metric.metric));
+        const std::string stem = fmt::format("{}.{}", name, metrics::MetricName(metric.metric));
         if (task % 2 == 0) {
           io::WriteExr(error_folder / (stem + ".exr"), metric.error);
         } else {
@@ -345,14 +367,26 @@ ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
   return result;
 }
 
+namespace {
+
+ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
+                        const PairImages& images, const fs::path& error_folder,
+                        CompareWorkspace* workspace) {
+  return ComparePhotoAndRender(
+      options, pair.files.name, pair.files.photo, pair.files.render, images.photo, images.render,
+      pair.photo_mask.empty() ? nullptr : &images.photo_mask,
+      pair.render_mask.empty() ? nullptr : &images.render_mask, error_folder, workspace);
+}
+
 // ------------------------------------------------------------------------------- outputs
 
 std::string MissingStatus(Missing missing) {
   return missing == Missing::kRender ? "missing_render" : "missing_photo";
 }
 
-std::string PerImageCsv(const CompareOptions& options, const CompareResult& result) {
-  io::CsvWriter csv;
+}  // namespace
+
+std::vector<std::string> PerImageCsvHeader(const std::vector<Metric>& metric_list) {
   std::vector<std::string> header = {"name",
                                      "status",
                                      "photo",
@@ -363,10 +397,36 @@ std::string PerImageCsv(const CompareOptions& options, const CompareResult& resu
                                      "completeness",
                                      "valid_photo_windows",
                                      "valid_both_windows"};
-  for (Metric metric : options.metrics) {
+  for (Metric metric : metric_list) {
     header.emplace_back(metrics::MetricName(metric));
     header.push_back(std::string(metrics::MetricName(metric)) + "_evaluated");
   }
+  return header;
+}
+
+std::vector<std::string> PerImageCsvRow(const ImageResult& image) {
+  std::vector<std::string> row = {image.name,
+                                  "ok",
+                                  image.photo.string(),
+                                  image.render.string(),
+                                  std::to_string(image.width),
+                                  std::to_string(image.height),
+                                  image.resized ? "1" : "0",
+                                  io::CsvNumber(image.completeness.value),
+                                  std::to_string(image.completeness.valid_photo),
+                                  std::to_string(image.completeness.valid_both)};
+  for (const MetricValue& value : image.metrics) {
+    row.push_back(io::CsvNumber(value.mean));
+    row.push_back(std::to_string(value.evaluated));
+  }
+  return row;
+}
+
+namespace {
+
+std::string PerImageCsv(const CompareOptions& options, const CompareResult& result) {
+  io::CsvWriter csv;
+  const std::vector<std::string> header = PerImageCsvHeader(options.metrics);
   csv.AddRow(header);
   const size_t columns = header.size();
   size_t i = 0, m = 0;
@@ -375,21 +435,7 @@ std::string PerImageCsv(const CompareOptions& options, const CompareResult& resu
     row.reserve(columns);
     if (m == result.missing.size() ||
         (i < result.images.size() && result.images[i].name < result.missing[m].name)) {
-      const ImageResult& image = result.images[i++];
-      row = {image.name,
-             "ok",
-             image.photo.string(),
-             image.render.string(),
-             std::to_string(image.width),
-             std::to_string(image.height),
-             image.resized ? "1" : "0",
-             io::CsvNumber(image.completeness.value),
-             std::to_string(image.completeness.valid_photo),
-             std::to_string(image.completeness.valid_both)};
-      for (const MetricValue& value : image.metrics) {
-        row.push_back(io::CsvNumber(value.mean));
-        row.push_back(std::to_string(value.evaluated));
-      }
+      row = PerImageCsvRow(result.images[i++]);
     } else {
       const MissingImage& missing = result.missing[m++];
       row = {missing.name, MissingStatus(missing.missing),
@@ -489,12 +535,14 @@ std::string SummaryJsonText(const CompareOptions& options, const CompareResult& 
   return j.dump(2) + "\n";
 }
 
-std::vector<MetricSummary> SummarizeMetrics(const CompareOptions& options,
+}  // namespace
+
+std::vector<MetricSummary> SummarizeMetrics(const std::vector<Metric>& metric_list,
                                             const std::vector<ImageResult>& images) {
   std::vector<MetricSummary> summaries;
-  for (size_t k = 0; k < options.metrics.size(); ++k) {
+  for (size_t k = 0; k < metric_list.size(); ++k) {
     MetricSummary s;
-    s.metric = options.metrics[k];
+    s.metric = metric_list[k];
     std::vector<double> means;
     double weighted = 0;
     for (const ImageResult& image : images) {
@@ -518,6 +566,8 @@ std::vector<MetricSummary> SummarizeMetrics(const CompareOptions& options,
   }
   return summaries;
 }
+
+namespace {
 
 // --------------------------------------------------------------------------- run folder
 
@@ -614,7 +664,7 @@ CompareResult RunCompare(const CompareOptions& options) {
                       }()));
   {
     std::array<PairImages, 2> slots;
-    Workspace workspace;
+    CompareWorkspace workspace;
     Progress progress("compare", plan.size());
     // Declared after the slots: its destructor finishes a pending load before they go away.
     std::unique_ptr<BackgroundWorker> worker;
@@ -642,7 +692,7 @@ CompareResult RunCompare(const CompareOptions& options) {
   std::vector<double> completeness;
   for (const ImageResult& image : result.images) completeness.push_back(image.completeness.value);
   result.completeness = Summarize(completeness);
-  result.metrics = SummarizeMetrics(options, result.images);
+  result.metrics = SummarizeMetrics(options.metrics, result.images);
 
   WriteTextFileAtomically(staging / "per_image.csv", PerImageCsv(options, result));
   WriteTextFileAtomically(staging / "summary.json", SummaryJsonText(options, result));

@@ -47,12 +47,14 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "rephoto/compare/pairing.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/image.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/metrics/validity.h"
@@ -114,6 +116,44 @@ struct CompareResult {
 // Runs the comparison and writes the outputs (see above). Throws Error (naming the file and
 // the problem) on bad input; nothing of a failed run is left in `out`.
 CompareResult RunCompare(const CompareOptions& options);
+
+// ------------------------------------------------------------------------------------------
+// Building blocks for callers that pair photos and renderings themselves (`rephoto evaluate`):
+// the same per-pair comparison, per_image.csv row and summaries RunCompare uses.
+
+// Buffers reused from pair to pair (not thread-safe: one per concurrent caller).
+class CompareWorkspace {
+ public:
+  CompareWorkspace();
+  ~CompareWorkspace();
+  CompareWorkspace(const CompareWorkspace&) = delete;
+  CompareWorkspace& operator=(const CompareWorkspace&) = delete;
+  struct Buffers;
+  std::unique_ptr<Buffers> buffers;
+};
+
+// Compares one decoded pair exactly as RunCompare does (validity from the photo's alpha,
+// `photo_mask`, exposure; the rendering's alpha/black or `render_mask`; rescaling when
+// options.resize and the sizes differ, else sizes must match). `photo_path` and `render_path`
+// are only recorded in the result. When options.write_error_images, writes
+// <error_folder>/<name>.<metric>.exr and .png (`name` may contain '/': the subfolders must
+// exist). Masks may be null. Throws Error naming the files on a size mismatch.
+ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::string& name,
+                                  const std::filesystem::path& photo_path,
+                                  const std::filesystem::path& render_path, const Image& photo,
+                                  const Image& render, const Mask* photo_mask,
+                                  const Mask* render_mask,
+                                  const std::filesystem::path& error_folder,
+                                  CompareWorkspace* workspace);
+
+// per_image.csv columns (see above) for these metrics, and one "ok" row of an image.
+std::vector<std::string> PerImageCsvHeader(const std::vector<metrics::Metric>& metrics);
+std::vector<std::string> PerImageCsvRow(const ImageResult& image);
+
+// Per-metric summaries over `images` (each ImageResult::metrics in `metrics` order): the
+// over-images summary of the per-image means and the pooled value, as in summary.json.
+std::vector<MetricSummary> SummarizeMetrics(const std::vector<metrics::Metric>& metrics,
+                                            const std::vector<ImageResult>& images);
 
 // Fixed colour range [low, high] of a metric's jet PNGs, the same for every image so that
 // images can be compared by eye. low maps to dark blue, high (and beyond) to dark red; for

@@ -1,0 +1,141 @@
+// rephoto evaluate --scene SCENE [--format F] [--image-root DIR] [--scheme S]
+//                  (--model FILE | --reconstruct 'CMD' --model PATH_IN_OUT | --render 'CMD')
+//                  [--colorize] [--train-count N] [--train-short-side PX] [--eval-short-side PX]
+//                  [--metrics ...] [--window N] [--spp N] [--jobs N] ... --out RUN
+// rephoto evaluate --config experiment.toml [flags overriding the file]
+// Every setting is both a flag (--name) and a config key (name); the table is in
+// src/rephoto/eval/settings.cc, the behaviour in src/rephoto/eval/evaluate.h.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "command.h"
+#include "rephoto/eval/command.h"
+#include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/settings.h"
+
+namespace rephoto::cli {
+namespace {
+
+struct EvaluateArguments {
+  std::string config;
+  std::map<std::string, std::string> strings;  // by setting name
+  std::map<std::string, bool> flags;
+  std::map<std::string, CLI::Option*> options;
+};
+
+// The process's arguments (Linux /proc/self/cmdline), recorded in run.json.
+std::vector<std::string> CommandLine() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::vector<std::string> args;
+  std::string arg;
+  while (std::getline(in, arg, '\0')) args.push_back(arg);
+  return args;
+}
+
+std::string FormatValue(double value) {
+  if (std::isnan(value)) return "-";
+  return fmt::format("{:.4f}", value);
+}
+
+CommandRunner SetupEvaluate(CLI::App& app) {
+  auto args = std::make_shared<EvaluateArguments>();
+  app.add_option("--config", args->config,
+                 "Experiment file (.toml or .json) with the same settings as the flags; flags "
+                 "override it")
+      ->check(CLI::ExistingFile);
+  const nlohmann::ordered_json defaults = eval::SettingsJson(eval::EvaluateOptions{});
+  for (const eval::SettingInfo& info : eval::Settings()) {
+    const std::string flag = "--" + info.name;
+    const nlohmann::ordered_json& value = defaults.at(info.name);
+    std::string default_text;
+    if (info.name == "metrics") {
+      default_text = "all";
+    } else if (value.is_string()) {
+      default_text = value.get<std::string>();
+    } else {
+      default_text = value.dump();
+    }
+    const std::string help =
+        default_text.empty() ? info.help : info.help + " [default: " + default_text + "]";
+    if (info.type == eval::SettingType::kBool) {
+      args->flags[info.name] = false;
+      args->options[info.name] =
+          app.add_flag(flag + ",!--no-" + info.name, args->flags[info.name], help)
+              ->disable_flag_override();
+    } else {
+      static const std::map<eval::SettingType, std::string> kTypeNames = {
+          {eval::SettingType::kString, "TEXT"},
+          {eval::SettingType::kPath, "PATH"},
+          {eval::SettingType::kInt, "INT"},
+          {eval::SettingType::kDouble, "FLOAT"},
+          {eval::SettingType::kMetricList, "LIST"}};
+      args->strings[info.name];
+      args->options[info.name] =
+          app.add_option(flag, args->strings[info.name], help)->type_name(kTypeNames.at(info.type));
+    }
+  }
+  return [args]() {
+    eval::EvaluateOptions options;
+    options.handle_interrupts = true;
+    try {
+      if (!args->config.empty()) eval::LoadConfigFile(args->config, &options);
+      for (const eval::SettingInfo& info : eval::Settings()) {
+        const CLI::Option* option = args->options.at(info.name);
+        if (option->count() == 0) continue;
+        const std::string source = "--" + info.name;
+        if (info.type == eval::SettingType::kBool) {
+          eval::ApplySetting(&options, info.name, args->flags.at(info.name), source);
+        } else {
+          eval::ApplySetting(&options, info.name, args->strings.at(info.name), source);
+        }
+      }
+      options.Check();
+    } catch (const eval::UsageError& e) {
+      fmt::print(stderr, "rephoto evaluate: {}\nRun 'rephoto evaluate --help' for the options.\n",
+                 e.what());
+      return static_cast<int>(ExitCode::kUsage);
+    }
+    options.command_line = CommandLine();
+    const eval::EvaluateResult result = eval::RunEvaluate(options);
+
+    fmt::print(
+        "{} folds, {} of {} test images evaluated ({} views reused, {} rendered, {} "
+        "commands run)\n",
+        result.folds.size(), result.evaluated_images, result.images, result.counters.views_reused,
+        result.counters.views_rendered, result.counters.commands_run);
+    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "", "fold mean", "min", "median",
+               "max", "pooled");
+    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "completeness",
+               FormatValue(result.completeness_across_folds.mean),
+               FormatValue(result.completeness_across_folds.min),
+               FormatValue(result.completeness_across_folds.median),
+               FormatValue(result.completeness_across_folds.max), "");
+    for (const eval::MetricAggregate& m : result.metrics) {
+      fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", metrics::MetricName(m.metric),
+                 FormatValue(m.across_folds.mean), FormatValue(m.across_folds.min),
+                 FormatValue(m.across_folds.median), FormatValue(m.across_folds.max),
+                 FormatValue(m.pooled));
+    }
+    for (const eval::FoldResult& fold : result.folds) {
+      if (!fold.ok) fmt::print("failed: {}\n", fold.message);
+    }
+    for (const std::string& name : result.missing_photos) fmt::print("missing photo: {}\n", name);
+    fmt::print("Time {:.1f} s (external commands {:.1f} s, rephoto {:.1f} s). Results in {}\n",
+               result.timings.total, result.timings.external, result.timings.rephoto(),
+               options.out.string());
+    return static_cast<int>(result.exit_code);
+  };
+}
+
+REPHOTO_COMMAND(45, "evaluate",
+                "Virtual rephotography end to end: split, reconstruct or take a model per fold, "
+                "rephotograph the held-out views, compare, aggregate, project, report",
+                SetupEvaluate);
+
+}  // namespace
+}  // namespace rephoto::cli

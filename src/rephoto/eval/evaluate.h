@@ -1,0 +1,223 @@
+// `rephoto evaluate`: virtual rephotography end to end (paper Section 3.1): split the photos,
+// obtain each fold's reconstruction from its training photos, rephotograph it at the fold's
+// held-out cameras, compare with the photos, aggregate per image / fold / dataset, project the
+// error onto the model and write a report. The run directory layout is the contract in
+// /work/notes/run-layout.md (mirrored in the comments below).
+//
+// Model sources (exactly one):
+//   kModel        EvaluateOptions::model alone: one model file for every fold (a global method,
+//                 no cross-validation needed, paper Section 4.4), rendered by the built-in
+//                 renderer. With `colorize`, each fold's copy is coloured from that fold's
+//                 TRAINING photos only (render::ColorizeMesh), which makes it a proper
+//                 cross-validated reconstruction of the colours.
+//   kReconstruct  `reconstruct` = a command template run once per fold through /bin/sh -c, then
+//                 `model` (a path relative to {out}) is read as the fold's model (mesh or point
+//                 cloud; PLY or OBJ) and rendered by the built-in renderer.
+//   kRender       `render` = a command template of an external renderer (NeRF, 3DGS, IBR) that
+//                 writes one RGBA image per test view, named <test stem>.<png|jpg|jpeg|exr|pfm>,
+//                 into {out}; compared as they are (alpha = coverage; without alpha pure black =
+//                 not covered).
+// Placeholders of both templates (each value shell-quoted; syntax in eval/command.h):
+//   {train}            the fold's training scene folder: {train}/sparse (COLMAP text model of
+//                      the training views with their sparse points), {train}/transforms.json
+//   {sparse} {transforms} those two paths
+//   {images}           the folder the training image names are relative to
+//   {train_list}       train.txt: the training image names, one per line
+//   {test} {test_sparse} {test_transforms} {test_list}   the same for the held-out cameras (no
+//                      points); at the evaluation resolution when eval_short_side is set
+//   {out}              the fold's empty output folder RUN/folds/fold_XX/reconstruction
+//   {fold}             the fold index (0-based)
+//   {threads}          threads the command should use: all threads / jobs (at least 1)
+// A command fails its fold (other folds go on) when it cannot be started, exits non-zero, is
+// killed by a signal, writes nothing into {out}, writes no model at {out}/model or a model that
+// cannot be read, or (render) misses a test image or writes one of the wrong size. The message
+// names the fold, the command and its log file RUN/logs/fold_XX.<reconstruct|render>.log
+// (stdout and stderr of the command). The run then returns ExitCode::kIncomplete and lists
+// the failed folds in summary.json and per_fold.csv.
+//
+// Split scheme: split/split.h syntax. Default: "none" for a model alone without colorize (all
+// photos are test photos of the one model: a fit error, paper 4.4), otherwise "kfold:5" (or
+// "loo" when there are fewer than 5 photos).
+//
+// Photos missing on disk (a view whose image file does not exist) are left out of the split:
+// they can neither train nor be compared. They are listed as warnings, in run.json and in
+// summary.json "missing", and the run returns ExitCode::kIncomplete; the rest is evaluated.
+//
+// Sweeps (paper Section 4.2):
+//   train_count N > 0: each fold trains on a deterministic subset of N of its training views
+//     (the sorted names shuffled by split::SeededShuffle with seed train_seed + fold index).
+//   train_short_side PX > 0: the fold's training photos are downscaled (area filter, see
+//     compare/resample.h) so that the shorter side is PX (never upscaled), written as 8-bit PNG
+//     RUN/folds/fold_XX/train/images/<name without extension>.png, and the training scene's
+//     cameras are scaled with Camera::Scaled (observations too); the training scene then names
+//     the PNGs. Either option writes the fold's own training scene RUN/folds/fold_XX/train/
+//     (sparse, transforms.json, train.txt, images/), which {train} etc. then point to.
+//   eval_short_side PX > 0: rephotos are rendered and photos compared at the size whose shorter
+//     side is PX (never upscaled): the test cameras are scaled (Camera::Scaled) and the photos
+//     (and photo masks, conservatively) downscaled once with the area filter into
+//     RUN/cache/eval_photos/<stem>.png (16-bit PNG, reused while the photo is unchanged).
+//
+// Parallelism: the built-in renderer and the metrics are multi-threaded (TBB). External
+// commands run `jobs` folds at a time in background threads ({threads} = all threads / jobs);
+// rephoto's own work (colouring, rendering, comparing) runs on the calling thread fold after
+// fold, overlapping with the commands of the next folds. The results do not depend on `jobs`.
+//
+// Resume: every result carries a key, the XXH3 hash (eval/hash.h) of everything it depends on
+// (scene cameras and poses, photo and mask contents, model file content incl. textures, the
+// command template, and the settings that change it). A rerun with the same --out skips
+// folds whose reconstruction key matches (fold.json) and views whose record
+// (folds/fold_XX/views/<stem>.json, written last) holds the matching key; changed inputs or
+// settings recompute exactly what they affect. An interrupted run (SIGINT/SIGTERM with
+// handle_interrupts, or InterruptRequested()) stops the running commands, finishes the view
+// in flight and throws Error "interrupted ... rerun the same command to resume". A run
+// directory that holds a run of another scene (different set of image names) is an Error.
+//
+// Outputs in `out` (every file written atomically):
+//   run.json       schema "rephoto.evaluate/1": tool version, command line, resolved settings,
+//                  inputs with hashes (scene, model, photos), the split, timings in seconds
+//                  {total, external, rephoto: {split, prepare, colorize, render, compare,
+//                  aggregate, project, report}} and per-fold status.
+//   manifest.json  the independent tasks: one "reconstruct"/"render" task per fold when a
+//                  command is used, one per fold x test view ("fold_00/<stem>"), each with its
+//                  key, inputs, outputs and dependencies, so a scheduler could run them elsewhere.
+//   split/         exactly what split::WriteSplit writes.
+//   folds/fold_XX/ reconstruction/ (the command's {out}), model.ply (when rephoto changed the
+//                  model: --colorize), renders/<stem>.png + <stem>.depth.exr (built-in
+//                  renderer), errors/<stem>.<metric>.exr|png, views/<stem>.json, fold.json.
+//   logs/fold_XX.reconstruct.log, logs/fold_XX.render.log
+//   per_image.csv  fold, then compare's per_image.csv columns; status ok | failed (the fold or
+//                  the view failed; measurements empty); photo absolute, render relative to RUN.
+//   per_fold.csv   fold, status, test_images, evaluated_images, seconds, completeness, <metric>...
+//   summary.json   schema "rephoto.evaluate/1" (see WriteSummary in evaluate.cc / run-layout.md).
+//   cache/         file hashes and downscaled photos (safe to delete: only costs time).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/stats.h"
+#include "rephoto/metrics/metrics.h"
+#include "rephoto/metrics/validity.h"
+
+namespace rephoto::eval {
+
+enum class ModelSource { kModel, kReconstruct, kRender };
+
+struct EvaluateOptions {
+  // ---- inputs
+  std::filesystem::path scene;       // scene file or folder (scene/read_scene.h)
+  std::string format;                // "" = detect
+  std::filesystem::path image_root;  // "" = the format's default
+  std::string scheme;                // split/split.h syntax; "" = the default above
+  std::filesystem::path model;       // a model file, or with `reconstruct` a path inside {out}
+  std::string reconstruct;           // command template (see above)
+  std::string render;                // command template (see above)
+  // Built-in representation used to render a model. Only "auto" (mesh or point cloud by the
+  // file, render/render_model.h) exists; "vdt" and "ibr" (image-based renderers that need the
+  // fold's training photos and cameras) are reserved (see MakeFoldRenderer in evaluate.cc).
+  std::string representation = "auto";
+  bool colorize = false;  // colour the model from each fold's training photos
+
+  // ---- sweeps
+  int train_count = 0;  // 0 = all training views
+  uint64_t train_seed = 0;
+  int train_short_side = 0;  // 0 = original resolution
+  int eval_short_side = 0;   // 0 = original resolution
+
+  // ---- comparison (as `rephoto compare`)
+  std::vector<metrics::Metric> metrics = metrics::AllMetrics();
+  metrics::MetricOptions metric_options;
+  metrics::ExposureOptions exposure;
+  std::filesystem::path photo_masks;  // folder of masks by photo stem ("" = the scene's masks)
+  bool resize = false;                // rescale external renders of another size
+  bool error_images = true;
+
+  // ---- built-in rendering (as `rephoto render`)
+  int samples_per_pixel = 4;
+  bool backfaces = true;
+  float point_radius = 0;  // 0 = from the file or the density
+  int point_neighbors = 6;
+
+  // ---- run
+  std::filesystem::path out;
+  int jobs = 1;  // folds whose external commands run at once
+  // Metric projected onto the model after the folds ("none" = no projection).
+  std::string projection_metric = "1-ncc";
+  bool report = true;              // write report.html
+  bool handle_interrupts = false;  // install SIGINT/SIGTERM handlers (the CLI does)
+  // Recorded in run.json only.
+  std::vector<std::string> command_line;
+  std::filesystem::path config_file;
+
+  ModelSource source() const;
+  // Throws UsageError (eval/command.h) for inconsistent settings: not exactly one model source,
+  // unknown placeholders, bad numbers, unknown representation, no scene or output folder.
+  void Check() const;
+};
+
+struct FoldResult {
+  size_t index = 0;
+  std::string name;  // "fold_00"
+  bool ok = true;
+  std::string message;  // one line when !ok
+  size_t test_images = 0;
+  size_t evaluated_images = 0;
+  double seconds = 0;                // wall-clock seconds spent on the fold in this run
+  double external_seconds = 0;       // of which in its command (0 when reused)
+  double completeness = 0;           // mean over the fold's evaluated images (NaN if none)
+  std::vector<double> metric_means;  // per metric: mean of the images' means (NaN if none)
+};
+
+struct MetricAggregate {
+  metrics::Metric metric = metrics::Metric::kOneMinusNcc;
+  Summary across_folds;  // of the folds' means
+  Summary over_images;   // of the images' means
+  double pooled = 0;     // over all evaluated positions (psnr: of the pooled MSE)
+};
+
+// What this run did (resume can be checked from these).
+struct EvaluateCounters {
+  size_t commands_run = 0;  // reconstruct/render commands started
+  size_t folds_reused = 0;  // folds whose command result was reused
+  size_t models_colorized = 0;
+  size_t views_rendered = 0;  // built-in renderings
+  size_t views_compared = 0;
+  size_t views_reused = 0;  // view records whose key matched
+  size_t photos_downscaled = 0;
+};
+
+struct EvaluateTimings {
+  double total = 0;
+  double external = 0;  // sum over commands (may overlap rephoto's own work)
+  double split = 0, prepare = 0, colorize = 0, render = 0, compare = 0, aggregate = 0, project = 0,
+         report = 0;
+  double rephoto() const {
+    return split + prepare + colorize + render + compare + aggregate + project + report;
+  }
+};
+
+struct EvaluateResult {
+  std::vector<FoldResult> folds;
+  std::vector<std::string> missing_photos;  // view names whose photo does not exist
+  Summary completeness_across_folds;
+  Summary completeness_over_images;
+  std::vector<MetricAggregate> metrics;  // in EvaluateOptions::metrics order
+  EvaluateCounters counters;
+  EvaluateTimings timings;
+  size_t images = 0;                   // test images over all folds
+  size_t evaluated_images = 0;         // with a result
+  ExitCode exit_code = ExitCode::kOk;  // kIncomplete: failed folds/views or missing photos
+};
+
+// Runs the evaluation described above and writes the run directory. Throws UsageError for bad
+// settings, Error for bad input that stops everything (unreadable scene, another scene's run
+// directory, interrupt); failures of single folds or views are recorded, not thrown.
+EvaluateResult RunEvaluate(const EvaluateOptions& options);
+
+// The placeholder names the command templates may use (see above).
+const std::vector<std::string>& CommandPlaceholders();
+
+}  // namespace rephoto::eval

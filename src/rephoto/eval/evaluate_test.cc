@@ -1,0 +1,580 @@
+// End-to-end tests of `rephoto evaluate` on a small synthetic scene (synth/demo_scene.h): six
+// 160x120 photos of the demo object, a ground-truth mesh of about 5000 triangles.
+#include "rephoto/eval/evaluate.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "rephoto/compare/compare.h"
+#include "rephoto/core/file.h"
+#include "rephoto/eval/command.h"
+#include "rephoto/io/csv.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/mesh/ply.h"
+#include "rephoto/render/render.h"
+#include "rephoto/scene/colmap.h"
+#include "rephoto/synth/demo_scene.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto::eval {
+namespace {
+
+namespace fs = std::filesystem;
+using metrics::Metric;
+
+constexpr int kViews = 6;
+
+// The scene on disk: images/view_XXX.png, sparse/ (COLMAP text), truth.ply (vertex colours),
+// plain.ply (no colours), and by_hand/ = the ground truth rendered at every view with the
+// settings evaluate uses (4 spp, seed 0), as `rephoto render` would write them.
+struct SceneFiles {
+  fs::path root, sparse, images, truth, plain, by_hand;
+  scene::Scene scene;
+};
+
+const SceneFiles& Files() {
+  static const SceneFiles files = [] {
+    SceneFiles f;
+    f.root = testing::MakeTempDir() / "scene with space";
+    f.sparse = f.root / "sparse";
+    f.images = f.root / "images";
+    f.truth = f.root / "truth.ply";
+    f.plain = f.root / "plain.ply";
+    f.by_hand = f.root / "by_hand";
+    synth::DemoSceneOptions options;
+    options.image_width = 160;
+    options.image_height = 120;
+    options.camera_count = kViews;
+    options.ground_cells = 40;
+    options.object_bands = 24;
+    const mesh::Mesh truth = synth::MakeDemoMesh(options);
+    f.scene = synth::MakeDemoScene(options, f.images);
+    mesh::WritePly(f.truth, truth);
+    mesh::Mesh plain = truth;
+    plain.colors.clear();
+    mesh::WritePly(f.plain, plain);
+    scene::WriteColmap(f.scene, f.sparse, scene::ColmapFormat::kText);
+    render::RenderModel model(truth);
+    // By hand = as `rephoto render truth.ply` renders it: from the file (8-bit colours).
+    render::RenderModel from_file(mesh::ReadPly(f.truth));
+    render::RenderOptions photo_options;
+    photo_options.samples_per_pixel = 9;
+    render::RenderOptions by_hand_options;  // evaluate's defaults: 4 spp, seed 0
+    for (size_t i = 0; i < f.scene.views.size(); ++i) {
+      const scene::View& view = f.scene.views[i];
+      const render::Rephoto clean =
+          render::RenderRephoto(model, f.scene.CameraOf(view), view.cam_from_world, photo_options);
+      io::WritePng(view.image_path,
+                   synth::SimulatePhoto(clean.color, 1.0 + 0.02 * static_cast<double>(i % 3), 0.01,
+                                        100 + i));
+      const render::Rephoto rephoto = render::RenderRephoto(from_file, f.scene.CameraOf(view),
+                                                            view.cam_from_world, by_hand_options);
+      io::WritePng(f.by_hand / fs::path(view.name).replace_extension(".png"), rephoto.color);
+    }
+    return f;
+  }();
+  return files;
+}
+
+EvaluateOptions BaseOptions(const fs::path& out) {
+  EvaluateOptions o;
+  o.scene = Files().sparse;
+  o.image_root = Files().images;
+  o.out = out;
+  o.metrics = {Metric::kOneMinusNcc, Metric::kCbCr};
+  o.report = false;
+  o.projection_metric = "none";
+  return o;
+}
+
+std::vector<std::vector<std::string>> ReadCsv(const fs::path& path) {
+  return io::ParseCsv(ReadFileToString(path), path.string());
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  return nlohmann::json::parse(ReadFileToString(path));
+}
+
+// per_image.csv rows by image name: {completeness, 1-ncc, cb+cr} as text.
+std::map<std::string, std::vector<std::string>> Measurements(const fs::path& per_image) {
+  const auto rows = ReadCsv(per_image);
+  std::map<std::string, std::vector<std::string>> by_name;
+  const auto& header = rows.at(0);
+  const auto column = [&](const std::string& name) {
+    return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  for (size_t r = 1; r < rows.size(); ++r) {
+    by_name[rows[r][column("name")]] = {rows[r][column("status")], rows[r][column("completeness")],
+                                        rows[r][column("1-ncc")], rows[r][column("cb+cr")]};
+  }
+  return by_name;
+}
+
+TEST(EvaluateTest, ModelModeGivesTheNumbersOfSplitRenderCompareByHand) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.scheme = "kfold:3";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kOk);
+  ASSERT_EQ(result.folds.size(), 3u);
+  EXPECT_EQ(result.images, static_cast<size_t>(kViews));
+  EXPECT_EQ(result.evaluated_images, static_cast<size_t>(kViews));
+  EXPECT_EQ(result.counters.views_rendered, static_cast<size_t>(kViews));
+
+  // By hand: `rephoto compare` of the photos with the same renderings.
+  compare::CompareOptions c;
+  c.photos = Files().images;
+  c.renders = Files().by_hand;
+  c.out = testing::MakeTempDir() / "compare";
+  c.metrics = o.metrics;
+  const compare::CompareResult by_hand = compare::RunCompare(c);
+  ASSERT_EQ(by_hand.images.size(), static_cast<size_t>(kViews));
+  const auto evaluated = Measurements(run / "per_image.csv");
+  const auto expected = Measurements(c.out / "per_image.csv");
+  ASSERT_EQ(evaluated.size(), expected.size());
+  for (const auto& [name, values] : expected) {
+    ASSERT_TRUE(evaluated.count(name)) << name;
+    EXPECT_EQ(evaluated.at(name), values) << name;  // same text = same double
+  }
+  // The rendering written is byte-identical to the one rendered by hand.
+  EXPECT_EQ(ReadFileToString(run / "folds/fold_00/renders" /
+                             (ReadCsv(run / "per_image.csv")[1][1] + ".png")),
+            ReadFileToString(Files().by_hand / (ReadCsv(run / "per_image.csv")[1][1] + ".png")));
+  // Over images: the same summary as compare's.
+  ASSERT_EQ(result.metrics.size(), 2u);
+  EXPECT_DOUBLE_EQ(result.metrics[0].over_images.median, by_hand.metrics[0].over_images.median);
+  EXPECT_DOUBLE_EQ(result.metrics[0].pooled, by_hand.metrics[0].pooled);
+  EXPECT_DOUBLE_EQ(result.completeness_over_images.mean, by_hand.completeness.mean);
+  // Across folds: the folds' means of their images' means.
+  const auto per_fold = ReadCsv(run / "per_fold.csv");
+  ASSERT_EQ(per_fold.size(), 4u);
+  EXPECT_EQ(per_fold[0][0], "fold");
+  std::vector<double> fold_means;
+  for (const FoldResult& fold : result.folds) {
+    EXPECT_TRUE(fold.ok);
+    EXPECT_EQ(fold.test_images, 2u);
+    fold_means.push_back(fold.metric_means[0]);
+  }
+  std::sort(fold_means.begin(), fold_means.end());
+  EXPECT_DOUBLE_EQ(result.metrics[0].across_folds.median, fold_means[1]);
+  EXPECT_DOUBLE_EQ(result.metrics[0].across_folds.min, fold_means[0]);
+
+  // The layout of the run directory.
+  const nlohmann::json summary = ReadJson(run / "summary.json");
+  EXPECT_EQ(summary["schema"], "rephoto.evaluate/1");
+  EXPECT_EQ(summary["folds"], 3);
+  EXPECT_EQ(summary["failed_folds"].size(), 0u);
+  EXPECT_EQ(summary["metrics"]["1-ncc"]["across_folds"]["count"], 3);
+  EXPECT_EQ(summary["metrics"]["1-ncc"]["over_images"]["count"], kViews);
+  EXPECT_TRUE(summary["completeness"]["pooled"].is_number());
+  for (const char* file :
+       {"run.json", "manifest.json", "split/split.json", "split/fold_00/train/sparse/cameras.txt",
+        "split/fold_02/test.txt", "folds/fold_00/fold.json"}) {
+    EXPECT_TRUE(fs::exists(run / file)) << file;
+  }
+  const nlohmann::json run_json = ReadJson(run / "run.json");
+  EXPECT_EQ(run_json["schema"], "rephoto.evaluate/1");
+  EXPECT_EQ(run_json["status"], "ok");
+  EXPECT_EQ(run_json["split"]["folds"].size(), 3u);
+  EXPECT_GT(run_json["timings"]["rephoto"]["render"].get<double>(), 0.0);
+  EXPECT_EQ(run_json["timings"]["external"], 0.0);
+  EXPECT_EQ(run_json["inputs"]["photos"].size(), static_cast<size_t>(kViews));
+  const nlohmann::json manifest = ReadJson(run / "manifest.json");
+  EXPECT_EQ(manifest["tasks"].size(), static_cast<size_t>(kViews));  // no command tasks
+  const std::string stem = ReadCsv(run / "per_image.csv")[1][1];
+  EXPECT_TRUE(fs::exists(run / "folds/fold_00/views" / (stem + ".json")));
+  EXPECT_TRUE(fs::exists(run / "folds/fold_00/renders" / (stem + ".depth.exr")));
+  EXPECT_TRUE(fs::exists(run / "folds/fold_00/errors" / (stem + ".1-ncc.exr")));
+  EXPECT_TRUE(fs::exists(run / "folds/fold_00/errors" / (stem + ".cb+cr.png")));
+}
+
+TEST(EvaluateTest, ModelAloneDefaultsToOneFoldWithoutCrossValidation) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.error_images = false;
+  const EvaluateResult result = RunEvaluate(o);
+  ASSERT_EQ(result.folds.size(), 1u);
+  EXPECT_EQ(result.folds[0].test_images, static_cast<size_t>(kViews));
+  const nlohmann::json summary = ReadJson(run / "summary.json");
+  EXPECT_EQ(summary["scheme"], "none");
+  EXPECT_EQ(summary["cross_validated"], false);
+  EXPECT_FALSE(fs::exists(run / "folds/fold_00/errors"));
+  // The ground truth: everything covered, errors only from noise and anti-aliasing.
+  EXPECT_GT(result.completeness_over_images.min, 0.95);
+  EXPECT_LT(result.metrics[0].over_images.max, 0.2);
+}
+
+TEST(EvaluateTest, ResumeSkipsFinishedWorkAndRecomputesExactlyWhatChanged) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.scheme = "kfold:2";
+  const EvaluateResult first = RunEvaluate(o);
+  EXPECT_EQ(first.counters.views_rendered, static_cast<size_t>(kViews));
+  const std::string per_image = ReadFileToString(run / "per_image.csv");
+  const std::string per_fold = ReadFileToString(run / "per_fold.csv");
+  const std::string summary = ReadFileToString(run / "summary.json");
+
+  // The same command again: nothing rendered or compared, identical aggregates.
+  const EvaluateResult second = RunEvaluate(o);
+  EXPECT_EQ(second.counters.views_rendered, 0u);
+  EXPECT_EQ(second.counters.views_compared, 0u);
+  EXPECT_EQ(second.counters.views_reused, static_cast<size_t>(kViews));
+  EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
+  EXPECT_EQ(ReadFileToString(run / "summary.json"), summary);
+  // per_fold.csv holds the recorded seconds, which do not change either.
+  EXPECT_EQ(ReadFileToString(run / "per_fold.csv"), per_fold);
+
+  // One view record deleted: only that view is recomputed, with the same result.
+  const auto rows = ReadCsv(run / "per_image.csv");
+  const std::string fold = rows[1][0], stem = rows[1][1];
+  fs::remove(run / "folds" / fold / "views" / (stem + ".json"));
+  const EvaluateResult third = RunEvaluate(o);
+  EXPECT_EQ(third.counters.views_rendered, 1u);
+  EXPECT_EQ(third.counters.views_compared, 1u);
+  EXPECT_EQ(third.counters.views_reused, static_cast<size_t>(kViews - 1));
+  EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
+
+  // A compare setting changed: every view is compared again, nothing else reused wrongly.
+  o.metric_options.window = 7;
+  const EvaluateResult fourth = RunEvaluate(o);
+  EXPECT_EQ(fourth.counters.views_compared, static_cast<size_t>(kViews));
+  EXPECT_NE(ReadFileToString(run / "per_image.csv"), per_image);
+
+  // Back to the first settings: recomputed again, the same numbers as at first.
+  o.metric_options.window = 9;
+  RunEvaluate(o);
+  EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
+}
+
+TEST(EvaluateTest, RunDirectoryOfAnotherSceneIsRefused) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.error_images = false;
+  RunEvaluate(o);
+  // Another scene: the same cameras under other names.
+  const fs::path other = testing::MakeTempDir();
+  scene::Scene renamed = Files().scene;
+  for (scene::View& view : renamed.views) {
+    view.name = "other_" + view.name;
+    fs::copy_file(Files().images / view.name.substr(6), other / view.name);
+  }
+  scene::WriteColmap(renamed, other / "sparse", scene::ColmapFormat::kText);
+  o.scene = other / "sparse";
+  o.image_root = other;
+  try {
+    RunEvaluate(o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("holds a run of another scene"), std::string::npos)
+        << e.what();
+  }
+  // A folder with unrelated files is not taken either.
+  const fs::path unrelated = testing::MakeTempDir() / "unrelated";
+  WriteTextFileAtomically(unrelated / "notes.txt", "mine");
+  o = BaseOptions(unrelated);
+  o.model = Files().truth;
+  EXPECT_THROW(RunEvaluate(o), Error);
+}
+
+// A command that records its placeholders and copies the ground truth into {out}.
+std::string RecordingCommand() {
+  return "printf '%s\\n' {train} {sparse} {transforms} {images} {train_list} {test} "
+         "{test_sparse} {test_transforms} {test_list} {out} {fold} {threads} > {out}/args.txt "
+         "&& cp " +
+         ShellQuote(Files().truth.string()) + " {out}/mesh.ply && echo reconstructed";
+}
+
+std::vector<std::string> Lines(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+TEST(EvaluateTest, ReconstructCommandGetsQuotedPlaceholdersAndIsResumed) {
+  const fs::path run = testing::MakeTempDir() / "run with 'quotes' and spaces";
+  EvaluateOptions o = BaseOptions(run);
+  o.reconstruct = RecordingCommand();
+  o.model = "mesh.ply";
+  o.scheme = "kfold:2";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kOk);
+  EXPECT_EQ(result.counters.commands_run, 2u);
+  const fs::path fold1 = run / "folds/fold_01";
+  const std::vector<std::string> args = Lines(fold1 / "reconstruction/args.txt");
+  ASSERT_EQ(args.size(), 12u);
+  EXPECT_EQ(args[0], (run / "split/fold_01/train").string());
+  EXPECT_EQ(args[1], (run / "split/fold_01/train/sparse").string());
+  EXPECT_EQ(args[2], (run / "split/fold_01/train/transforms.json").string());
+  EXPECT_EQ(args[3], fs::absolute(Files().images).lexically_normal().string());
+  EXPECT_EQ(args[4], (run / "split/fold_01/train.txt").string());
+  EXPECT_EQ(args[5], (run / "split/fold_01/test").string());
+  EXPECT_EQ(args[8], (run / "split/fold_01/test.txt").string());
+  EXPECT_EQ(args[9], (fold1 / "reconstruction").string());
+  EXPECT_EQ(args[10], "1");
+  EXPECT_GE(std::stoi(args[11]), 1);
+  EXPECT_TRUE(fs::exists(args[1] + "/images.txt"));
+  EXPECT_EQ(Lines(run / "logs/fold_01.reconstruct.log").back(), "reconstructed");
+
+  // The same numbers as the model itself.
+  EvaluateOptions m = BaseOptions(testing::MakeTempDir() / "model");
+  m.model = Files().truth;
+  m.scheme = "kfold:2";
+  RunEvaluate(m);
+  EXPECT_EQ(Measurements(run / "per_image.csv"), Measurements(m.out / "per_image.csv"));
+
+  const nlohmann::json manifest = ReadJson(run / "manifest.json");
+  EXPECT_EQ(manifest["tasks"].size(), static_cast<size_t>(kViews + 2));
+  EXPECT_EQ(manifest["tasks"][0]["kind"], "reconstruct");
+
+  // Rerun: no command, no rendering.
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.commands_run, 0u);
+  EXPECT_EQ(again.counters.folds_reused, 2u);
+  EXPECT_EQ(again.counters.views_rendered, 0u);
+  // A changed command template reruns the commands.
+  o.reconstruct += " && true";
+  const EvaluateResult changed = RunEvaluate(o);
+  EXPECT_EQ(changed.counters.commands_run, 2u);
+  // The model is the same file content: the views are still valid.
+  EXPECT_EQ(changed.counters.views_rendered, 0u);
+}
+
+TEST(EvaluateTest, FailingCommandsFailOnlyTheirFoldNamingTheLog) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "kfold:5";
+  o.model = "mesh.ply";
+  o.reconstruct =
+      "case {fold} in 0) echo broken >&2; exit 3;; 1) true;; 2) echo garbage > "
+      "{out}/mesh.ply;; 3) no_such_rephoto_tool;; *) cp " +
+      ShellQuote(Files().truth.string()) + " {out}/mesh.ply;; esac";
+  o.jobs = 2;
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kIncomplete);
+  ASSERT_EQ(result.folds.size(), 5u);
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_FALSE(result.folds[f].ok) << f;
+    EXPECT_NE(result.folds[f].message.find(fmt::format("fold_0{}: reconstruct command", f)),
+              std::string::npos)
+        << result.folds[f].message;
+    EXPECT_NE(result.folds[f].message.find(fmt::format("logs/fold_0{}.reconstruct.log", f)),
+              std::string::npos)
+        << result.folds[f].message;
+  }
+  EXPECT_NE(result.folds[0].message.find("exit status 3"), std::string::npos);
+  EXPECT_NE(result.folds[0].message.find("last line: broken"), std::string::npos);
+  EXPECT_NE(result.folds[1].message.find("wrote nothing"), std::string::npos);
+  EXPECT_NE(result.folds[2].message.find("cannot be read"), std::string::npos);
+  EXPECT_NE(result.folds[3].message.find("command not found"), std::string::npos);
+  EXPECT_TRUE(result.folds[4].ok);
+  EXPECT_EQ(result.folds[4].evaluated_images, result.folds[4].test_images);
+  const nlohmann::json summary = ReadJson(run / "summary.json");
+  EXPECT_EQ(summary["failed_folds"].size(), 4u);
+  const auto per_fold = ReadCsv(run / "per_fold.csv");
+  EXPECT_EQ(per_fold[1][1], "failed");
+  EXPECT_EQ(per_fold[5][1], "ok");
+  size_t failed_rows = 0;
+  for (const auto& row : ReadCsv(run / "per_image.csv")) failed_rows += row[2] == "failed";
+  EXPECT_EQ(failed_rows, static_cast<size_t>(kViews) - result.folds[4].test_images);
+
+  // Rerun: failed folds run their command again, the good fold is reused.
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.commands_run, 4u);
+  EXPECT_EQ(again.counters.folds_reused, 1u);
+}
+
+TEST(EvaluateTest, ExternalRendererImagesAreComparedAsTheyAre) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "kfold:2";
+  // Copies the by-hand renderings of the fold's test views.
+  o.render = "while read n; do cp " + ShellQuote(Files().by_hand.string()) +
+             "/\"${n%.*}.png\" {out}/; done < {test_list}";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kOk);
+  EXPECT_EQ(result.counters.views_rendered, 0u);
+  EXPECT_EQ(result.counters.views_compared, static_cast<size_t>(kViews));
+  EvaluateOptions m = BaseOptions(testing::MakeTempDir() / "model");
+  m.model = Files().truth;
+  m.scheme = "kfold:2";
+  RunEvaluate(m);
+  EXPECT_EQ(Measurements(run / "per_image.csv"), Measurements(m.out / "per_image.csv"));
+  const auto rows = ReadCsv(run / "per_image.csv");
+  EXPECT_EQ(rows[1][4].rfind("folds/fold_00/reconstruction/", 0), 0u) << rows[1][4];
+  EXPECT_FALSE(fs::exists(run / "folds/fold_00/renders"));
+  // Resume.
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.commands_run, 0u);
+  EXPECT_EQ(again.counters.views_compared, 0u);
+}
+
+TEST(EvaluateTest, RendererWithTooFewOrWrongSizeImagesFailsItsFold) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  const fs::path small = testing::MakeTempDir() / "small.png";
+  io::WritePng(small, Image(80, 60, 4, 1.f));
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "kfold:3";
+  // fold 0: all but the first test image; fold 1: wrong size; fold 2: fine.
+  o.render =
+      "first=1; while read n; do s=\"${n%.*}\"; case {fold} in "
+      "0) [ $first = 1 ] || cp " +
+      ShellQuote(Files().by_hand.string()) +
+      "/\"$s.png\" {out}/;; "
+      "1) cp " +
+      ShellQuote(small.string()) +
+      " {out}/\"$s.png\";; "
+      "*) cp " +
+      ShellQuote(Files().by_hand.string()) +
+      "/\"$s.png\" {out}/;; "
+      "esac; first=0; done < {test_list}";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kIncomplete);
+  ASSERT_EQ(result.folds.size(), 3u);
+  EXPECT_FALSE(result.folds[0].ok);
+  EXPECT_NE(result.folds[0].message.find("wrote 1 of 2 images (missing: "), std::string::npos)
+      << result.folds[0].message;
+  EXPECT_NE(result.folds[0].message.find("logs/fold_00.render.log"), std::string::npos);
+  EXPECT_FALSE(result.folds[1].ok);
+  EXPECT_NE(result.folds[1].message.find("is 80x60, expected 160x120"), std::string::npos)
+      << result.folds[1].message;
+  EXPECT_TRUE(result.folds[2].ok);
+  EXPECT_EQ(result.folds[2].evaluated_images, 2u);
+}
+
+TEST(EvaluateTest, ColorizeUsesEachFoldsTrainingPhotos) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().plain;
+  o.colorize = true;
+  o.scheme = "kfold:3";
+  o.error_images = false;
+  const EvaluateResult coloured = RunEvaluate(o);
+  EXPECT_EQ(coloured.exit_code, ExitCode::kOk);
+  EXPECT_EQ(coloured.counters.models_colorized, 3u);
+  const mesh::Mesh model = mesh::ReadPly(run / "folds/fold_01/model.ply");
+  EXPECT_EQ(model.colors.size(), model.positions.size());
+  const nlohmann::json fold = ReadJson(run / "folds/fold_01/fold.json");
+  EXPECT_EQ(fold["train"]["count"], 4);
+  // Without colours every face is flat grey: 1-NCC near 1 wherever the photo has texture.
+  EvaluateOptions g = BaseOptions(testing::MakeTempDir() / "grey");
+  g.model = Files().plain;
+  g.scheme = "kfold:3";
+  g.error_images = false;
+  const EvaluateResult grey = RunEvaluate(g);
+  EXPECT_GT(grey.metrics[0].over_images.median, 0.8);
+  EXPECT_LT(coloured.metrics[0].over_images.median, 0.6 * grey.metrics[0].over_images.median);
+  // Resume reuses the coloured models.
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.models_colorized, 0u);
+  EXPECT_EQ(again.counters.views_rendered, 0u);
+}
+
+TEST(EvaluateTest, EvalShortSideRendersAndComparesSmaller) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.eval_short_side = 60;
+  o.error_images = false;
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.counters.photos_downscaled, static_cast<size_t>(kViews));
+  const auto rows = ReadCsv(run / "per_image.csv");
+  EXPECT_EQ(rows[1][5], "80");
+  EXPECT_EQ(rows[1][6], "60");
+  EXPECT_EQ(rows[1][3].find((run / "cache/eval_photos").string()), 0u) << rows[1][3];
+  const io::ImageHeader header =
+      io::ReadImageHeader(run / "folds/fold_00/renders" / (rows[1][1] + ".png"));
+  EXPECT_EQ(header.width, 80);
+  EXPECT_LT(result.metrics[0].over_images.max, 0.3);
+  EXPECT_GT(result.completeness_over_images.min, 0.9);
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.photos_downscaled, 0u);
+  EXPECT_EQ(again.counters.views_reused, static_cast<size_t>(kViews));
+}
+
+TEST(EvaluateTest, TrainCountAndTrainShortSideShapeTheTrainingScene) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "loo";
+  o.train_count = 3;
+  o.train_short_side = 60;
+  o.model = "mesh.ply";
+  o.reconstruct =
+      "ls {images} > {out}/images.txt && head -n 4 {sparse}/cameras.txt | tail -n 1 "
+      "> {out}/camera.txt && cp " +
+      ShellQuote(Files().truth.string()) + " {out}/mesh.ply";
+  o.error_images = false;
+  const EvaluateResult result = RunEvaluate(o);
+  ASSERT_EQ(result.folds.size(), static_cast<size_t>(kViews));
+  EXPECT_EQ(result.exit_code, ExitCode::kOk);
+  const fs::path fold = run / "folds/fold_02";
+  const std::vector<std::string> images = Lines(fold / "reconstruction/images.txt");
+  EXPECT_EQ(images.size(), 3u);
+  EXPECT_EQ(Lines(fold / "train/train.txt"), images);
+  const io::ImageHeader header = io::ReadImageHeader(fold / "train/images" / images[0]);
+  EXPECT_EQ(header.width, 80);
+  EXPECT_EQ(header.height, 60);
+  const std::string camera = Lines(fold / "reconstruction/camera.txt").at(0);
+  EXPECT_NE(camera.find(" 80 60 "), std::string::npos) << camera;
+  // The test view is not among the training photos.
+  const std::string test = Lines(run / "split/fold_02/test.txt").at(0);
+  EXPECT_EQ(std::count(images.begin(), images.end(), test), 0);
+  // Different folds draw different subsets (seeded by the fold index).
+  EXPECT_NE(Lines(run / "folds/fold_00/train/train.txt"),
+            Lines(run / "folds/fold_03/train/train.txt"));
+}
+
+TEST(EvaluateTest, InterruptedRunResumes) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "kfold:2";
+  o.model = "mesh.ply";
+  o.reconstruct = "sleep 0.5 && cp " + ShellQuote(Files().truth.string()) + " {out}/mesh.ply";
+  o.error_images = false;
+  std::thread interrupter([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    RequestInterrupt(true);
+  });
+  try {
+    RunEvaluate(o);
+    interrupter.join();
+    FAIL() << "not interrupted";
+  } catch (const Error& e) {
+    interrupter.join();
+    EXPECT_NE(std::string(e.what()).find("rerun the same command to resume"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(ReadJson(run / "run.json")["status"], "interrupted");
+  const EvaluateResult resumed = RunEvaluate(o);
+  EXPECT_EQ(resumed.exit_code, ExitCode::kOk);
+  EXPECT_EQ(resumed.evaluated_images, static_cast<size_t>(kViews));
+}
+
+TEST(EvaluateTest, BadSettingsAreUsageErrors) {
+  EvaluateOptions o = BaseOptions(testing::MakeTempDir() / "run");
+  EXPECT_THROW(RunEvaluate(o), UsageError);  // no model source
+  o.reconstruct = "make {output}";
+  o.model = "m.ply";
+  try {
+    RunEvaluate(o);
+    FAIL() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown placeholder {output} (known: {train}"),
+              std::string::npos)
+        << e.what();
+  }
+  o.reconstruct.clear();
+  o.model = Files().truth;
+  o.representation = "ibr";
+  EXPECT_THROW(RunEvaluate(o), UsageError);
+}
+
+}  // namespace
+}  // namespace rephoto::eval

@@ -1,0 +1,413 @@
+#include "rephoto/eval/settings.h"
+
+#include <toml++/toml.h>
+
+#include <charconv>
+#include <cmath>
+
+#include "rephoto/core/file.h"
+#include "rephoto/eval/command.h"
+
+namespace rephoto::eval {
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+const std::vector<SettingInfo>& Settings() {
+  static const std::vector<SettingInfo> settings = {
+      {"scene", SettingType::kPath, "Scene file or folder with the cameras (any format)"},
+      {"format", SettingType::kString, "Scene format instead of detection"},
+      {"image-root", SettingType::kPath, "Folder the image names are relative to"},
+      {"scheme", SettingType::kString,
+       "Split: kfold:K[:SEED], loo, every:N, fraction:F[:SEED], lists:TRAIN,TEST, none "
+       "(default: none for a model alone, else kfold:5)"},
+      {"model", SettingType::kPath,
+       "Model file (mesh/point cloud) for all folds; with --reconstruct the model's path "
+       "inside {out}"},
+      {"reconstruct", SettingType::kString,
+       "Command run per fold (/bin/sh -c) with placeholders {train} {sparse} {transforms} "
+       "{images} {train_list} {test} {test_sparse} {test_transforms} {test_list} {out} {fold} "
+       "{threads}"},
+      {"render", SettingType::kString,
+       "External renderer command per fold writing RGBA <test stem>.<png|jpg|exr|pfm> into "
+       "{out} (placeholders as --reconstruct)"},
+      {"representation", SettingType::kString,
+       "Built-in renderer: auto (mesh or point cloud by the file)"},
+      {"colorize", SettingType::kBool,
+       "Colour each fold's mesh from that fold's training photos before rendering"},
+      {"train-count", SettingType::kInt,
+       "Train each fold on a seeded subset of N training views (0 = all)"},
+      {"train-seed", SettingType::kInt, "Seed of the --train-count subsets"},
+      {"train-short-side", SettingType::kInt,
+       "Downscale training photos to this shorter side in pixels (0 = original)"},
+      {"eval-short-side", SettingType::kInt,
+       "Render and compare at this shorter side in pixels (0 = original)"},
+      {"metrics", SettingType::kMetricList,
+       "Metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim) or all"},
+      {"window", SettingType::kInt, "Window side of 1-ncc, zssd, census and completeness (odd)"},
+      {"ssim-mode", SettingType::kString,
+       "SSIM/DSSIM window: gaussian (11x11, sigma 1.5) or skimage (7x7 uniform)"},
+      {"dark", SettingType::kDouble, "Photo pixels with any channel <= this are ill-exposed"},
+      {"saturated", SettingType::kDouble, "Photo pixels with any channel >= this are ill-exposed"},
+      {"photo-masks", SettingType::kPath,
+       "Folder of photo masks by stem (0 = ignore the pixel); default: the scene's masks"},
+      {"resize", SettingType::kBool, "Rescale external renderings of another size to the photo"},
+      {"error-images", SettingType::kBool, "Write errors/<stem>.<metric>.exr/.png"},
+      {"spp", SettingType::kInt, "Samples per pixel of the built-in renderer"},
+      {"backfaces", SettingType::kBool, "Render the back sides of triangles"},
+      {"point-radius", SettingType::kDouble,
+       "Splat radius of point clouds in model units (0 = the file's, else from the density)"},
+      {"point-neighbors", SettingType::kInt, "k of the k-th nearest neighbour splat radius"},
+      {"out", SettingType::kPath, "Run directory"},
+      {"jobs", SettingType::kInt, "Folds whose external commands run at once"},
+      {"projection-metric", SettingType::kString,
+       "Metric projected onto the model (none = no projection)"},
+      {"report", SettingType::kBool, "Write report.html"},
+  };
+  return settings;
+}
+
+namespace {
+
+std::string Canonical(std::string_view name) {
+  std::string canonical(name);
+  for (char& c : canonical) {
+    if (c == '_') c = '-';
+  }
+  return canonical;
+}
+
+const SettingInfo* FindSetting(std::string_view name) {
+  const std::string canonical = Canonical(name);
+  for (const SettingInfo& info : Settings()) {
+    if (info.name == canonical) return &info;
+  }
+  return nullptr;
+}
+
+std::string KnownNames() {
+  std::string names;
+  for (const SettingInfo& info : Settings()) {
+    if (!names.empty()) names += ", ";
+    names += info.name;
+  }
+  return names;
+}
+
+const char* TypeName(const SettingValue& value) {
+  switch (value.index()) {
+    case 0:
+      return "a string";
+    case 1:
+      return "an integer";
+    case 2:
+      return "a number";
+    case 3:
+      return "a boolean";
+    default:
+      return "an array";
+  }
+}
+
+std::string AsString(const SettingValue& value, std::string_view source) {
+  if (const auto* s = std::get_if<std::string>(&value)) return *s;
+  throw UsageError(fmt::format("{}: expected a string, got {}", source, TypeName(value)));
+}
+
+int64_t AsInt(const SettingValue& value, std::string_view source) {
+  if (const auto* i = std::get_if<int64_t>(&value)) return *i;
+  if (const auto* s = std::get_if<std::string>(&value)) {
+    int64_t parsed = 0;
+    const auto [end, ec] = std::from_chars(s->data(), s->data() + s->size(), parsed);
+    if (ec == std::errc() && end == s->data() + s->size() && !s->empty()) return parsed;
+    throw UsageError(fmt::format("{}: '{}' is not an integer", source, *s));
+  }
+  throw UsageError(fmt::format("{}: expected an integer, got {}", source, TypeName(value)));
+}
+
+double AsDouble(const SettingValue& value, std::string_view source) {
+  if (const auto* d = std::get_if<double>(&value)) return *d;
+  if (const auto* i = std::get_if<int64_t>(&value)) return static_cast<double>(*i);
+  if (const auto* s = std::get_if<std::string>(&value)) {
+    try {
+      size_t used = 0;
+      const double parsed = std::stod(*s, &used);
+      if (used == s->size()) return parsed;
+    } catch (const std::exception&) {
+    }
+    throw UsageError(fmt::format("{}: '{}' is not a number", source, *s));
+  }
+  throw UsageError(fmt::format("{}: expected a number, got {}", source, TypeName(value)));
+}
+
+bool AsBool(const SettingValue& value, std::string_view source) {
+  if (const auto* b = std::get_if<bool>(&value)) return *b;
+  if (const auto* s = std::get_if<std::string>(&value)) {
+    if (*s == "true" || *s == "1" || *s == "yes") return true;
+    if (*s == "false" || *s == "0" || *s == "no") return false;
+    throw UsageError(fmt::format("{}: '{}' is not a boolean (true/false)", source, *s));
+  }
+  throw UsageError(fmt::format("{}: expected a boolean, got {}", source, TypeName(value)));
+}
+
+fs::path AsPath(const SettingValue& value, std::string_view source, const fs::path& base_dir) {
+  fs::path path = AsString(value, source);
+  if (!path.empty() && path.is_relative() && !base_dir.empty()) path = base_dir / path;
+  return path;
+}
+
+int CheckedInt(const SettingValue& value, std::string_view source, int64_t low, int64_t high) {
+  const int64_t v = AsInt(value, source);
+  if (v < low || v > high) {
+    throw UsageError(fmt::format("{}: {} is out of range [{}, {}]", source, v, low, high));
+  }
+  return static_cast<int>(v);
+}
+
+std::vector<metrics::Metric> AsMetrics(const SettingValue& value, std::string_view source) {
+  std::string list;
+  if (const auto* items = std::get_if<std::vector<std::string>>(&value)) {
+    for (const std::string& item : *items) list += (list.empty() ? "" : ",") + item;
+  } else {
+    list = AsString(value, source);
+  }
+  try {
+    std::vector<metrics::Metric> parsed = metrics::ParseMetricList(list);
+    if (parsed.empty()) throw UsageError(fmt::format("{}: no metric given", source));
+    return parsed;
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    throw UsageError(fmt::format("{}: {}", source, e.what()));
+  }
+}
+
+}  // namespace
+
+void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue& value,
+                  std::string_view source, const fs::path& base_dir) {
+  const SettingInfo* info = FindSetting(name);
+  if (info == nullptr) {
+    throw UsageError(
+        fmt::format("{}: unknown setting '{}' (known: {})", source, name, KnownNames()));
+  }
+  const std::string& n = info->name;
+  constexpr int64_t kMaxPixels = 1 << 20;
+  if (n == "scene") {
+    o->scene = AsPath(value, source, base_dir);
+  } else if (n == "format") {
+    o->format = AsString(value, source);
+  } else if (n == "image-root") {
+    o->image_root = AsPath(value, source, base_dir);
+  } else if (n == "scheme") {
+    o->scheme = AsString(value, source);
+  } else if (n == "model") {
+    // Resolved against the base folder only when it names a file (no reconstruct command);
+    // EvaluateOptions::Check decides, so keep both forms: relative stays relative here and
+    // the caller of LoadConfigFile fixes it up (see LoadConfigFile).
+    o->model = AsString(value, source);
+  } else if (n == "reconstruct") {
+    o->reconstruct = AsString(value, source);
+  } else if (n == "render") {
+    o->render = AsString(value, source);
+  } else if (n == "representation") {
+    o->representation = AsString(value, source);
+  } else if (n == "colorize") {
+    o->colorize = AsBool(value, source);
+  } else if (n == "train-count") {
+    o->train_count = CheckedInt(value, source, 0, 1 << 30);
+  } else if (n == "train-seed") {
+    const int64_t seed = AsInt(value, source);
+    if (seed < 0) throw UsageError(fmt::format("{}: the seed must not be negative", source));
+    o->train_seed = static_cast<uint64_t>(seed);
+  } else if (n == "train-short-side") {
+    o->train_short_side = CheckedInt(value, source, 0, kMaxPixels);
+  } else if (n == "eval-short-side") {
+    o->eval_short_side = CheckedInt(value, source, 0, kMaxPixels);
+  } else if (n == "metrics") {
+    o->metrics = AsMetrics(value, source);
+  } else if (n == "window") {
+    const int window = CheckedInt(value, source, 3, 101);
+    if (window % 2 == 0) throw UsageError(fmt::format("{}: the window must be odd", source));
+    o->metric_options.window = window;
+  } else if (n == "ssim-mode") {
+    const std::string mode = AsString(value, source);
+    if (mode == "gaussian") {
+      o->metric_options.ssim_gaussian = true;
+      o->metric_options.ssim_window = metrics::MetricOptions{}.ssim_window;
+    } else if (mode == "skimage") {
+      o->metric_options.ssim_gaussian = false;
+      o->metric_options.ssim_window = 7;
+    } else {
+      throw UsageError(fmt::format("{}: '{}' is not gaussian or skimage", source, mode));
+    }
+  } else if (n == "dark") {
+    o->exposure.dark_threshold = static_cast<float>(AsDouble(value, source));
+  } else if (n == "saturated") {
+    o->exposure.saturated_threshold = static_cast<float>(AsDouble(value, source));
+  } else if (n == "photo-masks") {
+    o->photo_masks = AsPath(value, source, base_dir);
+  } else if (n == "resize") {
+    o->resize = AsBool(value, source);
+  } else if (n == "error-images") {
+    o->error_images = AsBool(value, source);
+  } else if (n == "spp") {
+    o->samples_per_pixel = CheckedInt(value, source, 1, 1024);
+  } else if (n == "backfaces") {
+    o->backfaces = AsBool(value, source);
+  } else if (n == "point-radius") {
+    const double radius = AsDouble(value, source);
+    if (!(radius >= 0) || !std::isfinite(radius)) {
+      throw UsageError(fmt::format("{}: the radius must be >= 0", source));
+    }
+    o->point_radius = static_cast<float>(radius);
+  } else if (n == "point-neighbors") {
+    o->point_neighbors = CheckedInt(value, source, 1, 100);
+  } else if (n == "out") {
+    o->out = AsPath(value, source, base_dir);
+  } else if (n == "jobs") {
+    o->jobs = CheckedInt(value, source, 1, 256);
+  } else if (n == "projection-metric") {
+    const std::string metric = AsString(value, source);
+    if (metric != "none" && !metrics::ParseMetric(metric)) {
+      throw UsageError(fmt::format("{}: unknown metric '{}'", source, metric));
+    }
+    o->projection_metric = metric;
+  } else if (n == "report") {
+    o->report = AsBool(value, source);
+  } else {
+    throw UsageError(fmt::format("{}: setting '{}' is not handled", source, n));  // unreachable
+  }
+}
+
+namespace {
+
+SettingValue FromToml(const toml::node& node, const std::string& source) {
+  if (const auto* s = node.as_string()) return s->get();
+  if (const auto* i = node.as_integer()) return i->get();
+  if (const auto* d = node.as_floating_point()) return d->get();
+  if (const auto* b = node.as_boolean()) return b->get();
+  if (const auto* array = node.as_array()) {
+    std::vector<std::string> items;
+    for (const toml::node& item : *array) {
+      const auto* s = item.as_string();
+      if (s == nullptr) throw UsageError(source + ": expected an array of strings");
+      items.push_back(s->get());
+    }
+    return items;
+  }
+  throw UsageError(source + ": unsupported value (tables and dates are not settings)");
+}
+
+SettingValue FromJson(const nlohmann::json& node, const std::string& source) {
+  if (node.is_string()) return node.get<std::string>();
+  if (node.is_boolean()) return node.get<bool>();
+  if (node.is_number_integer()) return node.get<int64_t>();
+  if (node.is_number_float()) return node.get<double>();
+  if (node.is_array()) {
+    std::vector<std::string> items;
+    for (const auto& item : node) {
+      if (!item.is_string()) throw UsageError(source + ": expected an array of strings");
+      items.push_back(item.get<std::string>());
+    }
+    return items;
+  }
+  throw UsageError(source + ": unsupported value (objects and null are not settings)");
+}
+
+}  // namespace
+
+void LoadConfigFile(const fs::path& file, EvaluateOptions* options) {
+  std::string extension = file.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  REPHOTO_CHECK(extension == ".toml" || extension == ".json", "{}: config files are .toml or .json",
+                file.string());
+  const std::string text = ReadFileToString(file);
+  const fs::path base_dir = fs::absolute(file).parent_path();
+  std::vector<std::pair<std::string, SettingValue>> entries;
+  if (extension == ".toml") {
+    toml::table table;
+    try {
+      table = toml::parse(text, file.string());
+    } catch (const toml::parse_error& e) {
+      ThrowError("{}:{}:{}: {}", file.string(), e.source().begin.line, e.source().begin.column,
+                 e.description());
+    }
+    for (const auto& [key, node] : table) {
+      const std::string name(key.str());
+      const std::string source = fmt::format("{}: key '{}'", file.string(), name);
+      if (FindSetting(name) == nullptr) {
+        throw UsageError(
+            fmt::format("{}: unknown key '{}' (known: {})", file.string(), name, KnownNames()));
+      }
+      entries.emplace_back(name, FromToml(node, source));
+    }
+  } else {
+    nlohmann::json json;
+    try {
+      json = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::parse_error& e) {
+      ThrowError("{}: invalid JSON: {}", file.string(), e.what());
+    }
+    REPHOTO_CHECK(json.is_object(), "{}: expected a JSON object of settings", file.string());
+    for (const auto& [name, node] : json.items()) {
+      const std::string source = fmt::format("{}: key '{}'", file.string(), name);
+      if (FindSetting(name) == nullptr) {
+        throw UsageError(
+            fmt::format("{}: unknown key '{}' (known: {})", file.string(), name, KnownNames()));
+      }
+      entries.emplace_back(name, FromJson(node, source));
+    }
+  }
+  bool has_reconstruct = false;
+  for (const auto& [name, value] : entries) {
+    has_reconstruct |= Canonical(name) == "reconstruct";
+  }
+  for (const auto& [name, value] : entries) {
+    const std::string source = fmt::format("{}: key '{}'", file.string(), name);
+    ApplySetting(options, name, value, source, base_dir);
+    // A model file is relative to the config file; with a reconstruct command it is a path
+    // inside {out} and stays as written.
+    if (Canonical(name) == "model" && !has_reconstruct && options->model.is_relative()) {
+      options->model = base_dir / options->model;
+    }
+  }
+  options->config_file = file;
+}
+
+Json SettingsJson(const EvaluateOptions& o) {
+  Json j;
+  j["scene"] = o.scene.string();
+  j["format"] = o.format;
+  j["image-root"] = o.image_root.string();
+  j["scheme"] = o.scheme;
+  j["model"] = o.model.string();
+  j["reconstruct"] = o.reconstruct;
+  j["render"] = o.render;
+  j["representation"] = o.representation;
+  j["colorize"] = o.colorize;
+  j["train-count"] = o.train_count;
+  j["train-seed"] = o.train_seed;
+  j["train-short-side"] = o.train_short_side;
+  j["eval-short-side"] = o.eval_short_side;
+  Json metric_names = Json::array();
+  for (metrics::Metric m : o.metrics) metric_names.push_back(metrics::MetricName(m));
+  j["metrics"] = metric_names;
+  j["window"] = o.metric_options.window;
+  j["ssim-mode"] = o.metric_options.ssim_gaussian ? "gaussian" : "skimage";
+  j["dark"] = o.exposure.dark_threshold;
+  j["saturated"] = o.exposure.saturated_threshold;
+  j["photo-masks"] = o.photo_masks.string();
+  j["resize"] = o.resize;
+  j["error-images"] = o.error_images;
+  j["spp"] = o.samples_per_pixel;
+  j["backfaces"] = o.backfaces;
+  j["point-radius"] = o.point_radius;
+  j["point-neighbors"] = o.point_neighbors;
+  j["out"] = o.out.string();
+  j["jobs"] = o.jobs;
+  j["projection-metric"] = o.projection_metric;
+  j["report"] = o.report;
+  return j;
+}
+
+}  // namespace rephoto::eval
