@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-skimage python3-numpy python3-scipy
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  chromium
 )
 
 missing=()
