@@ -95,19 +95,31 @@ log="$out/pipeline.log"
 : >"$log"
 echo "# $prog $(date -u +%FT%TZ) threads=$threads max_image_size=$max_image_size" \
   "matcher=$matcher mesher=$mesher depth=$depth subdivide=$subdivide" >>"$log"
-total_start=$(date +%s.%N)
+total_start=$(date +%s.%N) total_cpu=0
 
-# step NAME COMMAND...: runs COMMAND with its output in logs/NAME.log and its time in pipeline.log.
+# step NAME COMMAND...: runs COMMAND with its output in logs/NAME.log; pipeline.log gets its wall
+# time and, when GNU time (/usr/bin/time, Debian package time) is present, its CPU time (user +
+# system, all threads: a measure that other processes on the machine hardly change).
 step() {
   local name=$1; shift
-  local start end
+  local start end cpu=""
+  local timer=()
+  [ -x /usr/bin/time ] && timer=(/usr/bin/time -f "%U %S" -o "$out/logs/$name.time")
   start=$(date +%s.%N)
-  if ! "$@" >"$out/logs/$name.log" 2>&1; then
+  if ! "${timer[@]}" "$@" >"$out/logs/$name.log" 2>&1; then
+    rm -f "$out/logs/$name.time"
     tail -n 5 "$out/logs/$name.log" | sed "s/^/  /" >&2
     die "step '$name' failed (full output: $out/logs/$name.log)"
   fi
   end=$(date +%s.%N)
-  printf '%-12s %8.1f s\n' "$name" "$(awk "BEGIN{print $end - $start}")" | tee -a "$log" >&2
+  if [ -s "$out/logs/$name.time" ]; then
+    cpu=$(awk 'END { printf "%.2f", $1 + $2 }' "$out/logs/$name.time")
+    rm -f "$out/logs/$name.time"
+    total_cpu=$(awk "BEGIN{print $total_cpu + $cpu}")
+    cpu=$(printf '  cpu %8.1f s' "$cpu")
+  fi
+  printf '%-12s %8.1f s%s\n' "$name" "$(awk "BEGIN{print $end - $start}")" "$cpu" |
+    tee -a "$log" >&2
 }
 
 step list "$python" "$here/known_poses.py" list "$sparse" "$images" "$work/images.txt"
@@ -165,5 +177,6 @@ esac
 [ "$mesher" = none ] || grep -h . "$out/logs/mesh.log" | sed 's/^/  /' >&2
 
 [ "$keep_work" = 1 ] || rm -rf "$work"
-printf '%-12s %8.1f s (%s images)\n' total "$(awk "BEGIN{print $(date +%s.%N) - $total_start}")" \
-  "$n_images" | tee -a "$log" >&2
+printf '%-12s %8.1f s  cpu %8.1f s (%s images; load average %s)\n' total \
+  "$(awk "BEGIN{print $(date +%s.%N) - $total_start}")" "$total_cpu" "$n_images" \
+  "$(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$log" >&2
