@@ -16,12 +16,16 @@
 //          Tolerance(z) = depth_tolerance * z + footprint_tolerance * z / f  (+ r for points)
 //      where f is the camera's mean focal length in pixels (so z / f is the size of one pixel on
 //      a fronto-parallel surface at depth z) and r is the point's splat radius (point clouds only,
-//      RenderModel::point_radii: neighbouring discs overlap the point's own disc). The footprint
-//      term absorbs the depth change between V and the pixel centre on slanted surfaces (up to
-//      about footprint_tolerance / 1.4 pixels of travel at 45 degrees), the relative term the
-//      renderer's float precision and small misalignments. A surface closer than that hides V
-//      (occlusion); a surface farther away at P means V is at a silhouette and the pixel shows
-//      something else, so V is not seen there either.
+//      RenderModel::point_radii: neighbouring discs overlap the point's own disc). Between V
+//      and the centre of P (at most 0.71 px away) the depth of a surface inclined at angle theta
+//      to the image plane changes by up to 0.71 * tan(theta) footprints; the defaults (1 % of z
+//      plus 2 footprints) allow 0.01 f + 2 footprints, e.g. 8.4 at f = 640 px: slopes up to
+//      about 85 degrees pass. A surface closer than the tolerance hides V (occlusion); a
+//      surface farther away at P means V is at a silhouette and the pixel shows something else,
+//      so V is not seen there either. Occluders within the tolerance in front of V (contact
+//      regions, e.g. ground just under an object) cannot be told apart at this resolution. On
+//      the demo scene this test agrees with exact ray casting on 99.9 % of the (vertex, view)
+//      pairs that are clearly visible and 100 % of those clearly hidden (project_demo_test).
 // Error sample. The error image (1 channel, NaN = not evaluated) is interpolated bilinearly at
 // p over the 4 pixel centres around p (the pixels whose centres are the corners of the cell
 // containing p), using only those pixels that lie inside the image, whose error is finite and
@@ -40,8 +44,8 @@
 // given. A vertex's colour is JetColor(t) (core/colormap.h), t = (error - low) / (high - low)
 // clamped to [0,1] (t = 0 when high == low, e.g. all errors equal), so low and below are dark
 // blue, high and above dark red (with low > high the map runs the other way). For error images
-// where higher is better (ssim) set higher_is_better (or pass a reversed fixed_range) to keep red =
-// bad. Unseen vertices are grey (128, 128, 128).
+// where higher is better (ssim) set higher_is_better (or pass a reversed fixed_range) to keep
+// red = bad. Unseen vertices are grey (128, 128, 128).
 #pragma once
 
 #include <array>
