@@ -23,10 +23,11 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInf = std::numeric_limits<float>::infinity();
-constexpr int kMaxK = 16;           // largest k_best
-constexpr int kDepthLayers = 4;     // IBR: nearest surfaces kept per pixel
-constexpr int kMaxCandidates = 32;  // training views considered per novel view
-constexpr int kBandRows = 16;       // IBR rasterization bands
+constexpr int kMaxK = 16;            // largest k_best
+constexpr int kDepthLayers = 4;      // IBR: nearest surfaces kept per pixel
+constexpr int kMaxCandidates = 32;   // training views considered per novel view
+constexpr int kBandRows = 16;        // IBR rasterization bands
+constexpr int kRasterViewsPerK = 3;  // IBR: the proxies of the 3 * k_best nearest views are warped
 
 // A training view prepared for rendering.
 struct ViewData {
@@ -131,6 +132,39 @@ void ValidateOptions(const ImageBasedOptions& o) {
                 "image-based rendering: sweep_neighbors {} not in [1, 16]", o.sweep_neighbors);
 }
 
+// Median of the finite values of a depth image (every 8th pixel in each direction); `fallback`
+// when there are none.
+double MedianDepth(const Image& depth, double fallback) {
+  std::vector<float> values;
+  for (int y = 0; y < depth.height(); y += 8) {
+    for (int x = 0; x < depth.width(); x += 8) {
+      if (std::isfinite(depth.at(x, y))) values.push_back(depth.at(x, y));
+    }
+  }
+  if (values.empty()) return fallback;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+// Training views ordered by the angle between their camera centre and the novel camera centre
+// seen from the novel view's central scene point (at `central_depth` on its optical axis),
+// smallest first, at most kMaxCandidates.
+std::vector<int> RankViews(const std::vector<ViewData>& views, const camera::Pose& pose,
+                           double central_depth) {
+  const Eigen::Vector3d target = pose.Center() + central_depth * pose.ViewDirection();
+  const Eigen::Vector3d a = (pose.Center() - target).normalized();
+  std::vector<std::pair<double, int>> ranked;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const Eigen::Vector3d b = (views[i].info.cam_from_world.Center() - target).normalized();
+    ranked.emplace_back(-a.dot(b), static_cast<int>(i));
+  }
+  std::sort(ranked.begin(), ranked.end());
+  if (ranked.size() > kMaxCandidates) ranked.resize(kMaxCandidates);
+  std::vector<int> out;
+  for (const auto& r : ranked) out.push_back(r.second);
+  return out;
+}
+
 }  // namespace
 
 struct ImageBasedRenderer::State {
@@ -138,6 +172,7 @@ struct ImageBasedRenderer::State {
   bool ibr = false;
   std::vector<ViewData> views;
   std::unique_ptr<render::RenderModel> proxy;  // VDT
+  double typical_depth = 1;  // median over the training views of their median depth
   mutable std::mutex rays_mutex;
   mutable std::vector<std::shared_ptr<const render::CameraRays>> rays_cache;
   mutable std::mutex scratch_mutex;
@@ -156,9 +191,19 @@ struct ImageBasedRenderer::State {
 
   void LoadPhotos(std::vector<TrainingView> training, int sweep_width);
   void BuildProxyGrids();
+  void ComputeTypicalDepth() {
+    std::vector<double> medians;
+    for (const ViewData& v : views) {
+      const double m = MedianDepth(v.depth, kNaN);
+      if (std::isfinite(m)) medians.push_back(m);
+    }
+    if (medians.empty()) return;
+    std::nth_element(medians.begin(), medians.begin() + medians.size() / 2, medians.end());
+    typical_depth = medians[medians.size() / 2];
+  }
   void ComputeSweepDepths();
   void RasterizeProxies(const camera::Camera& camera, const camera::Pose& pose,
-                        Scratch* scratch) const;
+                        const std::vector<int>& raster_views, Scratch* scratch) const;
   void Fuse(const render::CameraRays& rays, const camera::Pose& pose, const Image& depth,
             int depth_stride, render::Rephoto* out) const;
 };
@@ -389,9 +434,11 @@ void ImageBasedRenderer::State::ComputeSweepDepths() {
 // IBR step 1: forward-warps every proxy mesh into the novel view and resolves each pixel's
 // depth into scratch->novel_depth.
 void ImageBasedRenderer::State::RasterizeProxies(const camera::Camera& camera,
-                                                 const camera::Pose& pose, Scratch* scratch) const {
+                                                 const camera::Pose& pose,
+                                                 const std::vector<int>& raster_views,
+                                                 Scratch* scratch) const {
   const int width = camera.width, height = camera.height;
-  const size_t n = views.size();
+  const size_t n = raster_views.size();
   scratch->projected.resize(n);
   scratch->row_range.resize(n);
   const Eigen::Matrix3d R = pose.rotation;
@@ -402,7 +449,7 @@ void ImageBasedRenderer::State::RasterizeProxies(const camera::Camera& camera,
   // Project the grid vertices: (x, y) in novel pixels, 1/z.
   ParallelFor(0, static_cast<int64_t>(n), 1, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
-      const ViewData& v = views[i];
+      const ViewData& v = views[raster_views[i]];
       auto& projected = scratch->projected[i];
       projected.resize(v.grid_world.size());
       auto& range = scratch->row_range[i];
@@ -505,7 +552,7 @@ void ImageBasedRenderer::State::RasterizeProxies(const camera::Camera& camera,
         }
       };
       for (size_t i = 0; i < n; ++i) {
-        const ViewData& v = views[i];
+        const ViewData& v = views[raster_views[i]];
         const auto& projected = scratch->projected[i];
         const auto& range = scratch->row_range[i];
         const uint16_t view = static_cast<uint16_t>(i);
@@ -572,33 +619,15 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
   const float depth_penalty = static_cast<float>(options.depth_penalty);
   const float epsilon = static_cast<float>(options.epipole_epsilon);
 
-  // Candidate views for this novel view: nearest first by the angle at the novel view's
-  // central scene point (at most kMaxCandidates).
-  std::vector<double> finite_depths;
-  for (int y = 0; y < height; y += 8) {
-    for (int x = 0; x < width; x += 8) {
-      if (std::isfinite(depth.at(x, y))) finite_depths.push_back(depth.at(x, y));
-    }
-  }
-  double central_depth = 1;
-  if (!finite_depths.empty()) {
-    std::nth_element(finite_depths.begin(), finite_depths.begin() + finite_depths.size() / 2,
-                     finite_depths.end());
-    central_depth = finite_depths[finite_depths.size() / 2];
-  }
-  const Eigen::Vector3d target = pose.Center() + central_depth * pose.ViewDirection();
-  std::vector<std::pair<double, int>> ranked;
-  for (size_t i = 0; i < views.size(); ++i) {
-    const camera::Pose& p = views[i].info.cam_from_world;
-    const Eigen::Vector3d a = (pose.Center() - target).normalized();
-    const Eigen::Vector3d b = (p.Center() - target).normalized();
-    ranked.emplace_back(-a.dot(b), static_cast<int>(i));
-  }
-  std::sort(ranked.begin(), ranked.end());
-  if (ranked.size() > kMaxCandidates) ranked.resize(kMaxCandidates);
+  // Candidate views for this novel view (RankViews at the median depth of the view).
+  const std::vector<int> ranked = RankViews(views, pose, MedianDepth(depth, typical_depth));
   const int m = static_cast<int>(ranked.size());
   int candidates[kMaxCandidates];
-  for (int i = 0; i < m; ++i) candidates[i] = ranked[i].second;
+  Eigen::Vector3f centers[kMaxCandidates];
+  for (int i = 0; i < m; ++i) {
+    candidates[i] = ranked[i];
+    centers[i] = views[candidates[i]].center;
+  }
 
   ParallelFor(0, height, 4, [&](int64_t row_begin, int64_t row_end) {
     struct Accepted {
@@ -606,7 +635,11 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
       float rgb[3];
     };
     Accepted accepted[kMaxK + 1];
-    std::pair<float, float> order[kMaxCandidates];  // (-cos, candidate)
+    // Candidates by increasing angle: the order of the previous pixel is re-sorted by insertion
+    // (neighbouring pixels have nearly the same order, so this is close to linear).
+    int order[kMaxCandidates];
+    float key[kMaxCandidates];  // -cos of the angle, per candidate
+    for (int i = 0; i < m; ++i) order[i] = i;
     std::pair<float, float> samples[kMaxK];
     for (int64_t yy = row_begin; yy < row_end; ++yy) {
       const int y = static_cast<int>(yy);
@@ -621,15 +654,23 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
         const Eigen::Vector3f X = origin + world_from_cam * Eigen::Vector3f(xn * z, yn * z, z);
         const Eigen::Vector3f to_novel = (origin - X).normalized();
         for (int i = 0; i < m; ++i) {
-          const Eigen::Vector3f d = views[candidates[i]].center - X;
-          order[i] = {-to_novel.dot(d) / d.norm(), static_cast<float>(i)};
+          const Eigen::Vector3f d = centers[i] - X;
+          key[i] = -to_novel.dot(d) / d.norm();
         }
-        std::sort(order, order + m);
+        for (int i = 1; i < m; ++i) {
+          const int c = order[i];
+          int j = i;
+          while (j > 0 && key[order[j - 1]] > key[c]) {
+            order[j] = order[j - 1];
+            --j;
+          }
+          order[j] = c;
+        }
         int count = 0;
         for (int j = 0; j < m; ++j) {
-          const float angle = std::acos(std::clamp(-order[j].first, -1.f, 1.f));
+          const float angle = std::acos(std::clamp(-key[order[j]], -1.f, 1.f));
           if (count == k_best + 1 && angle >= accepted[k_best].penalty) break;
-          const ViewData& v = views[candidates[static_cast<int>(order[j].second)]];
+          const ViewData& v = views[candidates[order[j]]];
           float u, w, zi;
           if (!v.Project(X, &u, &w, &zi)) continue;
           if (!(u >= 0.5f && w >= 0.5f && u <= v.width - 0.5f && w <= v.height - 0.5f)) continue;
@@ -728,6 +769,7 @@ ImageBasedRenderer ImageBasedRenderer::Vdt(const mesh::Mesh& proxy,
     v.depth = rendering.depth;
     v.depth_sx = v.depth_sy = 1;
   }
+  state->ComputeTypicalDepth();
   return ImageBasedRenderer(std::move(state));
 }
 
@@ -759,6 +801,7 @@ ImageBasedRenderer ImageBasedRenderer::Ibr(std::vector<TrainingView> training,
     v.depth_sy = static_cast<float>(v.depth.height()) / v.height;
   }
   state->BuildProxyGrids();
+  state->ComputeTypicalDepth();
   return ImageBasedRenderer(std::move(state));
 }
 
@@ -783,7 +826,11 @@ void ImageBasedRenderer::Render(const camera::Camera& camera, const camera::Pose
   if (!scratch) scratch = std::make_unique<Scratch>();
   const auto rays = s.RaysFor(camera);
   if (s.ibr) {
-    s.RasterizeProxies(camera, cam_from_world, scratch.get());
+    std::vector<int> raster_views = RankViews(s.views, cam_from_world, s.typical_depth);
+    if (raster_views.size() > static_cast<size_t>(kRasterViewsPerK * s.options.k_best)) {
+      raster_views.resize(static_cast<size_t>(kRasterViewsPerK * s.options.k_best));
+    }
+    s.RasterizeProxies(camera, cam_from_world, raster_views, scratch.get());
     s.Fuse(*rays, cam_from_world, scratch->novel_depth, 1, out);
   } else {
     render::RenderOptions options;

@@ -11,7 +11,9 @@
 //      `proxy_grid_spacing` photo pixels, unprojected once at construction; triangles that
 //      their own camera sees at less than `proxy_edge_angle` degrees from edge-on are cut: they
 //      join a foreground to a background across an occlusion edge) and
-//      forward-warped into the novel view by rasterization with a z-buffer (perspective-correct
+//      forward-warped into the novel view by rasterization with a z-buffer; only the proxies
+//      of the 3 * k_best training views nearest to the novel view (ranked as in step 2, at the
+//      training views' median depth) are warped, for speed (perspective-correct
 //      1/z interpolation; the novel camera's distortion applied at the vertices). Each pixel
 //      keeps the 4 nearest surfaces of different training views; its depth is the nearest one
 //      that a second view confirms within `depth_tolerance` (relative), else the nearest one
