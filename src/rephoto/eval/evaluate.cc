@@ -28,8 +28,10 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
+#include "rephoto/project/project.h"
 #include "rephoto/render/colorize.h"
 #include "rephoto/render/render.h"
+#include "rephoto/report/report.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/scene/transforms_json.h"
@@ -307,6 +309,9 @@ class Evaluation {
   void FailFold(FoldState& fold, const std::string& message);
   void Aggregate(EvaluateResult* result);
   void ProjectAndReport(EvaluateResult* result);
+  void ProjectOnto(const fs::path& model_path, const std::string& model_key,
+                   const std::vector<const FoldState*>& folds, metrics::Metric metric,
+                   const fs::path& out);
   void WriteRunJson(const EvaluateResult* result, const std::string& status);
   void WriteManifest();
   compare::CompareOptions CompareSettings() const;
@@ -341,6 +346,8 @@ class Evaluation {
   // Model file keys by "<path>\n<content hash>", so a shared model is parsed once.
   std::map<std::string, std::string> model_file_keys_;
   Json scene_identity_;
+  fs::path cached_model_path_;                       // the file cached_model_ was built from
+  std::string projection_message_, report_message_;  // why they were not written
 };
 
 // ------------------------------------------------------------------------------ settings
@@ -541,40 +548,65 @@ void Evaluation::PrepareFold(FoldState& fold) {
     fold.train_list = fold.train_dir / "train.txt";
     fold.images_dir = scene_.image_root;
     if (o_.train_short_side > 0) {
-      // Downscaled photos as PNG next to the fold's training scene; cameras scaled with them.
+      // Downscaled photos as PNG in the fold's images/ folder (hard links to one shared cache,
+      // so a photo is decoded and filtered once for all folds); cameras scaled with them.
       fold.images_dir = fold.train_dir / "images";
-      const fs::path index_file = fold.train_dir / "images.json";
-      Json index = ReadJsonFile(index_file).value_or(Json::object());
+      const fs::path cache_dir =
+          run_ / "cache" / fmt::format("train_photos_s{}", o_.train_short_side);
       std::map<int, std::pair<int, int>> new_sizes;
       for (const auto& [id, camera] : train.cameras) {
         new_sizes[id] = ScaledSize(camera.width, camera.height, o_.train_short_side);
       }
+      std::set<fs::path> expected;
       for (size_t v = 0; v < train.views.size(); ++v) {
         scene::View& view = train.views[v];
         const camera::Camera& camera = train.CameraOf(view);
         const auto [w, h] = new_sizes.at(view.camera_id);
         const std::string png_name = WithoutExtension(view.name) + ".png";
+        const fs::path cached = cache_dir / png_name;
+        const fs::path cached_key = cache_dir / (png_name + ".key");
         const fs::path target = fold.images_dir / png_name;
         const std::string key =
             Hasher().Add(hashes_->Hash(view.image_path)).AddInt(w).AddInt(h).Hex();
         std::error_code ec;
-        if (!(index.contains(png_name) && index[png_name] == key &&
-              fs::is_regular_file(target, ec))) {
+        if (!(fs::is_regular_file(cached, ec) && fs::is_regular_file(cached_key, ec) &&
+              ReadFileToString(cached_key) == key)) {
+          fs::remove(cached_key, ec);
           const Image photo = io::ReadImage(view.image_path);
           REPHOTO_CHECK(photo.width() == camera.width && photo.height() == camera.height,
                         "{}: photo is {}x{} but its camera is {}x{}", view.image_path.string(),
                         photo.width(), photo.height(), camera.width, camera.height);
           Image scaled;
           compare::ResizeImage(photo, w, h, &scaled);
-          io::WritePng(target, scaled);
-          index[png_name] = key;
+          io::WritePng(cached, scaled);
+          WriteTextFileAtomically(cached_key, key);
           ++counters_.photos_downscaled;
         }
-        // Observations move with the pixels.
+        if (!(fs::exists(target, ec) && fs::equivalent(target, cached, ec))) {
+          fs::create_directories(target.parent_path(), ec);
+          fs::remove(target, ec);
+          fs::create_hard_link(cached, target, ec);
+          if (ec) {
+            fs::copy_file(cached, target, fs::copy_options::overwrite_existing, ec);
+            REPHOTO_CHECK(!ec, "{}: cannot copy to {}: {}", cached.string(), target.string(),
+                          ec.message());
+          }
+        }
+        expected.insert(target.lexically_normal());
         view.name = png_name;
         view.image_path = target;
       }
-      WriteTextFileAtomically(index_file, index.dump(1) + "\n");
+      // Only this fold's training photos may be in its images folder.
+      std::error_code ec;
+      std::vector<fs::path> stale;
+      for (fs::recursive_directory_iterator it(fold.images_dir, ec), end; !ec && it != end;
+           it.increment(ec)) {
+        if (it->is_regular_file() && !expected.count(it->path().lexically_normal())) {
+          stale.push_back(it->path());
+        }
+      }
+      for (const fs::path& path : stale) fs::remove(path, ec);
+      // Observations move with the pixels.
       for (auto& [id, camera] : train.cameras) {
         const auto [w, h] = new_sizes.at(id);
         const double sx = static_cast<double>(w) / camera.width;
@@ -1105,6 +1137,7 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
       timings_.render += Seconds(build_start);
       cached_model_ = model;
       cached_model_key_ = fold.model_key;
+      cached_model_path_ = fold.model_path;
     }
     if (o_.representation == "auto") {
       render::RenderOptions render_options;
@@ -1343,10 +1376,109 @@ void Evaluation::Aggregate(EvaluateResult* result) {
   timings_.aggregate += Seconds(start);
 }
 
+// Projects one metric's error images of `folds` onto `model_path` (or the cached render model
+// when it is that model) into `out`, unless `out` was written with the same key.
+void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& model_key,
+                             const std::vector<const FoldState*>& folds, metrics::Metric metric,
+                             const fs::path& out) {
+  const std::string metric_name(metrics::MetricName(metric));
+  std::vector<project::ProjectView> views;
+  Hasher key;
+  key.Add(kKeyVersion).Add("project").Add(model_key).Add(metric_name).Add(RenderSettingsKey());
+  for (const FoldState* fold : folds) {
+    for (size_t i = 0; i < fold->tests.size() && i < fold->views.size(); ++i) {
+      if (!fold->views[i].ok) continue;
+      const TestView& test = fold->tests[i];
+      project::ProjectView view;
+      view.camera = test.camera;
+      view.cam_from_world = test.pose;
+      view.error_image = fold->dir / "errors" / (test.stem + "." + metric_name + ".exr");
+      view.name = fold->name + "/" + test.stem;
+      key.Add(view.name).Add(fold->views[i].key);
+      views.push_back(std::move(view));
+    }
+  }
+  if (views.empty()) return;
+  const fs::path key_file = fs::path(out).replace_extension(".key");
+  std::error_code ec;
+  if (fs::is_regular_file(out, ec) && fs::is_regular_file(key_file, ec) &&
+      ReadFileToString(key_file) == key.Hex()) {
+    return;
+  }
+  project::ProjectOptions options;
+  options.backfaces = o_.backfaces;
+  options.higher_is_better = metric == metrics::Metric::kSsim;
+  options.model_options.point_radius = o_.point_radius;
+  options.model_options.point_radius_neighbors = o_.point_neighbors;
+  options.model_options.load_textures = false;
+  fs::remove(key_file, ec);
+  project::ProjectResult projected;
+  if (cached_model_ && cached_model_->mesh().vertex_count() > 0 &&
+      cached_model_path_ == model_path) {
+    projected = project::ProjectErrors(*cached_model_, views, options);
+    project::WriteProjectedPly(cached_model_->mesh(), projected, out);
+  } else {
+    const mesh::Mesh mesh = mesh::ReadMesh(model_path);
+    projected = project::ProjectErrors(mesh, views, options);
+    project::WriteProjectedPly(mesh, projected, out);
+  }
+  WriteTextFileAtomically(key_file, key.Hex());
+  ++counters_.projections;
+  LogInfo(fmt::format("projected {} of {} views onto {} vertices ({} seen) -> {}", metric_name,
+                      views.size(), projected.vertex_error.size(), projected.seen_vertices,
+                      out.string()));
+}
+
 void Evaluation::ProjectAndReport(EvaluateResult* result) {
   (void)result;
-  // Error projection (project::ProjectErrors) and the report (report::WriteRunReport) are wired
-  // in when those libraries exist.
+  auto start = Clock::now();
+  if (o_.projection_metric != "none" && source_ != ModelSource::kRender) {
+    const std::optional<metrics::Metric> metric = metrics::ParseMetric(o_.projection_metric);
+    const bool have_metric =
+        metric && std::find(o_.metrics.begin(), o_.metrics.end(), *metric) != o_.metrics.end();
+    if (!o_.error_images) {
+      LogWarning("no error projection: error images are off (--no-error-images)");
+    } else if (!have_metric) {
+      LogWarning(fmt::format("no error projection: '{}' is not among the metrics evaluated",
+                             o_.projection_metric));
+    } else {
+      const std::string name(metrics::MetricName(*metric));
+      try {
+        if (source_ == ModelSource::kModel) {
+          // One geometry for all folds (colouring changes colours only).
+          std::vector<const FoldState*> folds;
+          for (const FoldState& fold : folds_) {
+            if (fold.ok) folds.push_back(&fold);
+          }
+          const fs::path model = fs::absolute(o_.model).lexically_normal();
+          ProjectOnto(model, hashes_->Hash(model), folds, *metric,
+                      run_ / "projected" / (name + ".ply"));
+        } else {
+          for (const FoldState& fold : folds_) {
+            if (!fold.ok || fold.model_path.empty()) continue;
+            const fs::path out =
+                run_ / "projected" /
+                (folds_.size() == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
+            ProjectOnto(fold.model_path, fold.model_key, {&fold}, *metric, out);
+          }
+        }
+      } catch (const Error& e) {
+        LogWarning(fmt::format("error projection failed: {}", e.what()));
+        projection_message_ = e.what();
+      }
+    }
+  }
+  timings_.project += Seconds(start);
+  start = Clock::now();
+  if (o_.report) {
+    try {
+      report::WriteRunReport(run_, run_ / "report.html");
+    } catch (const Error& e) {
+      LogWarning(fmt::format("report not written: {}", e.what()));
+      report_message_ = e.what();
+    }
+  }
+  timings_.report += Seconds(start);
 }
 
 void Evaluation::WriteManifest() {
@@ -1496,7 +1628,8 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
                    {"views_rendered", counters_.views_rendered},
                    {"views_compared", counters_.views_compared},
                    {"views_reused", counters_.views_reused},
-                   {"photos_downscaled", counters_.photos_downscaled}};
+                   {"photos_downscaled", counters_.photos_downscaled},
+                   {"projections", counters_.projections}};
   Json fold_status = Json::array();
   if (result != nullptr) {
     for (const FoldResult& fr : result->folds) {
@@ -1509,6 +1642,19 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
     }
   }
   j["folds"] = fold_status;
+  Json projected = Json::array();
+  std::error_code ec;
+  for (fs::directory_iterator it(run_ / "projected", ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->path().extension() == ".ply") {
+      projected.push_back(RelativeTo(it->path(), run_));
+    }
+  }
+  std::sort(projected.begin(), projected.end());
+  j["outputs"] = {
+      {"projected", projected},
+      {"projection_error", projection_message_.empty() ? Json() : Json(projection_message_)},
+      {"report", fs::exists(run_ / "report.html", ec) ? Json("report.html") : Json()},
+      {"report_error", report_message_.empty() ? Json() : Json(report_message_)}};
   WriteTextFileAtomically(run_ / "run.json", j.dump(2) + "\n");
 }
 
@@ -1628,15 +1774,17 @@ EvaluateResult Evaluation::Run() {
   EvaluateResult result;
   result.missing_photos = missing_photos_;
   Aggregate(&result);
-  ProjectAndReport(&result);
   WriteManifest();
-  timings_.total = Seconds(start_);
-  result.counters = counters_;
-  result.timings = timings_;
   bool incomplete = !missing_photos_.empty();
   for (const FoldResult& fr : result.folds) incomplete |= !fr.ok;
   result.exit_code = incomplete ? ExitCode::kIncomplete : ExitCode::kOk;
-  WriteRunJson(&result, incomplete ? "incomplete" : "ok");
+  const std::string status = incomplete ? "incomplete" : "ok";
+  WriteRunJson(&result, status);  // the report reads it
+  ProjectAndReport(&result);
+  timings_.total = Seconds(start_);
+  result.counters = counters_;
+  result.timings = timings_;
+  WriteRunJson(&result, status);
   result.timings.total = Seconds(start_);
   return result;
 }

@@ -187,6 +187,7 @@ struct EvaluateCounters {
   size_t views_compared = 0;
   size_t views_reused = 0;  // view records whose key matched
   size_t photos_downscaled = 0;
+  size_t projections = 0;  // projected PLYs written (not reused)
 };
 
 struct EvaluateTimings {

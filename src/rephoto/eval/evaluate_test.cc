@@ -529,6 +529,15 @@ TEST(EvaluateTest, TrainCountAndTrainShortSideShapeTheTrainingScene) {
   // Different folds draw different subsets (seeded by the fold index).
   EXPECT_NE(Lines(run / "folds/fold_00/train/train.txt"),
             Lines(run / "folds/fold_03/train/train.txt"));
+  // Each photo is downscaled once for all folds (a shared cache, hard-linked into the folds).
+  EXPECT_LE(result.counters.photos_downscaled, static_cast<size_t>(kViews));
+  EXPECT_GE(result.counters.photos_downscaled, 3u);
+  // Fewer training views: the fold's images folder holds exactly the new subset.
+  o.train_count = 2;
+  const EvaluateResult fewer = RunEvaluate(o);
+  EXPECT_EQ(fewer.counters.photos_downscaled, 0u);
+  EXPECT_EQ(fewer.counters.commands_run, static_cast<size_t>(kViews));
+  EXPECT_EQ(Lines(fold / "reconstruction/images.txt").size(), 2u);
 }
 
 TEST(EvaluateTest, InterruptedRunResumes) {
@@ -555,6 +564,39 @@ TEST(EvaluateTest, InterruptedRunResumes) {
   const EvaluateResult resumed = RunEvaluate(o);
   EXPECT_EQ(resumed.exit_code, ExitCode::kOk);
   EXPECT_EQ(resumed.evaluated_images, static_cast<size_t>(kViews));
+}
+
+TEST(EvaluateTest, ErrorIsProjectedOntoTheModelAndTheReportWritten) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.scheme = "kfold:2";
+  o.report = true;
+  o.projection_metric = "1-ncc";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.counters.projections, 1u);
+  const mesh::Mesh projected = mesh::ReadPly(run / "projected/1-ncc.ply");
+  EXPECT_EQ(projected.vertex_count(), mesh::ReadPly(Files().truth).vertex_count());
+  const auto error = std::find_if(projected.scalars.begin(), projected.scalars.end(),
+                                  [](const mesh::VertexScalar& s) { return s.name == "error"; });
+  ASSERT_NE(error, projected.scalars.end());
+  // The ground truth's projected error is small wherever a vertex was seen.
+  size_t seen = 0;
+  double sum = 0;
+  for (float e : error->values) {
+    if (std::isnan(e)) continue;
+    ++seen;
+    sum += e;
+  }
+  EXPECT_GT(seen, projected.vertex_count() / 4);
+  EXPECT_LT(sum / static_cast<double>(seen), 0.1);
+  EXPECT_TRUE(fs::exists(run / "report.html"));
+  const nlohmann::json run_json = ReadJson(run / "run.json");
+  EXPECT_EQ(run_json["outputs"]["projected"][0], "projected/1-ncc.ply");
+  EXPECT_EQ(run_json["outputs"]["report"], "report.html");
+  // Resumed: the projection is still valid.
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.projections, 0u);
 }
 
 TEST(EvaluateTest, BadSettingsAreUsageErrors) {
