@@ -75,7 +75,7 @@ std::string BoxPlotSvg(const BoxPlot& plot) {
   const double bottom = (rotate ? 86 : 40) + (plot.x_label.empty() ? 0 : 16);
   const double legend_height = plot.series.size() > 1 ? 18.0 * ((plot.series.size() + 3) / 4) : 0;
   const double plot_height = 200;
-  const double width = std::max(300.0, left + right + categories * slot);
+  const double width = std::max(categories == 1 ? 200.0 : 300.0, left + right + categories * slot);
   const double height = top + legend_height + plot_height + bottom;
   const double y0 = top + legend_height;  // top of the plotting area
   auto Y = [&](double v) {

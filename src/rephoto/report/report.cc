@@ -70,7 +70,7 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
     BoxPlot plot;
     plot.title = fmt::format("{} {} {}", name, run.AcrossFolds() ? "across" : "over", unit);
     plot.y_label = name + (m >= 0 && HigherIsBetter(name) ? " (higher = better)" : "");
-    plot.categories = {DirName(run_dir)};
+    plot.categories = {fmt::format("{} {}", run.Values(m).size(), unit)};
     plot.series = {name};
     plot.boxes.push_back({0, 0, run.Values(m)});
     plots.push_back(std::move(plot));
@@ -87,6 +87,10 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
                         HtmlEscape(run.metrics[primary]));
     html += ExamplesHtml(run, primary, options.example_images, options.thumbnail_width);
     html += "</section>\n";
+  }
+  if (run.layout == RunLayout::kEvaluate && !run.folds.empty()) {
+    html += fmt::format("<section id=\"folds\"><h2>Per fold ({})</h2>\n", run.folds.size()) +
+            PerFoldTableHtml(run) + "</section>\n";
   }
   html += fmt::format(
       "<section id=\"images\"><h2>Per image ({})</h2><p class=\"muted\">Click a column header "

@@ -15,11 +15,13 @@
 //     (from per_image.csv, images with status ok), statistics as core/stats.h Summarize; every
 //     metric row carries the mean completeness of the same folds/images next to it;
 //   - boxplots (SVG, boxplot.h): one per metric and one for completeness, across folds or over
-//     images as above;
+//     images as above (dots show the single values when there are at most 40);
 //   - the `example_images` worst and best images by the primary metric (psnr and ssim: higher
 //     is better): photo, rephoto, mask (the rephoto's alpha) and jet error image side by side,
 //     thumbnails at most `thumbnail_width` wide, with the colour bar and the range of the
 //     error images (compare::ErrorColourRange);
+//   - evaluate runs: the per-fold table (status, image counts, seconds, completeness, metrics,
+//     message of a failed fold);
 //   - the per-image table, sortable by clicking any column header (click again: descending;
 //     empty values stay last); rows of missing or failed images show their status.
 // Collection report (WriteCollectionReport), for several runs:
@@ -37,7 +39,7 @@
 // descending) clicks that column's header of the first table that has it after loading;
 // <column> is the header's data-col (e.g. "name", "completeness", "1-ncc"). When the script
 // has run, <body> gets data-ready="1"; an uncaught script error is recorded in
-// <body data-js-error="...">.
+// <html data-js-error="...">. The page writes nothing to the console.
 //
 // Failure behaviour: a run directory that cannot be read (no per_image.csv, malformed CSV or
 // JSON, evaluate run without per_fold.csv) throws rephoto::Error naming the file; unreadable

@@ -27,7 +27,7 @@ h1 { font-size: 22px; margin: 8px 0 4px; }
 h2 { font-size: 18px; margin: 28px 0 8px; border-bottom: 1px solid var(--line); padding-bottom: 4px; }
 h3 { font-size: 15px; margin: 18px 0 6px; }
 .muted, .meta { color: var(--muted); }
-.meta span { margin-right: 16px; white-space: nowrap; }
+.meta span { margin-right: 16px; display: inline-block; }
 code, .path { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 12px; word-break: break-all; }
 table { border-collapse: collapse; margin: 6px 0 12px; }
 th, td { border: 1px solid var(--line); padding: 3px 8px; text-align: right; white-space: nowrap; }
@@ -379,6 +379,36 @@ std::string SummaryHtml(const RunData& run) {
       run.ImageValues(-1).size());
   html += SummaryTable(run, false);
   return html;
+}
+
+std::string PerFoldTableHtml(const RunData& run) {
+  if (run.layout != RunLayout::kEvaluate || run.folds.empty()) return "";
+  std::string html =
+      "<div class=\"scroll\"><table class=\"sortable per-fold\" id=\"per-fold\"><thead><tr>"
+      "<th class=\"text\" data-col=\"fold\">fold</th><th class=\"text\" "
+      "data-col=\"status\">status</th><th data-col=\"test_images\">test images</th>"
+      "<th data-col=\"evaluated_images\">evaluated</th><th data-col=\"seconds\">seconds</th>"
+      "<th data-col=\"completeness\">completeness</th>";
+  for (const std::string& m : run.metrics) {
+    html += fmt::format("<th data-col=\"{}\">{}</th>", HtmlEscape(m), HtmlEscape(MetricLabel(m)));
+  }
+  html += "<th class=\"text\" data-col=\"message\">message</th></tr></thead><tbody>\n";
+  for (const FoldRow& fold : run.folds) {
+    const bool ok = fold.status == "ok";
+    html += fmt::format(
+        "<tr data-fold=\"{0}\"{1}><td class=\"text\">{0}</td><td class=\"text{2}\">{3}</td>"
+        "<td data-v=\"{4}\">{4}</td><td data-v=\"{5}\">{5}</td><td data-v=\"{6}\">{7}</td>"
+        "<td data-v=\"{8}\">{9}</td>",
+        HtmlEscape(fold.fold), ok ? "" : " class=\"bad\"", ok ? "" : " status-bad",
+        HtmlEscape(fold.status), fold.test_images, fold.evaluated_images, DataNumber(fold.seconds),
+        fmt::format("{:.1f}", fold.seconds), DataNumber(fold.completeness),
+        DisplayNumber(fold.completeness));
+    for (double v : fold.metrics) {
+      html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(v), DisplayNumber(v));
+    }
+    html += fmt::format("<td class=\"text\">{}</td></tr>\n", HtmlEscape(fold.message));
+  }
+  return html + "</tbody></table></div>\n";
 }
 
 std::string PerImageTableHtml(const RunData& run, const std::string& table_id) {

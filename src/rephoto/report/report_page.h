@@ -19,6 +19,8 @@ std::string SettingsHtml(const RunData& run, bool collapsed);
 std::string ProblemsHtml(const RunData& run);
 // The summary table(s): across folds (when RunData::AcrossFolds) and over images.
 std::string SummaryHtml(const RunData& run);
+// The per-fold table of an evaluate run (class "sortable", id "per-fold"); "" for compare runs.
+std::string PerFoldTableHtml(const RunData& run);
 // The per-image table (class "sortable", id `table_id`).
 std::string PerImageTableHtml(const RunData& run, const std::string& table_id);
 // The `count` worst and best images by metric `metric` (index into run.metrics).

@@ -234,6 +234,30 @@ TEST(RunReport, EvaluateRunAcrossFoldsFailedFoldsAndSettings) {
   // Photos that do not exist: examples say so instead of failing.
   EXPECT_NE(html.find("not available"), std::string::npos);
   EXPECT_EQ(Elements(html, "<tr data-name=").size(), 6u);
+  // The per-fold table: 5 folds, the failed one marked.
+  EXPECT_EQ(Elements(html, "<tr data-fold=").size(), 5u);
+  EXPECT_NE(html.find("<tr data-fold=\"fold_04\" class=\"bad\">"), std::string::npos);
+}
+
+TEST(RunData, FailedFoldMessageFromPerFoldCsvWithoutSummary) {
+  const fs::path dir = rephoto::testing::MakeTempDir() / "run";
+  testing::WriteEvaluateRun(dir);
+  fs::remove(dir / "summary.json");
+  WriteTextFileAtomically(dir / "per_fold.csv",
+                          "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,"
+                          "psnr,message\n"
+                          "fold_00,ok,2,2,1.5,0.9,0.1,21,\n"
+                          "fold_04,failed,1,0,0.5,,,,\"render: exit 2, see logs\"\n");
+  const RunData run = LoadRun(dir);
+  EXPECT_EQ(run.layout, RunLayout::kEvaluate);  // by the fold column
+  ASSERT_EQ(run.failed_folds.size(), 1u);
+  EXPECT_EQ(run.failed_folds[0].fold, "fold_04");
+  EXPECT_EQ(run.failed_folds[0].message, "render: exit 2, see logs");
+  EXPECT_FALSE(run.AcrossFolds() && run.FoldValues(0).size() != 1u);
+  EXPECT_EQ(run.metrics, (std::vector<std::string>{"1-ncc", "psnr"}));
+  EXPECT_EQ(run.ImageDir(run.images[0]), dir / "folds" / "fold_00");
+  EXPECT_EQ(run.images.back().status, "failed");
+  EXPECT_TRUE(std::isnan(run.images.back().completeness));
 }
 
 TEST(CollectionReport, RanksEntriesAndBoxesPerEntry) {

@@ -214,6 +214,7 @@ RunData LoadRun(const fs::path& dir) {
     const int f_evaluated =
         per_fold.Has("evaluated_images") ? per_fold.Column("evaluated_images") : -1;
     const int f_seconds = per_fold.Has("seconds") ? per_fold.Column("seconds") : -1;
+    const int f_message = per_fold.Has("message") ? per_fold.Column("message") : -1;
     std::vector<int> f_metrics;
     for (const std::string& metric : run.metrics) {
       f_metrics.push_back(per_fold.Has(metric) ? per_fold.Column(metric) : -1);
@@ -225,6 +226,7 @@ RunData LoadRun(const fs::path& dir) {
       if (f_test >= 0) row.test_images = per_fold.Integer(r, f_test);
       if (f_evaluated >= 0) row.evaluated_images = per_fold.Integer(r, f_evaluated);
       if (f_seconds >= 0) row.seconds = per_fold.Number(r, f_seconds);
+      if (f_message >= 0) row.message = per_fold.Field(r, f_message);
       row.completeness = per_fold.Number(r, f_completeness);
       for (int column : f_metrics) {
         row.metrics.push_back(column >= 0 ? per_fold.Number(r, column) : kNaN);
@@ -248,7 +250,9 @@ RunData LoadRun(const fs::path& dir) {
     }
   } else {
     for (const FoldRow& f : run.folds) {
-      if (f.status != "ok") run.failed_folds.push_back({f.fold, f.status});
+      if (f.status != "ok") {
+        run.failed_folds.push_back({f.fold, f.message.empty() ? f.status : f.message});
+      }
     }
   }
   // Missing entries of summary.json not already listed by a per_image.csv row.

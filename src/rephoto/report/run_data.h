@@ -38,6 +38,7 @@ struct FoldRow {
   double seconds = 0;
   double completeness = 0;      // NaN when nothing was evaluated
   std::vector<double> metrics;  // per RunData::metrics; NaN = none
+  std::string message;          // why the fold failed (optional "message" column)
 };
 
 struct FailedFold {
@@ -53,7 +54,7 @@ struct RunData {
   std::vector<std::string> metrics;      // metric names, per_image.csv column order
   std::vector<ImageRow> images;          // per_image.csv order
   std::vector<FoldRow> folds;            // per_fold.csv order (empty for compare runs)
-  std::vector<FailedFold> failed_folds;  // from summary.json, else per_fold.csv status
+  std::vector<FailedFold> failed_folds;  // from summary.json, else per_fold.csv status/message
   std::vector<std::string> missing;      // one line per missing/failed image or entry
 
   // Index of `metric` in `metrics`, or -1.
