@@ -400,6 +400,8 @@ void ImageBasedRenderer::State::ComputeSweepDepths() {
   for (const ViewData& v : views) poses.push_back(v.info.cam_from_world);
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("plane sweep", views.size());
+  std::vector<size_t> swept;                         // views whose depth is estimated here
+  std::vector<std::vector<size_t>> swept_neighbors;  // their neighbours (view indices)
   for (size_t v = 0; v < views.size(); ++v) {
     if (!views[v].depth.empty()) {
       if (progress) progress->Advance(views[v].info.name);
@@ -425,9 +427,31 @@ void ImageBasedRenderer::State::ComputeSweepDepths() {
       others.push_back({views[n].camera, views[n].info.cam_from_world, &views[n].sweep_photo});
     }
     views[v].depth = ComputePlaneSweepDepth(reference, others, sweep).depth;
+    swept.push_back(v);
+    swept_neighbors.push_back(neighbors);
     if (progress) progress->Advance(views[v].info.name);
   }
   if (progress) progress->Finish();
+  // Consistency between the estimated depth maps (neighbours whose depth came from files are
+  // not used: they are not part of the estimate).
+  if (options.sweep_min_consistent > 0 && swept.size() > 1) {
+    std::vector<DepthView> depth_views;
+    std::vector<int> position(views.size(), -1);
+    for (size_t i = 0; i < swept.size(); ++i) {
+      ViewData& v = views[swept[i]];
+      position[swept[i]] = static_cast<int>(i);
+      depth_views.push_back(
+          {v.camera.Scaled(v.depth.width(), v.depth.height()), v.info.cam_from_world, &v.depth});
+    }
+    std::vector<std::vector<size_t>> local(swept.size());
+    for (size_t i = 0; i < swept.size(); ++i) {
+      for (size_t n : swept_neighbors[i]) {
+        if (position[n] >= 0) local[i].push_back(static_cast<size_t>(position[n]));
+      }
+    }
+    FilterInconsistentDepths(depth_views, local, options.depth_tolerance,
+                             options.sweep_min_consistent);
+  }
   for (ViewData& v : views) v.sweep_photo = Image();
 }
 

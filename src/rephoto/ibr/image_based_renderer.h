@@ -94,6 +94,9 @@ struct ImageBasedOptions {
   // [d / 2.5, 2.5 d].
   PlaneSweepOptions plane_sweep;
   int sweep_neighbors = 4;
+  // Estimated depths survive only when at least this many of the view's sweep neighbours agree
+  // within depth_tolerance (FilterInconsistentDepths; 0 = keep all).
+  int sweep_min_consistent = 1;
   std::vector<Eigen::Vector3d> scene_points;  // world points (e.g. a sparse model), optional
   bool show_progress = false;  // Progress lines while loading photos / estimating depth
 };

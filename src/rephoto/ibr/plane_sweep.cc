@@ -311,6 +311,60 @@ PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
   return result;
 }
 
+void FilterInconsistentDepths(std::span<const DepthView> views,
+                              const std::vector<std::vector<size_t>>& neighbors, double tolerance,
+                              int min_consistent) {
+  REPHOTO_CHECK(neighbors.size() == views.size(),
+                "FilterInconsistentDepths: {} neighbour lists for {} views", neighbors.size(),
+                views.size());
+  std::vector<Mask> keep(views.size());
+  for (size_t i = 0; i < views.size(); ++i) {
+    const DepthView& v = views[i];
+    REPHOTO_CHECK(v.depth != nullptr && v.depth->channels() == 1 &&
+                      v.depth->width() == v.camera.width && v.depth->height() == v.camera.height,
+                  "FilterInconsistentDepths: depth map {} does not match its camera", i);
+    for (size_t n : neighbors[i]) {
+      REPHOTO_CHECK(n < views.size() && n != i,
+                    "FilterInconsistentDepths: bad neighbour index {} of view {}", n, i);
+    }
+    const int width = v.depth->width(), height = v.depth->height();
+    keep[i] = Mask(width, height, 1, 0);
+    const Eigen::Matrix3d world_from_cam = v.cam_from_world.rotation.transpose();
+    ParallelFor(0, height, 16, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y) {
+        for (int x = 0; x < width; ++x) {
+          const float d = v.depth->at(x, static_cast<int>(y));
+          if (!std::isfinite(d)) continue;
+          const auto ray = v.camera.CamFromImg(Eigen::Vector2d(x + 0.5, y + 0.5));
+          if (!ray) continue;
+          const Eigen::Vector3d X =
+              world_from_cam * ((*ray / ray->z()) * d - v.cam_from_world.translation);
+          int consistent = 0;
+          for (size_t n : neighbors[i]) {
+            const DepthView& o = views[n];
+            const Eigen::Vector3d p = o.cam_from_world.CamFromWorld(X);
+            const auto pixel = o.camera.ImgFromCam(p);
+            if (!pixel || !(pixel->x() >= 0 && pixel->y() >= 0 && pixel->x() < o.camera.width &&
+                            pixel->y() < o.camera.height)) {
+              continue;
+            }
+            const float other =
+                o.depth->at(static_cast<int>(pixel->x()), static_cast<int>(pixel->y()));
+            if (std::abs(other - p.z()) <= tolerance * p.z()) ++consistent;
+          }
+          keep[i].at(x, static_cast<int>(y)) = consistent >= min_consistent;
+        }
+      }
+    });
+  }
+  for (size_t i = 0; i < views.size(); ++i) {
+    Image& depth = *views[i].depth;
+    for (size_t p = 0; p < depth.pixel_count(); ++p) {
+      if (!keep[i].data()[p]) depth.data()[p] = kNaN;
+    }
+  }
+}
+
 std::vector<size_t> SelectNeighbors(std::span<const camera::Pose> views, size_t reference,
                                     double scene_depth, int count, double min_angle_degrees) {
   REPHOTO_CHECK(reference < views.size(), "SelectNeighbors: reference {} out of range ({} views)",

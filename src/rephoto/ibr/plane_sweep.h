@@ -67,6 +67,24 @@ PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
                                         std::span<const PlaneSweepView> neighbors,
                                         const PlaneSweepOptions& options);
 
+// A depth map with the camera of its pixel grid (see depth_map_io.h), for FilterInconsistentDepths.
+struct DepthView {
+  camera::Camera camera;  // describes `depth`'s pixel grid (size = depth's size)
+  camera::Pose cam_from_world;
+  Image* depth = nullptr;  // 1 channel, camera-frame z, NaN = unknown
+};
+
+// Multi-view geometric consistency (as in COLMAP's fusion and most MVS pipelines): a depth
+// pixel of views[i] survives when, for at least `min_consistent` of the views listed in
+// neighbors[i], its 3D point (unprojected at the pixel centre) projects inside that view's depth
+// map and the depth found there (nearest pixel) equals the point's depth in that view within
+// `tolerance` (relative). Independent stereo errors rarely agree between views, so this removes
+// most wrong matches. All views are tested against the unfiltered maps, then filtered. Throws
+// Error when the sizes of `neighbors` and `views` differ or an index is out of range.
+void FilterInconsistentDepths(std::span<const DepthView> views,
+                              const std::vector<std::vector<size_t>>& neighbors, double tolerance,
+                              int min_consistent);
+
 // Picks up to `count` neighbours of views[reference] for matching: views whose viewing
 // direction is within 60 degrees of the reference's and whose triangulation angle at the
 // reference's scene point (the point at `scene_depth` along its optical axis) is at least
