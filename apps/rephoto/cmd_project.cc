@@ -1,7 +1,7 @@
 // rephoto project MODEL --scene SCENE [--format F] [--image-root R] --errors RUN_DIR
 //                 [--metric 1-ncc] --out OUT.ply [--low-percentile P] [--high-percentile P]
 //                 [--range LOW HIGH] [--depth-tolerance T] [--footprint-tolerance K]
-//                 [--no-backfaces] [--point-radius R] [--point-neighbors K]
+//                 [--scale-cameras] [--no-backfaces] [--point-radius R] [--point-neighbors K]
 // Projects the per-pixel error images of a `rephoto evaluate` or `rephoto compare` run onto a
 // mesh or point cloud: per-vertex mean over the views that see the vertex (depth-tested against
 // the model's rendered depth), written as a PLY with jet colours between two percentiles, a
@@ -75,6 +75,9 @@ CommandRunner SetupProject(CLI::App& app) {
                  "Depth test: plus this many pixel footprints (depth / focal length)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_flag("--scale-cameras", o.scale_cameras,
+               "Scale a camera to its error image when only the resolution differs (an "
+               "evaluation at reduced resolution); otherwise a size mismatch is an error");
   app.add_flag("--no-backfaces", args->no_backfaces,
                "The errors were rendered without the back sides of triangles");
   app.add_option("--point-radius", o.model_options.point_radius,

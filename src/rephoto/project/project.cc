@@ -51,18 +51,31 @@ void CheckOptions(const ProjectOptions& options) {
   }
 }
 
+// The camera an error image of size width x height is sampled with: the view's own, or (when
+// allowed) the view's camera scaled to the image when only the resolution differs (aspect
+// ratios within 1 %). Throws Error naming the image otherwise.
+camera::Camera CameraForImage(const ProjectView& view, int width, int height, int channels,
+                              const ProjectOptions& options) {
+  REPHOTO_CHECK(channels == 1, "{}: error image has {} channels, expected 1",
+                view.error_image.string(), channels);
+  if (width == view.camera.width && height == view.camera.height) return view.camera;
+  const double aspect_image = static_cast<double>(width) / height;
+  const double aspect_camera = static_cast<double>(view.camera.width) / view.camera.height;
+  REPHOTO_CHECK(options.scale_cameras && std::abs(aspect_image / aspect_camera - 1) <= 0.01,
+                "{}: image is {}x{} but its camera is {}x{}{}", view.error_image.string(), width,
+                height, view.camera.width, view.camera.height,
+                options.scale_cameras ? " (another aspect ratio)" : "");
+  return view.camera.Scaled(width, height);
+}
+
 // Checks every view's camera, pose and error image header before any work is done.
-void CheckViews(const std::vector<ProjectView>& views) {
+void CheckViews(const std::vector<ProjectView>& views, const ProjectOptions& options) {
   for (const ProjectView& view : views) {
     const std::string label = ViewLabel(view);
     view.camera.Validate(label);
     view.cam_from_world.Validate(label);
     const io::ImageHeader header = io::ReadImageHeader(view.error_image);
-    REPHOTO_CHECK(header.channels == 1, "{}: error image has {} channels, expected 1",
-                  view.error_image.string(), header.channels);
-    REPHOTO_CHECK(header.width == view.camera.width && header.height == view.camera.height,
-                  "{}: image is {}x{} but its camera is {}x{}", view.error_image.string(),
-                  header.width, header.height, view.camera.width, view.camera.height);
+    CameraForImage(view, header.width, header.height, header.channels, options);
   }
 }
 
@@ -229,8 +242,8 @@ ProjectResult ProjectErrors(const mesh::Mesh& model, const std::vector<ProjectVi
                             const ProjectOptions& options) {
   REPHOTO_CHECK(model.vertex_count() > 0, "project: the model has no vertices");
   CheckOptions(options);
-  CheckViews(views);    // before the BVH is built: bad input fails fast
-  mesh::Mesh geometry;  // what the depth maps need
+  CheckViews(views, options);  // before the BVH is built: bad input fails fast
+  mesh::Mesh geometry;         // what the depth maps need
   geometry.positions = model.positions;
   geometry.faces = model.faces;
   if (model.is_point_cloud()) {
@@ -249,7 +262,7 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
   const size_t n = mesh.vertex_count();
   REPHOTO_CHECK(n > 0, "project: the model has no vertices");
   CheckOptions(options);
-  CheckViews(views);
+  CheckViews(views, options);
   const bool points = model.representation() == render::Representation::kPointCloud;
   const std::vector<float>& radii = model.point_radii();
 
@@ -272,28 +285,25 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
     const ProjectView& view = views[v];
     auto start = std::chrono::steady_clock::now();
     io::ReadImage(view.error_image, &error);
-    REPHOTO_CHECK(error.channels() == 1 && error.width() == view.camera.width &&
-                      error.height() == view.camera.height,
-                  "{}: image is {}x{} with {} channels but its camera is {}x{} (1 channel)",
-                  view.error_image.string(), error.width(), error.height(), error.channels(),
-                  view.camera.width, view.camera.height);
+    const camera::Camera camera =
+        CameraForImage(view, error.width(), error.height(), error.channels(), options);
     result.project_seconds += Seconds(start);
 
     start = std::chrono::steady_clock::now();
-    const std::shared_ptr<const render::CameraRays> rays = model.RaysFor(view.camera);
+    const std::shared_ptr<const render::CameraRays> rays = model.RaysFor(camera);
     render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
     result.render_seconds += Seconds(start);
 
     start = std::chrono::steady_clock::now();
     const ViewContext context{
-        view.camera,
+        camera,
         view.cam_from_world,
         *rays,
         rephoto.depth,
         error,
-        options.depth_tolerance + options.footprint_tolerance / view.camera.MeanFocalLength(),
-        view.camera.FocalLengthX(),
-        view.camera.FocalLengthY()};
+        options.depth_tolerance + options.footprint_tolerance / camera.MeanFocalLength(),
+        camera.FocalLengthX(),
+        camera.FocalLengthY()};
     result.view_seen_vertices[v] =
         ParallelSum<size_t>(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
           size_t seen = 0;

@@ -82,6 +82,10 @@ struct ProjectOptions {
   double depth_tolerance = 0.01;
   // ... plus this many pixel footprints z / f.
   double footprint_tolerance = 2.0;
+  // An error image whose size differs from its camera's is an Error, unless this is set and
+  // only the resolution differs (aspect ratios within 1 %, e.g. an evaluation at reduced
+  // resolution): then the camera is scaled to the image (Camera::Scaled).
+  bool scale_cameras = false;
   // Render the back sides of triangles in the depth maps (as render::RenderOptions::backfaces;
   // use the setting the error images were rendered with).
   bool backfaces = true;
@@ -115,8 +119,9 @@ struct ProjectResult {
 };
 
 // Projects the error images of `views` onto `model` (see the file comment). Every error image's
-// header is checked before any work: it must exist, have 1 channel and the size of its camera,
-// else Error "<error image>: image is WxH but its camera is wxh" (or the reader's message).
+// header is checked before any work: it must exist, have 1 channel and the size of its camera
+// (see scale_cameras), else Error "<error image>: image is WxH but its camera is wxh" (or the
+// reader's message).
 // Throws Error when the model has no vertices or is invalid (Mesh::Validate), when a camera or
 // pose is invalid, or when the options are out of range. An empty `views` gives all-NaN errors.
 ProjectResult ProjectErrors(const mesh::Mesh& model, const std::vector<ProjectView>& views,

@@ -101,8 +101,8 @@ mesh::Mesh MakeScene(bool point_cloud) {
 
 // A constant error image (optionally with a NaN block [x0, x1) x [y0, y1)).
 fs::path WriteConstant(const fs::path& path, float value, int nan_x0 = 0, int nan_x1 = 0,
-                       int nan_y0 = 0, int nan_y1 = 0) {
-  Image image(200, 200, 1, value);
+                       int nan_y0 = 0, int nan_y1 = 0, int size = 200) {
+  Image image(size, size, 1, value);
   for (int y = nan_y0; y < nan_y1; ++y) {
     for (int x = nan_x0; x < nan_x1; ++x) image.at(x, y) = std::nanf("");
   }
@@ -315,6 +315,26 @@ TEST(ProjectErrors, BadInputIsAClearError) {
   const ProjectResult none = ProjectErrors(MakeScene(false), {}, {});
   EXPECT_EQ(none.seen_vertices, 0u);
   EXPECT_TRUE(std::isnan(none.low) && std::isnan(none.high));
+}
+
+TEST(ProjectErrors, CamerasScaledToHalfResolutionImagesWhenAllowed) {
+  const fs::path dir = testing::MakeTempDir();
+  // 100 x 100 error images of the 200 x 200 cameras: every pixel position halves (plane
+  // vertices at 10.2 ... 89.8, still 0.1 px inside their pixels' centres; camera 2 shifted by
+  // 20 px), so the hand computation of the full-resolution case holds unchanged. Camera 2's NaN
+  // block moves to [27, 33) x [47, 53) around the centre vertex at (30, 50).
+  const std::vector<ProjectView> views = {
+      {Pinhole(), At(0), WriteConstant(dir / "a.exr", 0.2f, 0, 0, 0, 0, 100), "a"},
+      {Pinhole(), At(0.5), WriteConstant(dir / "b.exr", 0.6f, 27, 33, 47, 53, 100), "b"}};
+  EXPECT_THROW(ProjectErrors(MakeScene(false), views, {}), Error);
+  ProjectOptions options;
+  options.scale_cameras = true;
+  const ProjectResult result = ProjectErrors(MakeScene(false), views, options);
+  ExpectMatches(result, ExpectedConstant(35), 35);
+  // Another aspect ratio is still an error.
+  io::WriteExr(dir / "wide.exr", Image(200, 100, 1, 0.5f));
+  EXPECT_THROW(ProjectErrors(MakeScene(false), {{Pinhole(), At(0), dir / "wide.exr", ""}}, options),
+               Error);
 }
 
 TEST(WriteProjectedPly, ReadsBackWithErrorAndViewsProperties) {
