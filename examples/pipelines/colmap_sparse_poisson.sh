@@ -109,6 +109,10 @@ step() {
   if ! "${timer[@]}" "$@" >"$out/logs/$name.log" 2>&1; then
     rm -f "$out/logs/$name.time"
     tail -n 5 "$out/logs/$name.log" | sed "s/^/  /" >&2
+    if [ "$name" = triangulate ] && ! grep -q "Triangulated [1-9]" "$out/logs/$name.log"; then
+      die "step 'triangulate' failed: no point could be triangulated (the training photos" \
+        "share too few verified matches; full output: $out/logs/$name.log)"
+    fi
     die "step '$name' failed (full output: $out/logs/$name.log)"
   fi
   end=$(date +%s.%N)
