@@ -139,16 +139,17 @@ fs::path Resolve(const std::string& written, const std::vector<fs::path>& bases)
 }  // namespace
 
 fs::path RunData::RenderPath(const ImageRow& image) const {
-  return Resolve(image.render, {ImageDir(image), dir});
+  return Resolve(image.render, {ImageDir(image), dir, dir.parent_path()});
 }
 
 fs::path RunData::PhotoPath(const ImageRow& image) const {
-  return Resolve(image.photo, {ImageDir(image), dir});
+  return Resolve(image.photo, {ImageDir(image), dir, dir.parent_path()});
 }
 
 RunData LoadRun(const fs::path& dir) {
   RunData run;
-  run.dir = dir;
+  run.dir = dir.lexically_normal();
+  if (!run.dir.has_filename() && run.dir.has_parent_path()) run.dir = run.dir.parent_path();
   std::error_code ec;
   REPHOTO_CHECK(fs::is_directory(dir, ec), "{}: not a directory", dir.string());
   const fs::path per_image_path = dir / "per_image.csv";

@@ -74,7 +74,8 @@ struct RunData {
   // (a fold written as a number n means "fold_%02d").
   std::filesystem::path ImageDir(const ImageRow& image) const;
   // The rendering of an image as a readable path: absolute as written, else relative to the
-  // image's folder, RUN, or the current directory (the first that exists); empty if none.
+  // image's folder, RUN, RUN's parent (`rephoto compare --photos photos --out run` run from
+  // that folder) or the current directory (the first that exists); empty if none.
   std::filesystem::path RenderPath(const ImageRow& image) const;
   std::filesystem::path PhotoPath(const ImageRow& image) const;
 };
