@@ -27,24 +27,22 @@ CommandRunner SetupDemo(CLI::App& app) {
       ->capture_default_str();
   return [options] {
     const demo::DemoResult result = demo::RunDemo(*options);
-    fmt::print("Reconstructions of the demo scene, ranked by median 1-NCC error over {} photos\n",
-               options->scene.camera_count);
+    fmt::print(
+        "Reconstructions of the demo scene, ranked by median 1-NCC across {} folds ({} photos)\n",
+        result.ranking.empty() ? 0 : result.ranking.front().result.folds.size(),
+        options->scene.camera_count);
     fmt::print("{:<4} {:<16} {:>12} {:>8} {:>8} {:>8}  {}\n", "rank", "reconstruction",
                "completeness", "1-ncc", "cb+cr", "dssim", "what");
     int rank = 1;
     for (const auto& r : result.ranking) {
-      auto median = [&](metrics::Metric m) {
-        for (const auto& s : r.result.metrics) {
-          if (s.metric == m) return s.over_images.median;
-        }
-        return std::nan("");
-      };
       fmt::print("{:<4} {:<16} {:>12.4f} {:>8.4f} {:>8.4f} {:>8.4f}  {}\n", rank++, r.name,
-                 r.result.completeness.median, median(metrics::Metric::kOneMinusNcc),
-                 median(metrics::Metric::kCbCr), median(metrics::Metric::kDssim), r.description);
+                 r.result.completeness_across_folds.median,
+                 r.Median(metrics::Metric::kOneMinusNcc), r.Median(metrics::Metric::kCbCr),
+                 r.Median(metrics::Metric::kDssim), r.description);
     }
-    fmt::print("Results in {} (ranking.csv, demo.json, results/<reconstruction>/per_image.csv)\n",
-               options->out.string());
+    fmt::print("Done in {:.0f} s. Open {} in a browser; tables in ranking.csv and runs/<name>/, "
+               "error on the models in runs/<name>/projected/1-ncc.ply\n",
+               result.seconds, (options->out / "report.html").string());
     return static_cast<int>(ExitCode::kOk);
   };
 }

@@ -8,13 +8,16 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "rephoto/compare/compare.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/degrade/degrade.h"
 #include "rephoto/degrade/simplex_noise.h"
+#include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/render/render.h"
+#include "rephoto/report/report.h"
 #include "rephoto/scene/colmap.h"
 
 namespace rephoto::demo {
@@ -55,19 +58,14 @@ mesh::Mesh PointCloudFrom(const mesh::Mesh& truth, size_t step) {
   return cloud;
 }
 
-const compare::MetricSummary* FindMetric(const compare::CompareResult& r, metrics::Metric m) {
-  for (const auto& s : r.metrics) {
-    if (s.metric == m) return &s;
-  }
-  return nullptr;
-}
-
-double MedianOf(const compare::CompareResult& r, metrics::Metric m) {
-  const auto* s = FindMetric(r, m);
-  return s ? s->over_images.median : std::nan("");
-}
-
 }  // namespace
+
+double DemoReconstruction::Median(metrics::Metric metric) const {
+  for (const auto& m : result.metrics) {
+    if (m.metric == metric) return m.across_folds.median;
+  }
+  return std::nan("");
+}
 
 DemoResult RunDemo(const DemoOptions& options) {
   REPHOTO_CHECK(!options.out.empty(), "demo: no output folder given");
@@ -125,55 +123,81 @@ DemoResult RunDemo(const DemoOptions& options) {
   for (const Recipe& recipe : recipes) {
     const fs::path model_path = options.out / "models" / (recipe.name + ".ply");
     mesh::WritePly(model_path, recipe.model);
-    const fs::path renders = options.out / "renders" / recipe.name;
-    RenderAll(recipe.model, scene, options.render_samples_per_pixel, renders,
-              "demo: rephotographing " + recipe.name);
-    compare::CompareOptions c;
-    c.photos = images_dir;
-    c.renders = renders;
-    c.out = options.out / "results" / recipe.name;
-    c.metrics = options.metrics;
-    LogInfo("demo: comparing " + recipe.name);
-    result.ranking.push_back({recipe.name, recipe.description, model_path, compare::RunCompare(c)});
+    eval::EvaluateOptions e;
+    e.scene = scene_dir / "sparse";
+    e.format = "colmap";
+    e.image_root = images_dir;
+    e.scheme = options.scheme;
+    e.model = model_path;
+    e.metrics = options.metrics;
+    e.samples_per_pixel = options.render_samples_per_pixel;
+    e.report = options.report;
+    e.out = options.out / "runs" / recipe.name;
+    e.command_line = {"rephoto", "demo"};
+    LogInfo("demo: evaluating " + recipe.name);
+    DemoReconstruction r{.name = recipe.name,
+                         .description = recipe.description,
+                         .model = model_path,
+                         .run_dir = e.out,
+                         .result = eval::RunEvaluate(e)};
+    REPHOTO_CHECK(r.result.exit_code == ExitCode::kOk, "demo: the evaluation of {} is incomplete",
+                  recipe.name);
+    result.ranking.push_back(std::move(r));
   }
 
   std::stable_sort(result.ranking.begin(), result.ranking.end(), [](const auto& a, const auto& b) {
-    return MedianOf(a.result, metrics::Metric::kOneMinusNcc) <
-           MedianOf(b.result, metrics::Metric::kOneMinusNcc);
+    return a.Median(metrics::Metric::kOneMinusNcc) < b.Median(metrics::Metric::kOneMinusNcc);
   });
 
   // ranking.csv and demo.json
-  std::ostringstream csv;
-  csv << "rank,reconstruction,completeness_median";
-  for (metrics::Metric m : options.metrics) csv << "," << metrics::MetricName(m) << "_median";
-  csv << ",description\n";
-  nlohmann::json json;
-  json["schema"] = "rephoto.demo/1";
+  io::CsvWriter csv;
+  std::vector<std::string> header = {"rank", "reconstruction", "completeness_median"};
+  for (metrics::Metric m : options.metrics) {
+    header.push_back(std::string(metrics::MetricName(m)) + "_median");
+  }
+  header.push_back("description");
+  csv.AddRow(header);
+  nlohmann::ordered_json json;
+  json["schema"] = "rephoto.demo/2";
   json["tool_version"] = compare::ToolVersion();
   json["photos"] = images_dir.string();
   json["cameras"] = scene.views.size();
   json["image_size"] = {options.scene.image_width, options.scene.image_height};
+  json["scheme"] = options.scheme;
+  json["ranked_by"] = "median across folds of the fold means of 1-ncc";
   for (size_t rank = 0; rank < result.ranking.size(); ++rank) {
     const auto& r = result.ranking[rank];
-    csv << rank + 1 << "," << r.name << "," << fmt::format("{:.6g}", r.result.completeness.median);
-    nlohmann::json entry;
+    std::vector<std::string> row = {std::to_string(rank + 1), r.name,
+                                    io::CsvNumber(r.result.completeness_across_folds.median)};
+    nlohmann::ordered_json entry;
     entry["rank"] = rank + 1;
     entry["reconstruction"] = r.name;
     entry["description"] = r.description;
     entry["model"] = r.model.string();
-    entry["results"] = (options.out / "results" / r.name).string();
-    entry["completeness_median"] = r.result.completeness.median;
+    entry["run"] = r.run_dir.string();
+    entry["completeness_median"] = r.result.completeness_across_folds.median;
     for (metrics::Metric m : options.metrics) {
-      const double v = MedianOf(r.result, m);
-      csv << "," << fmt::format("{:.6g}", v);
-      entry[std::string(metrics::MetricName(m)) + "_median"] = std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+      const double v = r.Median(m);
+      row.push_back(io::CsvNumber(v));
+      entry[std::string(metrics::MetricName(m)) + "_median"] =
+          std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
     }
-    csv << ",\"" << r.description << "\"\n";
+    row.push_back(r.description);
+    csv.AddRow(row);
     json["ranking"].push_back(entry);
   }
-  json["seconds"] =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  WriteTextFileAtomically(options.out / "ranking.csv", csv.str());
+  if (options.report) {
+    std::vector<report::CollectionEntry> entries;
+    for (const auto& r : result.ranking) {
+      entries.push_back({.label = r.name, .description = r.description, .run_dir = r.run_dir});
+    }
+    report::CollectionOptions report_options;
+    report_options.title = "rephoto demo: five reconstructions of the procedural scene";
+    report::WriteCollectionReport(entries, options.out / "report.html", report_options);
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  json["seconds"] = result.seconds;
+  WriteTextFileAtomically(options.out / "ranking.csv", csv.text());
   WriteTextFileAtomically(options.out / "demo.json", json.dump(2) + "\n");
   return result;
 }

@@ -7,25 +7,30 @@
 // 2. Produces several reconstructions of it, each a model file a user could open in MeshLab:
 //    the ground truth itself, texture noise, geometry noise, a simplified mesh and a coloured
 //    point cloud (degrade/degrade.h).
-// 3. Rephotographs every reconstruction at every camera with the built-in renderer
-//    (render/render.h) and compares the rephotos with the photos (compare/compare.h), then
-//    ranks the reconstructions by their median 1-NCC error, completeness next to it.
+// 3. Evaluates each reconstruction with `rephoto evaluate` (eval/evaluate.h: the model as a
+//    global reconstruction, k-fold test views so that every photo is a test photo exactly
+//    once and the folds give the boxplots, error projected onto the model, a report per run),
+//    then ranks the reconstructions by their median 1-NCC across folds (completeness next to
+//    it) and writes one report that compares them (report/report.h).
 //
 // Output folder layout (all files written atomically):
 //   scene/images/view_XXX.png     the photos
 //   scene/sparse/                 their cameras (COLMAP text)
 //   scene/ground_truth.ply        the ground-truth mesh
 //   models/<reconstruction>.ply   the reconstructions
-//   renders/<reconstruction>/     rephotos (RGBA PNG, alpha = coverage)
-//   results/<reconstruction>/     `rephoto compare` run directories (per_image.csv, ...)
+//   runs/<reconstruction>/        `rephoto evaluate` run directories (per_image.csv,
+//                                 per_fold.csv, summary.json, projected/1-ncc.ply, report.html)
 //   ranking.csv, demo.json        the reconstructions ranked by median 1-NCC
+//   report.html                   the comparison of all reconstructions
+// Rerunning into the same folder reuses every evaluation whose inputs did not change (the
+// scene and photos are deterministic for the seed).
 #pragma once
 
 #include <filesystem>
 #include <string>
 #include <vector>
 
-#include "rephoto/compare/compare.h"
+#include "rephoto/eval/evaluate.h"
 #include "rephoto/synth/demo_scene.h"
 
 namespace rephoto::demo {
@@ -37,18 +42,25 @@ struct DemoOptions {
   int render_samples_per_pixel = 4;
   double noise_sigma = 0.01;
   double max_exposure_change = 0.08;
+  std::string scheme = "kfold:4";
   std::vector<metrics::Metric> metrics = metrics::AllMetrics();
+  bool report = true;  // report.html per run and for the comparison
 };
 
 struct DemoReconstruction {
   std::string name;         // e.g. "texture_noise"
   std::string description;  // what was done to the ground truth
   std::filesystem::path model;
-  compare::CompareResult result;
+  std::filesystem::path run_dir;
+  eval::EvaluateResult result;
+
+  // Median across folds of a metric's fold means (NaN if the metric was not computed).
+  double Median(metrics::Metric metric) const;
 };
 
 struct DemoResult {
-  std::vector<DemoReconstruction> ranking;  // by median 1-NCC over images, best first
+  std::vector<DemoReconstruction> ranking;  // by median 1-NCC across folds, best first
+  double seconds = 0;
 };
 
 DemoResult RunDemo(const DemoOptions& options);

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "rephoto/compare/compare.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/render/render.h"
 #include "rephoto/testing/testing.h"
@@ -25,12 +26,16 @@ TEST(Demo, SmallDemoRanksGroundTruthFirstAndWritesItsOutputs) {
   ASSERT_EQ(result.ranking.size(), 5u);
   EXPECT_EQ(result.ranking.front().name, "ground_truth");
   for (const auto& r : result.ranking) {
-    EXPECT_EQ(r.result.images.size(), 4u) << r.name;
-    EXPECT_TRUE(r.result.missing.empty());
+    EXPECT_EQ(r.result.evaluated_images, 4u) << r.name;
+    EXPECT_EQ(r.result.folds.size(), 4u) << r.name;  // kfold:4 over 4 photos
+    EXPECT_TRUE(r.result.missing_photos.empty());
     EXPECT_TRUE(std::filesystem::exists(r.model));
+    EXPECT_TRUE(std::filesystem::exists(r.run_dir / "per_fold.csv"));
+    EXPECT_TRUE(std::filesystem::exists(r.run_dir / "report.html"));
   }
   // The ground truth covers everything the photos show.
-  EXPECT_GT(result.ranking.front().result.completeness.median, 0.99);
+  EXPECT_GT(result.ranking.front().result.completeness_across_folds.median, 0.99);
+  EXPECT_TRUE(std::filesystem::exists(options.out / "report.html"));
   EXPECT_TRUE(std::filesystem::exists(options.out / "ranking.csv"));
   EXPECT_TRUE(std::filesystem::exists(options.out / "demo.json"));
   EXPECT_TRUE(std::filesystem::exists(options.out / "scene" / "sparse" / "cameras.txt"));
