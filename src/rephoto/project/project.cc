@@ -374,7 +374,7 @@ void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
   header += "property float x\nproperty float y\nproperty float z\n";
   if (normals) header += "property float nx\nproperty float ny\nproperty float nz\n";
   header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  header += "property float error\nproperty uint views\n";
+  header += "property float error\nproperty float quality\nproperty uint views\n";
   if (!model.faces.empty()) {
     header += fmt::format("element face {}\n", model.faces.size());
     header += "property list uchar int vertex_indices\n";
@@ -408,6 +408,7 @@ void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
           ErrorColour(result.vertex_error[i], result.low, result.high);
       buffer.append(reinterpret_cast<const char*>(rgb.data()), 3);
       Put(buffer, result.vertex_error[i]);
+      Put(buffer, result.vertex_error[i]);  // quality: MeshLab's per-vertex scalar
       Put(buffer, result.view_count[i]);
       flush(false);
     }

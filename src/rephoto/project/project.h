@@ -140,10 +140,12 @@ std::array<uint8_t, 3> ErrorColour(float error, float low, float high);
 // Writes the projection as a binary little-endian PLY, atomically:
 //   vertex: float x y z; float nx ny nz (only when the model has normals); uchar red green blue
 //           (ErrorColour of the vertex's error over [result.low, result.high]; unseen vertices
-//           grey 128); float error (NaN where unseen); uint views (view_count).
+//           grey 128); float error (NaN where unseen); float quality (the same value, the
+//           name MeshLab reads as vertex quality for its quality filters and histogram);
+//           uint views (view_count).
 //   face:   list uchar int vertex_indices (only when the model has faces).
-// Comments record the range and the number of seen vertices. Opens in MeshLab (colours; the
-// "error" property as vertex quality/scalar) and CloudCompare (colours; "error" and "views" as
+// Comments record the range and the number of seen vertices. Opens in MeshLab (colours;
+// "quality" as vertex quality) and CloudCompare (colours; "error", "quality" and "views" as
 // scalar fields). Throws Error naming `out` when the result does not belong to the model (sizes
 // differ) or the file cannot be written.
 void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,

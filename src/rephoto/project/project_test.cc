@@ -348,9 +348,10 @@ TEST(WriteProjectedPly, ReadsBackWithErrorAndViewsProperties) {
   EXPECT_EQ(back.faces, model.faces);
   EXPECT_EQ(back.positions, model.positions);
   ASSERT_EQ(back.colors.size(), model.vertex_count());
-  ASSERT_EQ(back.scalars.size(), 2u);
+  ASSERT_EQ(back.scalars.size(), 3u);
   EXPECT_EQ(back.scalars[0].name, "error");
-  EXPECT_EQ(back.scalars[1].name, "views");
+  EXPECT_EQ(back.scalars[1].name, "quality");
+  EXPECT_EQ(back.scalars[2].name, "views");
   for (size_t i = 0; i < model.vertex_count(); ++i) {
     SCOPED_TRACE(::testing::Message() << "vertex " << i);
     const std::array<uint8_t, 3> rgb = ErrorColour(result.vertex_error[i], 0.2f, 0.6f);
@@ -360,7 +361,9 @@ TEST(WriteProjectedPly, ReadsBackWithErrorAndViewsProperties) {
     } else {
       EXPECT_EQ(back.scalars[0].values[i], result.vertex_error[i]);
     }
-    EXPECT_EQ(back.scalars[1].values[i], static_cast<float>(result.view_count[i]));
+    EXPECT_TRUE(
+        std::memcmp(&back.scalars[1].values[i], &back.scalars[0].values[i], sizeof(float)) == 0);
+    EXPECT_EQ(back.scalars[2].values[i], static_cast<float>(result.view_count[i]));
   }
   // Unseen: grey; 0.2 = low: dark blue; 0.6 = high: dark red.
   EXPECT_NEAR(back.colors[kLoose].x() * 255, 128, 1e-3);
@@ -372,7 +375,7 @@ TEST(WriteProjectedPly, ReadsBackWithErrorAndViewsProperties) {
   while (std::getline(file, line) && line != "end_header") header += line + "\n";
   EXPECT_THAT(header, HasSubstr("format binary_little_endian 1.0"));
   EXPECT_THAT(header, HasSubstr("property uchar red"));
-  EXPECT_THAT(header, HasSubstr("property float error"));
+  EXPECT_THAT(header, HasSubstr("property float error\nproperty float quality\n"));
   EXPECT_THAT(header, HasSubstr("property uint views"));
   EXPECT_THAT(header, HasSubstr("property list uchar int vertex_indices"));
 
