@@ -96,8 +96,7 @@ CommandRunner SetupEvaluate(CLI::App& app) {
       }
       options.Check();
     } catch (const eval::UsageError& e) {
-      fmt::print(stderr, "rephoto evaluate: {}\nRun 'rephoto evaluate --help' for the options.\n",
-                 e.what());
+      fmt::print(stderr, "rephoto: {}\nRun 'rephoto evaluate --help' for the options.\n", e.what());
       return static_cast<int>(ExitCode::kUsage);
     }
     options.command_line = CommandLine();

@@ -1663,6 +1663,11 @@ EvaluateResult Evaluation::Run() {
   o_.Check();
   source_ = o_.source();
   run_ = fs::absolute(o_.out).lexically_normal();
+  if (source_ == ModelSource::kModel) {
+    std::error_code ec;
+    REPHOTO_CHECK(fs::is_regular_file(o_.model, ec), "{}: no such model file (--model)",
+                  o_.model.string());
+  }
   std::optional<InterruptGuard> guard;
   if (o_.handle_interrupts) guard.emplace();
   RequestInterrupt(false);

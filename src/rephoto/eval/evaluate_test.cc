@@ -599,6 +599,71 @@ TEST(EvaluateTest, ErrorIsProjectedOntoTheModelAndTheReportWritten) {
   EXPECT_EQ(again.counters.projections, 0u);
 }
 
+TEST(EvaluateTest, PhotoMasksRestrictTheComparedPixels) {
+  const fs::path masks = testing::MakeTempDir() / "masks";
+  for (const scene::View& view : Files().scene.views) {
+    Image mask(160, 120, 1, 1.f);
+    for (int y = 0; y < 120; ++y) {
+      for (int x = 0; x < 80; ++x) mask.at(x, y) = 0.f;  // ignore the left half
+    }
+    io::WritePng(masks / fs::path(view.name).replace_extension(".png"), mask);
+  }
+  EvaluateOptions o = BaseOptions(testing::MakeTempDir() / "masked");
+  o.model = Files().truth;
+  o.error_images = false;
+  o.photo_masks = masks;
+  RunEvaluate(o);
+  EvaluateOptions u = BaseOptions(testing::MakeTempDir() / "unmasked");
+  u.model = Files().truth;
+  u.error_images = false;
+  RunEvaluate(u);
+  const auto masked = ReadCsv(o.out / "per_image.csv");
+  const auto unmasked = ReadCsv(u.out / "per_image.csv");
+  ASSERT_EQ(masked.size(), unmasked.size());
+  for (size_t r = 1; r < masked.size(); ++r) {
+    // valid_photo_windows: 9x9 windows fully inside the right half (x >= 80): 72 - 8 columns
+    // fewer than without the mask (all 152 window columns), rows unchanged.
+    const double ratio = std::stod(masked[r][9]) / std::stod(unmasked[r][9]);
+    EXPECT_NEAR(ratio, 72.0 / 152.0, 0.02) << masked[r][1];
+  }
+  // A changed mask recomputes its view only.
+  Image all(160, 120, 1, 1.f);
+  io::WritePng(masks / "view_002.png", all);
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.views_compared, 1u);
+}
+
+TEST(EvaluateTest, UnreadablePhotoFailsOnlyItsView) {
+  const fs::path dir = testing::MakeTempDir();
+  for (const scene::View& view : Files().scene.views) {
+    fs::copy_file(view.image_path, dir / view.name);
+  }
+  // Truncated after the header: the scene reads (sizes known), decoding fails.
+  const std::string bytes = ReadFileToString(dir / "view_003.png");
+  WriteTextFileAtomically(dir / "view_003.png", bytes.substr(0, bytes.size() / 2));
+  EvaluateOptions o = BaseOptions(testing::MakeTempDir() / "run");
+  o.image_root = dir;
+  o.model = Files().truth;
+  o.scheme = "kfold:2";
+  o.error_images = false;
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kIncomplete);
+  EXPECT_EQ(result.evaluated_images, static_cast<size_t>(kViews - 1));
+  size_t failed = 0;
+  for (const FoldResult& fold : result.folds) {
+    if (fold.ok) continue;
+    ++failed;
+    EXPECT_NE(fold.message.find("view_003"), std::string::npos) << fold.message;
+  }
+  EXPECT_EQ(failed, 1u);
+  const auto rows = ReadCsv(o.out / "per_image.csv");
+  for (const auto& row : rows) {
+    if (row[1] == "view_003") {
+      EXPECT_EQ(row[2], "failed");
+    }
+  }
+}
+
 TEST(EvaluateTest, BadSettingsAreUsageErrors) {
   EvaluateOptions o = BaseOptions(testing::MakeTempDir() / "run");
   EXPECT_THROW(RunEvaluate(o), UsageError);  // no model source
