@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "rephoto/compare/compare.h"
+#include "rephoto/core/parallel.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/report/boxplot.h"
@@ -44,7 +45,7 @@ td.status-bad { color: var(--bad); font-weight: 600; }
 td.best { font-weight: 700; }
 .scroll { overflow-x: auto; max-width: 100%; }
 .plots { display: flex; flex-wrap: wrap; gap: 12px; }
-.plots svg { background: #fff; border: 1px solid var(--line); }
+.plots svg { background: #fff; border: 1px solid var(--line); max-width: 100%; height: auto; }
 svg text { font: 11px system-ui, sans-serif; fill: #333; }
 svg text.title { font-size: 13px; font-weight: 600; }
 svg .grid { stroke: #eee; }
@@ -480,14 +481,27 @@ std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnai
   const auto [low, high] = compare::ErrorColourRange(*parsed);
   const std::string bar = JetColourBarSvg(low, high, name + " error", 220);
   std::string html;
-  for (const auto& [rank, image] : shown) {
-    const std::filesystem::path errors = run.ImageDir(*image) / "errors";
-    const std::string stem = image->name + "." + name;
-    Thumbnail rephoto, mask;
-    RenderThumbnails(run.RenderPath(*image), thumbnail_width, &rephoto, &mask);
-    const Thumbnail photo = PhotoThumbnail(run.PhotoPath(*image), thumbnail_width);
-    const Thumbnail error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"),
-                                           *parsed, thumbnail_width);
+  // Thumbnails of all shown images in parallel (decoding full-size photos dominates).
+  struct Thumbnails {
+    Thumbnail photo, rephoto, mask, error;
+  };
+  std::vector<Thumbnails> thumbnails(shown.size());
+  ParallelFor(0, static_cast<int64_t>(shown.size()), 1, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const ImageRow& image = *shown[i].second;
+      const std::filesystem::path errors = run.ImageDir(image) / "errors";
+      const std::string stem = image.name + "." + name;
+      Thumbnails& t = thumbnails[i];
+      RenderThumbnails(run.RenderPath(image), thumbnail_width, &t.rephoto, &t.mask);
+      t.photo = PhotoThumbnail(run.PhotoPath(image), thumbnail_width);
+      t.error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed,
+                               thumbnail_width);
+    }
+  });
+  for (size_t i = 0; i < shown.size(); ++i) {
+    const std::string& rank = shown[i].first;
+    const ImageRow* image = shown[i].second;
+    const Thumbnails& t = thumbnails[i];
     html += fmt::format(
         "<div class=\"example\" data-rank=\"{}\" data-name=\"{}\"><h4>{}: {}{} \u2014 {} {}, "
         "completeness {}</h4><div class=\"images\">",
@@ -495,10 +509,10 @@ std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnai
         image->fold.empty() ? "" : HtmlEscape(image->fold) + " / ", HtmlEscape(image->name),
         HtmlEscape(name), DisplayNumber(image->metrics[metric]),
         DisplayNumber(image->completeness));
-    html += Figure(photo, "photo", "photo");
-    html += Figure(rephoto, "rephoto", "rephoto");
-    html += Figure(mask, "mask (rephoto alpha, white = covered)", "mask");
-    html += Figure(error,
+    html += Figure(t.photo, "photo", "photo");
+    html += Figure(t.rephoto, "rephoto", "rephoto");
+    html += Figure(t.mask, "mask (rephoto alpha, white = covered)", "mask");
+    html += Figure(t.error,
                    fmt::format("{} error, range {} to {} (grey checkerboard = not evaluated)", name,
                                DisplayNumber(low), DisplayNumber(high)),
                    "error", bar);
