@@ -1,8 +1,21 @@
-// rephoto render MODEL --scene SCENE [--images LIST] [--spp N] [--no-backfaces]
+// rephoto render [MODEL] --scene SCENE [--images LIST] [--spp N] [--no-backfaces]
 //                [--point-radius R] [--format F] [--image-root DIR] --out DIR
-// Rephotographs a mesh or point cloud (PLY, OBJ) at every selected camera of a scene with the
-// built-in Embree renderer (rephoto/render/render.h), at each camera's own resolution and
-// distortion. Writes DIR/<image name without extension>.png (RGBA 8-bit; alpha = coverage, the
+//                [--representation auto|vdt|ibr] [--training LIST] [--depth-maps DIR]
+//                [--k-best K] [--depth-tolerance T] [--sweep-width W] [--sweep-planes N]
+// Rephotographs a reconstruction at every selected camera of a scene, at each camera's own
+// resolution and distortion:
+// - auto (default): MODEL (mesh or point cloud, PLY/OBJ) with the built-in Embree renderer
+//   (rephoto/render/render.h): vertex colours, textures or splats, from what the file holds.
+// - vdt: view-dependent texturing of the training photos on MODEL as geometry proxy
+//   (rephoto/ibr/image_based_renderer.h).
+// - ibr: image-based rendering of the training photos with per-view depth maps (--depth-maps:
+//   COLMAP stereo/depth_maps/*.bin, PFM or EXR, see ibr/training_views.h; views without one get
+//   a plane-sweep estimate from their training neighbours). MODEL is not used.
+// Training photos for vdt/ibr: --training (a list file, or comma-separated image names); without
+// it each view is rendered from all other views of the scene (leave-one-out: one renderer per
+// rendered view). A rendered view that is also a training view is reported: the renderer then
+// reproduces its own photo and the error is meaningless (paper Section 4.4).
+// Writes DIR/<image name without extension>.png (RGBA 8-bit; alpha = coverage, the
 // completeness mask) and DIR/<...>.depth.exr (camera-frame z, NaN where empty), atomically.
 #include <fmt/format.h>
 
@@ -16,6 +29,8 @@
 #include "command.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/progress.h"
+#include "rephoto/ibr/image_based_renderer.h"
+#include "rephoto/ibr/training_views.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
@@ -36,7 +51,38 @@ struct RenderArguments {
   bool no_backfaces = false;
   float point_radius = 0;
   int point_neighbors = 6;
+  std::string representation = "auto";
+  std::string training;
+  std::string depth_maps;
+  ibr::ImageBasedOptions ibr_options;
 };
+
+// Scene view indices of a --training value: a list file when such a file exists, else
+// comma-separated image names. Throws Error naming an unknown image.
+std::vector<size_t> TrainingIndices(const scene::Scene& scene, const std::string& value) {
+  std::vector<std::string> names;
+  if (std::filesystem::is_regular_file(value)) {
+    names = split::ReadImageList(value);
+  } else {
+    size_t begin = 0;
+    while (begin <= value.size()) {
+      const size_t end = std::min(value.find(',', begin), value.size());
+      if (end > begin) names.push_back(value.substr(begin, end - begin));
+      begin = end + 1;
+    }
+  }
+  std::map<std::string, size_t> by_name;
+  for (size_t v = 0; v < scene.views.size(); ++v) by_name[scene.views[v].name] = v;
+  std::vector<size_t> indices;
+  for (const std::string& name : names) {
+    const auto it = by_name.find(name);
+    REPHOTO_CHECK(it != by_name.end(), "--training {}: image '{}' is not in the scene", value,
+                  name);
+    indices.push_back(it->second);
+  }
+  REPHOTO_CHECK(!indices.empty(), "--training {}: no images", value);
+  return indices;
+}
 
 // Indices of the views named in the list file (all views without one); throws Error naming an
 // unknown image.
@@ -56,9 +102,116 @@ std::vector<size_t> SelectViews(const scene::Scene& scene, const std::string& li
   return selected;
 }
 
+// Output names, one per view; throws Error when two views map to the same name.
+std::vector<std::filesystem::path> OutputStems(const RenderArguments& args,
+                                               const scene::Scene& scene,
+                                               const std::vector<size_t>& views) {
+  std::set<std::filesystem::path> seen;
+  std::vector<std::filesystem::path> stems;
+  for (size_t v : views) {
+    const std::filesystem::path stem =
+        std::filesystem::path(scene.views[v].name).replace_extension("");
+    REPHOTO_CHECK(seen.insert(stem).second,
+                  "{}: two selected images map to the same output name '{}'", args.scene,
+                  stem.string());
+    stems.push_back(stem);
+  }
+  return stems;
+}
+
+void WriteRephoto(const std::filesystem::path& out, const std::filesystem::path& stem,
+                  const render::Rephoto& rephoto) {
+  io::WritePng(out / (stem.string() + ".png"), rephoto.color);
+  io::WriteExr(out / (stem.string() + ".depth.exr"), rephoto.depth);
+}
+
+void RenderModelFile(const RenderArguments& args, const scene::Scene& scene,
+                     const std::vector<size_t>& views) {
+  REPHOTO_CHECK(!args.model.empty(), "render: MODEL is required for --representation auto");
+  const std::vector<std::filesystem::path> stems = OutputStems(args, scene, views);
+  const auto start = std::chrono::steady_clock::now();
+  render::ModelOptions model_options;
+  model_options.point_radius = args.point_radius;
+  model_options.point_radius_neighbors = args.point_neighbors;
+  const render::RenderModel model(mesh::ReadMesh(args.model), model_options, args.model);
+  LogInfo(
+      fmt::format("{}: {} vertices, {} triangles, prepared in {:.2f} s (BVH {:.2f} s)", args.model,
+                  model.mesh().vertex_count(), model.mesh().face_count(),
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                  model.build_seconds()));
+  render::RenderOptions options;
+  options.samples_per_pixel = args.spp;
+  options.backfaces = !args.no_backfaces;
+  render::Rephoto rephoto;
+  Progress progress("render", views.size());
+  for (size_t i = 0; i < views.size(); ++i) {
+    const scene::View& view = scene.views[views[i]];
+    const auto rays = model.RaysFor(scene.CameraOf(view));
+    render::RenderRephoto(model, *rays, view.cam_from_world, options, &rephoto);
+    WriteRephoto(args.out, stems[i], rephoto);
+    progress.Advance(view.name);
+  }
+  progress.Finish();
+}
+
+void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
+                      const std::vector<size_t>& views) {
+  const bool vdt = args.representation == "vdt";
+  REPHOTO_CHECK(!vdt || !args.model.empty(),
+                "render: --representation vdt needs MODEL (the proxy)");
+  const std::vector<std::filesystem::path> stems = OutputStems(args, scene, views);
+  ibr::ImageBasedOptions options = args.ibr_options;
+  options.scene_points = ibr::ScenePoints(scene);
+  options.show_progress = true;
+  mesh::Mesh proxy;
+  if (vdt) proxy = mesh::ReadMesh(args.model);
+  auto build = [&](const std::vector<size_t>& training) {
+    std::vector<ibr::TrainingView> training_views =
+        ibr::TrainingViewsFromScene(scene, training, args.depth_maps);
+    return vdt ? ibr::ImageBasedRenderer::Vdt(proxy, std::move(training_views), options)
+               : ibr::ImageBasedRenderer::Ibr(std::move(training_views), options);
+  };
+  render::Rephoto rephoto;
+  if (!args.training.empty()) {
+    const std::vector<size_t> training = TrainingIndices(scene, args.training);
+    const std::set<size_t> training_set(training.begin(), training.end());
+    for (size_t v : views) {
+      if (training_set.count(v)) {
+        LogWarning(
+            fmt::format("{} is also a training photo: its rephoto reproduces the photo "
+                        "(hold it out to measure anything)",
+                        scene.views[v].name));
+      }
+    }
+    const ibr::ImageBasedRenderer renderer = build(training);
+    Progress progress("render", views.size());
+    for (size_t i = 0; i < views.size(); ++i) {
+      const scene::View& view = scene.views[views[i]];
+      renderer.Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
+      WriteRephoto(args.out, stems[i], rephoto);
+      progress.Advance(view.name);
+    }
+    progress.Finish();
+    return;
+  }
+  LogInfo("no --training: leave-one-out (each view rendered from all other views)");
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::vector<size_t> training;
+    for (size_t v = 0; v < scene.views.size(); ++v) {
+      if (v != views[i]) training.push_back(v);
+    }
+    const ibr::ImageBasedRenderer renderer = build(training);
+    const scene::View& view = scene.views[views[i]];
+    renderer.Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
+    WriteRephoto(args.out, stems[i], rephoto);
+    LogInfo(fmt::format("rendered {} ({}/{})", view.name, i + 1, views.size()));
+  }
+}
+
 CommandRunner SetupRender(CLI::App& app) {
   auto args = std::make_shared<RenderArguments>();
-  app.add_option("model", args->model, "Mesh or point cloud (.ply, .obj)")->required();
+  app.add_option("model", args->model,
+                 "Mesh or point cloud (.ply, .obj); the geometry proxy for vdt; unused by ibr");
   app.add_option("--scene", args->scene, "Scene file or folder with the cameras")->required();
   app.add_option("--images", args->images,
                  "List file of the image names to render (one per line; default: all views)");
@@ -74,6 +227,32 @@ CommandRunner SetupRender(CLI::App& app) {
                  "k of the k-th nearest neighbour radius")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  app.add_option("--representation", args->representation,
+                 "auto: render MODEL as it is; vdt: view-dependent texturing of the training "
+                 "photos on MODEL; ibr: image-based rendering with per-view depth maps")
+      ->check(CLI::IsMember({"auto", "vdt", "ibr"}))
+      ->capture_default_str();
+  app.add_option("--training", args->training,
+                 "vdt/ibr training photos: a list file (e.g. a split's train.txt) or "
+                 "comma-separated image names (default: all other views, leave-one-out)");
+  app.add_option("--depth-maps", args->depth_maps,
+                 "ibr: folder of per-view depth maps (<name>.geometric.bin as COLMAP's "
+                 "stereo/depth_maps, <stem>.pfm, <stem>.exr); missing ones are estimated");
+  app.add_option("--k-best", args->ibr_options.k_best, "vdt/ibr: views fused per pixel")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  app.add_option("--depth-tolerance", args->ibr_options.depth_tolerance,
+                 "vdt/ibr: relative depth agreement of the visibility test")
+      ->check(CLI::Range(1e-6, 0.5))
+      ->capture_default_str();
+  app.add_option("--sweep-width", args->ibr_options.plane_sweep.max_width,
+                 "ibr plane sweep: working width in pixels (0 = full)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--sweep-planes", args->ibr_options.plane_sweep.num_planes,
+                 "ibr plane sweep: depth hypotheses")
+      ->check(CLI::Range(2, 4096))
+      ->capture_default_str();
   AddSceneOptions(app, &args->scene_args);
   app.add_option("--out", args->out, "Output folder for <name>.png and <name>.depth.exr")
       ->required();
@@ -82,37 +261,11 @@ CommandRunner SetupRender(CLI::App& app) {
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     const std::vector<size_t> views = SelectViews(scene, args->images);
 
-    const auto start = std::chrono::steady_clock::now();
-    render::ModelOptions model_options;
-    model_options.point_radius = args->point_radius;
-    model_options.point_radius_neighbors = args->point_neighbors;
-    const render::RenderModel model(mesh::ReadMesh(args->model), model_options, args->model);
-    LogInfo(
-        fmt::format("{}: {} vertices, {} triangles, prepared in {:.2f} s (BVH {:.2f} s)",
-                    args->model, model.mesh().vertex_count(), model.mesh().face_count(),
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                    model.build_seconds()));
-
-    render::RenderOptions options;
-    options.samples_per_pixel = args->spp;
-    options.backfaces = !args->no_backfaces;
-    const std::filesystem::path out(args->out);
-    std::set<std::filesystem::path> written;
-    render::Rephoto rephoto;
-    Progress progress("render", views.size());
-    for (size_t v : views) {
-      const scene::View& view = scene.views[v];
-      const std::filesystem::path stem = std::filesystem::path(view.name).replace_extension("");
-      REPHOTO_CHECK(written.insert(stem).second,
-                    "{}: two selected images map to the same output name '{}'", args->scene,
-                    stem.string());
-      const auto rays = model.RaysFor(scene.CameraOf(view));
-      render::RenderRephoto(model, *rays, view.cam_from_world, options, &rephoto);
-      io::WritePng(out / (stem.string() + ".png"), rephoto.color);
-      io::WriteExr(out / (stem.string() + ".depth.exr"), rephoto.depth);
-      progress.Advance(view.name);
+    if (args->representation != "auto") {
+      RenderImageBased(*args, scene, views);
+    } else {
+      RenderModelFile(*args, scene, views);
     }
-    progress.Finish();
     LogInfo(fmt::format("rendered {} views -> {}", views.size(), args->out));
     return static_cast<int>(ExitCode::kOk);
   };
@@ -120,7 +273,9 @@ CommandRunner SetupRender(CLI::App& app) {
 
 }  // namespace
 
-REPHOTO_COMMAND(30, "render", "Rephotograph a mesh or point cloud at a scene's cameras",
-                SetupRender);
+REPHOTO_COMMAND(
+    30, "render",
+    "Rephotograph a mesh, point cloud or image-based representation at a scene's cameras",
+    SetupRender);
 
 }  // namespace rephoto::cli

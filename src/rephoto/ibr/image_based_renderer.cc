@@ -52,8 +52,6 @@ struct ViewData {
   // Per grid quad: bit 0 = triangle (a, b, c) kept, bit 1 = triangle (b, d, c) kept, for the
   // quad a b / c d (see BuildProxyGrids).
   std::vector<uint8_t> quad_triangles;
-  // Downsampled float RGB photo for plane sweep (empty afterwards).
-  Image sweep_photo;
 
   // Projects world point X: photo pixel (u, v) and camera-frame depth z.
   bool Project(const Eigen::Vector3f& X, float* u, float* v, float* z) const {
@@ -189,7 +187,7 @@ struct ImageBasedRenderer::State {
     return rays;
   }
 
-  void LoadPhotos(std::vector<TrainingView> training, int sweep_width);
+  void LoadPhotos(std::vector<TrainingView> training);
   void BuildProxyGrids();
   void ComputeTypicalDepth() {
     std::vector<double> medians;
@@ -201,14 +199,13 @@ struct ImageBasedRenderer::State {
     std::nth_element(medians.begin(), medians.begin() + medians.size() / 2, medians.end());
     typical_depth = medians[medians.size() / 2];
   }
-  void ComputeSweepDepths();
   void RasterizeProxies(const camera::Camera& camera, const camera::Pose& pose,
                         const std::vector<int>& raster_views, Scratch* scratch) const;
   void Fuse(const render::CameraRays& rays, const camera::Pose& pose, const Image& depth,
             int depth_stride, render::Rephoto* out) const;
 };
 
-void ImageBasedRenderer::State::LoadPhotos(std::vector<TrainingView> training, int sweep_width) {
+void ImageBasedRenderer::State::LoadPhotos(std::vector<TrainingView> training) {
   REPHOTO_CHECK(!training.empty(), "image-based rendering: no training views");
   REPHOTO_CHECK(training.size() < 65535, "image-based rendering: too many training views ({})",
                 training.size());
@@ -240,12 +237,6 @@ void ImageBasedRenderer::State::LoadPhotos(std::vector<TrainingView> training, i
           const float value = photo.data()[p * c + (c >= 3 ? k : 0)];
           v.rgb[p * 3 + k] = static_cast<uint8_t>(std::lround(std::clamp(value, 0.f, 1.f) * 255.f));
         }
-      }
-      if (sweep_width > 0) {
-        const int w = std::min(sweep_width, v.width);
-        const int h =
-            std::max(1, static_cast<int>(std::lround(static_cast<double>(v.height) * w / v.width)));
-        v.sweep_photo = internal::ShrinkArea(photo, w, h);
       }
       const camera::Pose& pose = v.info.cam_from_world;
       v.rotation = pose.rotation.cast<float>();
@@ -348,19 +339,22 @@ void ImageBasedRenderer::State::BuildProxyGrids() {
 namespace {
 
 // Depth range of view `v` for plane sweep (see ImageBasedOptions).
-std::pair<double, double> SweepRange(const std::vector<ViewData>& views, size_t v,
+std::pair<double, double> SweepRange(const std::vector<TrainingView>& views,
+                                     const std::vector<camera::Camera>& cameras, size_t v,
                                      const ImageBasedOptions& options,
                                      const std::vector<size_t>& neighbors) {
   if (options.plane_sweep.min_depth > 0 && options.plane_sweep.max_depth > 0) {
     return {options.plane_sweep.min_depth, options.plane_sweep.max_depth};
   }
-  const ViewData& view = views[v];
+  const TrainingView& view = views[v];
+  const camera::Camera& camera = cameras[v];
   std::vector<double> depths;
   for (const Eigen::Vector3d& point : options.scene_points) {
-    float u, w, z;
-    if (view.Project(point.cast<float>(), &u, &w, &z) && u >= 0 && w >= 0 && u <= view.width &&
-        w <= view.height) {
-      depths.push_back(z);
+    const Eigen::Vector3d p = view.cam_from_world.CamFromWorld(point);
+    const auto pixel = camera.ImgFromCam(p);
+    if (pixel && pixel->x() >= 0 && pixel->y() >= 0 && pixel->x() <= camera.width &&
+        pixel->y() <= camera.height) {
+      depths.push_back(p.z());
     }
   }
   if (depths.size() >= 10) {
@@ -371,11 +365,11 @@ std::pair<double, double> SweepRange(const std::vector<ViewData>& views, size_t 
   }
   // Closest approach of the optical axes.
   std::vector<double> axis_depths;
-  const Eigen::Vector3d c0 = view.info.cam_from_world.Center();
-  const Eigen::Vector3d d0 = view.info.cam_from_world.ViewDirection();
+  const Eigen::Vector3d c0 = view.cam_from_world.Center();
+  const Eigen::Vector3d d0 = view.cam_from_world.ViewDirection();
   for (size_t n : neighbors) {
-    const Eigen::Vector3d c1 = views[n].info.cam_from_world.Center();
-    const Eigen::Vector3d d1 = views[n].info.cam_from_world.ViewDirection();
+    const Eigen::Vector3d c1 = views[n].cam_from_world.Center();
+    const Eigen::Vector3d d1 = views[n].cam_from_world.ViewDirection();
     const Eigen::Vector3d w0 = c0 - c1;
     const double b = d0.dot(d1), d = d0.dot(w0), e = d1.dot(w0);
     const double denom = 1 - b * b;
@@ -386,7 +380,7 @@ std::pair<double, double> SweepRange(const std::vector<ViewData>& views, size_t 
   REPHOTO_CHECK(!axis_depths.empty(),
                 "{}: cannot estimate a depth range for plane sweep (no converging neighbour; "
                 "give scene points or a depth range)",
-                view.info.name);
+                view.name);
   std::nth_element(axis_depths.begin(), axis_depths.begin() + axis_depths.size() / 2,
                    axis_depths.end());
   const double median = axis_depths[axis_depths.size() / 2];
@@ -395,53 +389,76 @@ std::pair<double, double> SweepRange(const std::vector<ViewData>& views, size_t 
 
 }  // namespace
 
-void ImageBasedRenderer::State::ComputeSweepDepths() {
-  std::vector<camera::Pose> poses;
-  for (const ViewData& v : views) poses.push_back(v.info.cam_from_world);
+std::vector<Image> EstimateDepthMaps(const std::vector<TrainingView>& views,
+                                     const std::vector<bool>& estimate,
+                                     const ImageBasedOptions& options) {
+  ValidateOptions(options);
+  REPHOTO_CHECK(estimate.size() == views.size(), "EstimateDepthMaps: {} flags for {} views",
+                estimate.size(), views.size());
+  REPHOTO_CHECK(views.size() >= 2, "plane sweep needs at least 2 views");
+  // Photos reduced to the sweep's working width (decoded two at a time).
+  const int max_width = options.plane_sweep.max_width;
+  std::vector<Image> photos(views.size());
+  std::vector<camera::Camera> cameras(views.size());
+  std::vector<camera::Pose> poses(views.size());
+  ParallelFor(0, static_cast<int64_t>(views.size()), 1, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      views[i].camera.Validate(views[i].name + ": camera");
+      views[i].cam_from_world.Validate(views[i].name + ": pose");
+      const Image photo = io::ReadImage(views[i].photo);
+      REPHOTO_CHECK(!photo.empty() && photo.channels() >= 1 && photo.channels() <= 4,
+                    "{}: unsupported photo ({} channels)", views[i].photo.string(),
+                    photo.channels());
+      cameras[i] = views[i].camera;
+      if (cameras[i].width != photo.width() || cameras[i].height != photo.height()) {
+        cameras[i] = cameras[i].Scaled(photo.width(), photo.height());
+      }
+      const int w = max_width > 0 ? std::min(max_width, photo.width()) : photo.width();
+      const int h = std::max(1, static_cast<int>(std::lround(static_cast<double>(photo.height()) *
+                                                             w / photo.width())));
+      photos[i] = internal::ShrinkArea(photo, w, h);
+      poses[i] = views[i].cam_from_world;
+    }
+  });
+  std::vector<Image> depths(views.size());
   std::unique_ptr<Progress> progress;
-  if (options.show_progress) progress = std::make_unique<Progress>("plane sweep", views.size());
-  std::vector<size_t> swept;                         // views whose depth is estimated here
+  size_t count = 0;
+  for (bool e : estimate) count += e;
+  if (options.show_progress) progress = std::make_unique<Progress>("plane sweep", count);
+  std::vector<size_t> swept;                         // views whose depth is estimated
   std::vector<std::vector<size_t>> swept_neighbors;  // their neighbours (view indices)
   for (size_t v = 0; v < views.size(); ++v) {
-    if (!views[v].depth.empty()) {
-      if (progress) progress->Advance(views[v].info.name);
-      continue;
+    if (!estimate[v]) continue;
+    // Neighbours by triangulation angle at the middle of the view's depth range.
+    std::vector<size_t> all;
+    for (size_t i = 0; i < views.size(); ++i) {
+      if (i != v) all.push_back(i);
     }
-    // Neighbours by triangulation angle at a provisional scene depth (the axis estimate),
-    // then the final range.
-    std::vector<size_t> all(views.size());
-    for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-    all.erase(all.begin() + static_cast<int64_t>(v));
-    ImageBasedOptions range_options = options;
-    const auto [near0, far0] = SweepRange(views, v, range_options, all);
-    const double mid = std::sqrt(near0 * far0);
-    const std::vector<size_t> neighbors = SelectNeighbors(poses, v, mid, options.sweep_neighbors);
-    REPHOTO_CHECK(!neighbors.empty(), "{}: no neighbouring view for plane sweep",
-                  views[v].info.name);
+    const auto [near, far] = SweepRange(views, cameras, v, options, all);
+    const std::vector<size_t> neighbors =
+        SelectNeighbors(poses, v, std::sqrt(near * far), options.sweep_neighbors);
+    REPHOTO_CHECK(!neighbors.empty(), "{}: no neighbouring view for plane sweep", views[v].name);
     PlaneSweepOptions sweep = options.plane_sweep;
-    sweep.min_depth = near0;
-    sweep.max_depth = far0;
-    PlaneSweepView reference{views[v].camera, views[v].info.cam_from_world, &views[v].sweep_photo};
+    sweep.min_depth = near;
+    sweep.max_depth = far;
+    const PlaneSweepView reference{cameras[v], poses[v], &photos[v]};
     std::vector<PlaneSweepView> others;
-    for (size_t n : neighbors) {
-      others.push_back({views[n].camera, views[n].info.cam_from_world, &views[n].sweep_photo});
-    }
-    views[v].depth = ComputePlaneSweepDepth(reference, others, sweep).depth;
+    for (size_t n : neighbors) others.push_back({cameras[n], poses[n], &photos[n]});
+    depths[v] = ComputePlaneSweepDepth(reference, others, sweep).depth;
     swept.push_back(v);
     swept_neighbors.push_back(neighbors);
-    if (progress) progress->Advance(views[v].info.name);
+    if (progress) progress->Advance(views[v].name);
   }
   if (progress) progress->Finish();
-  // Consistency between the estimated depth maps (neighbours whose depth came from files are
-  // not used: they are not part of the estimate).
+  // Consistency between the estimated depth maps (views not estimated here are not used).
   if (options.sweep_min_consistent > 0 && swept.size() > 1) {
     std::vector<DepthView> depth_views;
     std::vector<int> position(views.size(), -1);
     for (size_t i = 0; i < swept.size(); ++i) {
-      ViewData& v = views[swept[i]];
-      position[swept[i]] = static_cast<int>(i);
+      const size_t v = swept[i];
+      position[v] = static_cast<int>(i);
       depth_views.push_back(
-          {v.camera.Scaled(v.depth.width(), v.depth.height()), v.info.cam_from_world, &v.depth});
+          {cameras[v].Scaled(depths[v].width(), depths[v].height()), poses[v], &depths[v]});
     }
     std::vector<std::vector<size_t>> local(swept.size());
     for (size_t i = 0; i < swept.size(); ++i) {
@@ -452,7 +469,7 @@ void ImageBasedRenderer::State::ComputeSweepDepths() {
     FilterInconsistentDepths(depth_views, local, options.depth_tolerance,
                              options.sweep_min_consistent);
   }
-  for (ViewData& v : views) v.sweep_photo = Image();
+  return depths;
 }
 
 // IBR step 1: forward-warps every proxy mesh into the novel view and resolves each pixel's
@@ -782,7 +799,7 @@ ImageBasedRenderer ImageBasedRenderer::Vdt(const mesh::Mesh& proxy,
   render::ModelOptions model_options;
   model_options.load_textures = false;
   state->proxy = std::make_unique<render::RenderModel>(std::move(geometry), model_options, "proxy");
-  state->LoadPhotos(std::move(training), 0);
+  state->LoadPhotos(std::move(training));
   render::RenderOptions render_options;
   render_options.samples_per_pixel = 1;
   render_options.pattern = render::SamplePattern::kRegular;
@@ -803,23 +820,26 @@ ImageBasedRenderer ImageBasedRenderer::Ibr(std::vector<TrainingView> training,
   auto state = std::make_unique<State>();
   state->options = options;
   state->ibr = true;
-  bool need_sweep = false;
-  for (const TrainingView& t : training) need_sweep |= t.depth_map.empty();
+  std::vector<bool> estimate;
+  for (const TrainingView& t : training) estimate.push_back(t.depth_map.empty());
+  const bool need_sweep = std::find(estimate.begin(), estimate.end(), true) != estimate.end();
   if (need_sweep) {
     REPHOTO_CHECK(training.size() >= 2,
                   "image-based rendering: plane sweep needs at least 2 training views");
   }
-  state->LoadPhotos(std::move(training), need_sweep ? (options.plane_sweep.max_width > 0
-                                                           ? options.plane_sweep.max_width
-                                                           : std::numeric_limits<int>::max())
-                                                    : 0);
+  std::vector<Image> estimated;
+  if (need_sweep) estimated = EstimateDepthMaps(training, estimate, options);
+  state->LoadPhotos(std::move(training));
   ParallelFor(0, static_cast<int64_t>(state->views.size()), 1, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       ViewData& v = state->views[i];
-      if (!v.info.depth_map.empty()) v.depth = ReadDepthMap(v.info.depth_map);
+      if (!v.info.depth_map.empty()) {
+        v.depth = ReadDepthMap(v.info.depth_map);
+      } else {
+        v.depth = std::move(estimated[i]);
+      }
     }
   });
-  if (need_sweep) state->ComputeSweepDepths();
   for (ViewData& v : state->views) {
     v.depth_sx = static_cast<float>(v.depth.width()) / v.width;
     v.depth_sy = static_cast<float>(v.depth.height()) / v.height;

@@ -139,4 +139,15 @@ class ImageBasedRenderer {
   std::unique_ptr<State> state_;
 };
 
+// Plane-sweep depth maps (ImageBasedOptions::plane_sweep, sweep_neighbors, scene_points,
+// sweep_min_consistent) for the views with estimate[i] set, each matched against neighbours
+// chosen among all `views` (SelectNeighbors), followed by the consistency filter among the
+// estimated views. This is what Ibr does for training views without a depth map; `rephoto
+// depth` writes its results. Returns one depth map per view (empty where estimate[i] is false)
+// at the sweep's working resolution, in the convention of depth_map_io.h. Reads the photos
+// (errors name the file); throws Error for fewer than 2 views or invalid options.
+std::vector<Image> EstimateDepthMaps(const std::vector<TrainingView>& views,
+                                     const std::vector<bool>& estimate,
+                                     const ImageBasedOptions& options);
+
 }  // namespace rephoto::ibr
