@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -277,6 +278,20 @@ class ModelRenderer : public FoldRenderer {
   render::RenderOptions options_;
 };
 
+// The built-in renderer of `representation` for one fold: `model` is the fold's prepared
+// model; `training_scene` loads the fold's training scene exactly as the reconstruct command
+// and --colorize see it (photos possibly downscaled, cameras scaled with them), which the
+// image-based representations ("vdt": training photos reprojected through the model; "ibr":
+// per-view depth maps as proxies, ibr/image_based_renderer.h) need besides the model. They are
+// added here; EvaluateOptions::Check accepts only "auto" until then.
+std::unique_ptr<FoldRenderer> MakeFoldRenderer(
+    const std::string& representation, std::shared_ptr<const render::RenderModel> model,
+    const render::RenderOptions& options, const std::function<scene::Scene()>& training_scene) {
+  (void)training_scene;
+  if (representation == "auto") return std::make_unique<ModelRenderer>(std::move(model), options);
+  throw UsageError(fmt::format("--representation {}: not available", representation));
+}
+
 // ------------------------------------------------------------------------------ the run
 
 class Evaluation {
@@ -296,6 +311,8 @@ class Evaluation {
   bool ValidateCommandOutput(FoldState& fold);
   void RephotoStage(FoldState& fold, Progress& progress);
   void ComputeModelKey(FoldState& fold, std::optional<mesh::Mesh>* mesh);
+  scene::Scene TrainingScene(const FoldState& fold) const;
+  void RemoveStaleOutputs() const;
   std::string ModelFileKey(const fs::path& path, const mesh::Mesh& mesh);
   void EvaluateView(FoldState& fold, const TestView& test, FoldRenderer* renderer,
                     const std::string& base_key, ViewOutcome* outcome);
@@ -671,6 +688,66 @@ void Evaluation::PrepareFold(FoldState& fold) {
     fold.tests.push_back(std::move(t));
   }
   fold.test_key = test_key.Hex();
+}
+
+// The fold's training views as the reconstruct command sees them: the downscaled photos and
+// scaled cameras of RUN/folds/fold_XX/train when --train-short-side is set, else the scene's.
+scene::Scene Evaluation::TrainingScene(const FoldState& fold) const {
+  if (o_.train_short_side > 0) {
+    scene::ReadSceneOptions read;
+    read.format = scene::SceneFormat::kColmap;
+    read.image_root = fold.images_dir;
+    return scene::ReadScene(fold.train_dir / "sparse", read);
+  }
+  return split::SubsetScene(scene_, fold.train_names, /*keep_points=*/true);
+}
+
+// Results of an earlier run with another split (other folds, other test views per fold) are
+// removed, so that every file in RUN belongs to this run's settings (project and report scan
+// the folders).
+void Evaluation::RemoveStaleOutputs() const {
+  std::set<std::string> fold_names;
+  for (const FoldState& fold : folds_) fold_names.insert(fold.name);
+  std::error_code ec;
+  for (const fs::path& parent : {run_ / "folds", run_ / "split"}) {
+    std::vector<fs::path> stale;
+    for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      if (it->is_directory() && name.rfind("fold_", 0) == 0 && !fold_names.count(name)) {
+        stale.push_back(it->path());
+      }
+    }
+    for (const fs::path& path : stale) fs::remove_all(path, ec);
+  }
+  std::vector<fs::path> stale_logs;
+  for (fs::directory_iterator it(run_ / "logs", ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (!fold_names.count(name.substr(0, name.find('.')))) stale_logs.push_back(it->path());
+  }
+  for (const fs::path& path : stale_logs) fs::remove(path, ec);
+  for (const FoldState& fold : folds_) {
+    std::set<fs::path> allowed;
+    for (const TestView& test : fold.tests) {
+      allowed.insert(fold.dir / "views" / (test.stem + ".json"));
+      allowed.insert(fold.dir / "renders" / (test.stem + ".png"));
+      allowed.insert(fold.dir / "renders" / (test.stem + ".depth.exr"));
+      for (metrics::Metric metric : metrics::AllMetrics()) {
+        const std::string base = test.stem + "." + std::string(metrics::MetricName(metric));
+        allowed.insert(fold.dir / "errors" / (base + ".exr"));
+        allowed.insert(fold.dir / "errors" / (base + ".png"));
+      }
+    }
+    for (const char* folder : {"views", "renders", "errors"}) {
+      std::vector<fs::path> stale;
+      for (fs::recursive_directory_iterator it(fold.dir / folder, ec), end; !ec && it != end;
+           it.increment(ec)) {
+        if (it->is_regular_file() && !allowed.count(it->path().lexically_normal())) {
+          stale.push_back(it->path());
+        }
+      }
+      for (const fs::path& path : stale) fs::remove(path, ec);
+    }
+  }
 }
 
 // ------------------------------------------------------------------------- command stage
@@ -1107,12 +1184,7 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
           REPHOTO_CHECK(!mesh->is_point_cloud(), "{}: --colorize needs a mesh with faces",
                         fold.model_path.string());
           const auto colorize_start = Clock::now();
-          // Training photos as the fold's training scene sees them (downscaled if set).
-          const scene::Scene train = o_.train_short_side > 0
-                                         ? scene::ReadScene(fold.train_dir / "sparse",
-                                                            {.format = scene::SceneFormat::kColmap,
-                                                             .image_root = fold.images_dir})
-                                         : split::SubsetScene(scene_, fold.train_names, false);
+          const scene::Scene train = TrainingScene(fold);
           std::vector<size_t> views(train.views.size());
           for (size_t v = 0; v < views.size(); ++v) views[v] = v;
           render::ColorizeReport report;
@@ -1139,15 +1211,11 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
       cached_model_key_ = fold.model_key;
       cached_model_path_ = fold.model_path;
     }
-    if (o_.representation == "auto") {
-      render::RenderOptions render_options;
-      render_options.samples_per_pixel = o_.samples_per_pixel;
-      render_options.backfaces = o_.backfaces;
-      renderer = std::make_unique<ModelRenderer>(model, render_options);
-    } else {
-      // "vdt" and "ibr" are added here (EvaluateOptions::Check rejects them until then).
-      throw UsageError(fmt::format("--representation {}: not available", o_.representation));
-    }
+    render::RenderOptions render_options;
+    render_options.samples_per_pixel = o_.samples_per_pixel;
+    render_options.backfaces = o_.backfaces;
+    renderer = MakeFoldRenderer(o_.representation, model, render_options,
+                                [&] { return TrainingScene(fold); });
   }
   WriteFoldJson(fold, "running");
 
@@ -1686,6 +1754,7 @@ EvaluateResult Evaluation::Run() {
     folds_[f].name = split::FoldFolderName(f, folds_.size());
     PrepareFold(folds_[f]);
   }
+  RemoveStaleOutputs();
   timings_.prepare += Seconds(phase);
   size_t total_views = 0;
   for (const FoldState& fold : folds_) total_views += fold.tests.size();

@@ -252,6 +252,31 @@ TEST(EvaluateTest, ResumeSkipsFinishedWorkAndRecomputesExactlyWhatChanged) {
   EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
 }
 
+TEST(EvaluateTest, AnotherSplitReplacesTheOldFoldsOutputs) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.scheme = "kfold:3";
+  RunEvaluate(o);
+  ASSERT_TRUE(fs::exists(run / "folds/fold_02"));
+  o.scheme = "kfold:2";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_FALSE(fs::exists(run / "folds/fold_02"));
+  EXPECT_FALSE(fs::exists(run / "split/fold_02"));
+  // Every record, rendering and error image left in a fold belongs to one of its test views.
+  size_t records = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(run / "folds")) {
+    if (entry.path().parent_path().filename() == "views") ++records;
+  }
+  EXPECT_EQ(records, static_cast<size_t>(kViews));
+  size_t errors = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(run / "folds")) {
+    if (entry.path().parent_path().filename() == "errors") ++errors;
+  }
+  EXPECT_EQ(errors, static_cast<size_t>(kViews) * 2 * 2);  // 2 metrics x (exr + png)
+  EXPECT_EQ(result.evaluated_images, static_cast<size_t>(kViews));
+}
+
 TEST(EvaluateTest, RunDirectoryOfAnotherSceneIsRefused) {
   const fs::path run = testing::MakeTempDir() / "run";
   EvaluateOptions o = BaseOptions(run);
