@@ -73,7 +73,24 @@ std::string BoxPlotSvg(const BoxPlot& plot) {
   for (const std::string& c : plot.categories) rotate = rotate || c.size() * 6.5 > slot - 4;
   const double left = 62, right = 16, top = 30;
   const double bottom = (rotate ? 86 : 40) + (plot.x_label.empty() ? 0 : 16);
-  const double legend_height = plot.series.size() > 1 ? 18.0 * ((plot.series.size() + 3) / 4) : 0;
+  // Legend entries left to right, wrapped onto further lines (text width estimated at 6.5 px
+  // per character of the 11 px font).
+  std::vector<std::pair<double, int>> legend;  // (x offset from `left`, line)
+  {
+    double x = 0;
+    int line = 0;
+    for (const std::string& name : plot.series) {
+      const double entry = 16 + 6.5 * std::min<size_t>(name.size(), 28) + 14;
+      if (x > 0 && x + entry > std::max(300.0, categories * slot)) {
+        x = 0;
+        ++line;
+      }
+      legend.push_back({x, line});
+      x += entry;
+    }
+  }
+  const double legend_height =
+      plot.series.size() > 1 ? 18.0 * (legend.empty() ? 0 : legend.back().second + 1) : 0;
   const double plot_height = 200;
   const double width = std::max(categories == 1 ? 200.0 : 300.0, left + right + categories * slot);
   const double height = top + legend_height + plot_height + bottom;
@@ -97,8 +114,8 @@ std::string BoxPlotSvg(const BoxPlot& plot) {
   // Legend.
   if (plot.series.size() > 1) {
     for (size_t s = 0; s < plot.series.size(); ++s) {
-      const double lx = left + (s % 4) * ((width - left) / 4);
-      const double ly = top + 4 + 18.0 * (s / 4);
+      const double lx = left + legend[s].first;
+      const double ly = top + 4 + 18.0 * legend[s].second;
       svg += fmt::format(
           "<rect x=\"{}\" y=\"{}\" width=\"12\" height=\"10\" fill=\"{}\" fill-opacity=\"0.35\" "
           "stroke=\"{}\"/><text class=\"legend\" x=\"{}\" y=\"{}\">{}</text>\n",
@@ -223,7 +240,10 @@ std::string BoxPlotSvg(const BoxPlot& plot) {
       int i = 0;
       for (double v : box.values) {
         if (std::isnan(v)) continue;
-        const double dx = half + 3 + (i++ % 3) * 2.5;
+        // Beside the box for one series, inside it (spread over its width) for several.
+        const double dx =
+            series == 1 ? half + 3 + (i % 3) * 2.5 : (static_cast<double>(i % 5) - 2) * half / 3;
+        ++i;
         svg += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"1.8\" fill=\"{}\"/>",
                            Coordinate(x + dx), Coordinate(Y(v)), colour);
       }

@@ -189,9 +189,11 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     if (m == options.primary_metric) continue;
     html += fmt::format("<th data-col=\"{0}\">{0}</th>", HtmlEscape(m));
   }
-  html +=
-      "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>"
-      "<th class=\"text\" data-col=\"description\">description</th></tr></thead><tbody>\n";
+  bool any_description = false;
+  for (const Loaded& l : runs) any_description = any_description || !l.entry.description.empty();
+  html += "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>";
+  if (any_description) html += "<th class=\"text\" data-col=\"description\">description</th>";
+  html += "</tr></thead><tbody>\n";
   for (size_t i = 0; i < runs.size(); ++i) {
     const Loaded& l = runs[i];
     html += fmt::format(
@@ -214,10 +216,12 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       const double median = index >= 0 ? Summarize(l.run.Values(index)).median : NAN;
       html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(median), DisplayNumber(median));
     }
-    html += fmt::format(
-        "<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>"
-        "<td class=\"text\">{2}</td></tr>\n",
-        l.run.failed_folds.size(), l.run.missing.size(), HtmlEscape(l.entry.description));
+    html += fmt::format("<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>",
+                        l.run.failed_folds.size(), l.run.missing.size());
+    if (any_description) {
+      html += fmt::format("<td class=\"text\">{}</td>", HtmlEscape(l.entry.description));
+    }
+    html += "</tr>\n";
   }
   html += "</tbody></table></div></section>\n";
 
