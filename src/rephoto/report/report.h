@@ -25,10 +25,11 @@
 //   - the per-image table, sortable by clicking any column header (click again: descending;
 //     empty values stay last); rows of missing or failed images show their status.
 // Collection report (WriteCollectionReport), for several runs:
-//   - a ranking table, one row per entry: label, description, series/setting (sweeps), count
-//     of folds/images, the median of the primary metric with the median completeness next to
-//     it, the median of each other metric, failed folds and missing images; sorted by the
-//     median primary metric, best first (entries without a value last) when `rank`;
+//   - a ranking table, one row per entry: label, series/setting (sweeps), count of
+//     folds/images, the median of the primary metric with the median completeness next to it,
+//     the median of each other metric, failed folds, missing images and the description (when
+//     any entry has one); sorted by the median primary metric, best first (entries without a
+//     value last) when `rank`;
 //   - boxplots per metric and completeness: one box per entry, or for sweeps (entries with a
 //     `setting`) one box per setting along x and per series, medians connected, like the
 //     paper's Fig. 7; values are across folds for evaluate runs with several folds, else over
