@@ -118,5 +118,9 @@ rows = []
 for path in sorted(glob.glob(os.path.join(sys.argv[1], "fold_*", "compare", "per_image.csv"))):
     rows += [r for r in csv.DictReader(open(path)) if r["status"] == "ok"]
 med = lambda k: statistics.median(float(r[k]) for r in rows)
-print(f"all\t\t\t\t{len(rows)}\t" + "\t".join(f"{med(k):.4f}" for k in ("completeness", "1-ncc", "cb+cr")))
+if rows:
+    print(f"all\t\t\t\t{len(rows)}\t"
+          + "\t".join(f"{med(k):.4f}" for k in ("completeness", "1-ncc", "cb+cr")))
+else:
+    print("all\t\t\t\t0\tno fold has a reconstruction")
 EOF

@@ -153,11 +153,14 @@ else
     --SiftMatching.use_gpu 0 --SiftMatching.num_threads "$threads"
 fi
 
-# Poses and intrinsics are known: refine none of them (only the points are adjusted).
+# Poses and intrinsics are known: refine none of them (only the points are adjusted). Points seen
+# by only two photos are kept (COLMAP drops them by default, which suits unknown poses; with
+# known poses they are as good as others, and with two training photos they are all there is).
 step triangulate colmap point_triangulator --database_path "$work/database.db" \
   --image_path "$images" --input_path "$work/model_in" --output_path "$work/model_tri" \
   --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 \
-  --Mapper.ba_refine_extra_params 0 --Mapper.num_threads "$threads"
+  --Mapper.ba_refine_extra_params 0 --Mapper.tri_ignore_two_view_tracks 0 \
+  --Mapper.num_threads "$threads"
 step convert colmap model_converter --input_path "$work/model_tri" --output_path "$out/sparse" \
   --output_type TXT
 step points "$python" "$here/known_poses.py" export "$out/sparse" "$out/points.ply"
