@@ -10,14 +10,14 @@
 //    - IBR: every training depth map is turned into a mesh (a grid of its pixels every
 //      `proxy_grid_spacing` photo pixels, unprojected once at construction; triangles that
 //      their own camera sees at less than `proxy_edge_angle` degrees from edge-on are cut: they
-//      join a foreground to a background across an occlusion edge) and
-//      forward-warped into the novel view by rasterization with a z-buffer; only the proxies
-//      of the 3 * k_best training views nearest to the novel view (ranked as in step 2, at the
-//      training views' median depth) are warped, for speed (perspective-correct
-//      1/z interpolation; the novel camera's distortion applied at the vertices). Each pixel
-//      keeps the 4 nearest surfaces of different training views; its depth is the nearest one
-//      that a second view confirms within `depth_tolerance` (relative), else the nearest one
-//      (so that one view's stereo outlier does not occlude the others).
+//      join a foreground to a background across an occlusion edge). The meshes of the
+//      3 * k_best training views nearest to the novel view (ranked as in step 2, at the
+//      training views' median depth) are forward-warped into the novel view by rasterization
+//      (perspective-correct 1/z interpolation; the novel camera's distortion applied at the
+//      vertices). Each pixel keeps the 4 nearest surfaces of different training views; its
+//      depth is the nearest one that a second view confirms within `depth_tolerance`
+//      (relative), else the nearest one (so that one view's stereo outlier does not occlude
+//      the others).
 // 2. Candidate views: the training views nearest to the novel view (by the angle between
 //    their camera centres seen from the novel view's central scene point, at most 32 views).
 //    X is projected into each (its own camera, distortion and resolution). A view is a
@@ -53,6 +53,14 @@
 // Rendering reuses scratch buffers between calls (guarded by a mutex; concurrent Render calls
 // work, the ones that find the buffers busy allocate their own).
 // Thread safety: Render is const and may be called from several threads.
+//
+// Usage (one renderer per cross-validation fold, built from the fold's training views only):
+//   std::vector<TrainingView> training = TrainingViewsFromScene(scene, fold.train, depth_dir);
+//   ImageBasedRenderer vdt = ImageBasedRenderer::Vdt(proxy_mesh, training, options);
+//   for (size_t t : fold.test) {
+//     render::Rephoto r = vdt.Render(scene.CameraOf(scene.views[t]),
+//                                    scene.views[t].cam_from_world);  // alpha = completeness
+//   }
 #pragma once
 
 #include <Eigen/Core>

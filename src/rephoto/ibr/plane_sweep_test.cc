@@ -38,10 +38,6 @@ TEST(PlaneSweep, DepthOfTheDemoSceneAgreesWithTheGroundTruth) {
   PlaneSweepOptions sweep;
   sweep.min_depth = near / 1.25;
   sweep.max_depth = far * 1.25;
-  if (const char* e = std::getenv("IBR_NCC")) sweep.min_ncc = std::atof(e);
-  if (const char* e = std::getenv("IBR_WIN")) sweep.window = std::atoi(e);
-  if (const char* e = std::getenv("IBR_BEST")) sweep.best_neighbors = std::atoi(e);
-  if (const char* e = std::getenv("IBR_PLANES")) sweep.num_planes = std::atoi(e);
   const camera::Camera camera = demo.scene.CameraOf(demo.scene.views[reference]);
   const PlaneSweepView ref{camera, poses[reference], &demo.photos[reference]};
   std::vector<PlaneSweepView> others;
@@ -60,24 +56,6 @@ TEST(PlaneSweep, DepthOfTheDemoSceneAgreesWithTheGroundTruth) {
     if (!std::isfinite(d)) continue;
     ++estimated;
     accurate += std::abs(d - t) <= 0.02f * t;
-  }
-  if (std::getenv("IBR_DEBUG")) {
-    size_t w5 = 0, w10 = 0;
-    Image err(truth.width(), truth.height(), 3, 0.f);
-    for (size_t i = 0; i < truth.pixel_count(); ++i) {
-      const float t = truth.data()[i], d = result.depth.data()[i];
-      if (!std::isfinite(t) || !std::isfinite(d)) continue;
-      w5 += std::abs(d - t) <= 0.05f * t;
-      w10 += std::abs(d - t) <= 0.1f * t;
-      const float e = (d - t) / t;
-      err.data()[3 * i] = std::clamp(e * 10, 0.f, 1.f);
-      err.data()[3 * i + 1] = std::clamp(-e * 10, 0.f, 1.f);
-      err.data()[3 * i + 2] = std::abs(e) < 0.02f ? 1.f : 0.f;
-    }
-    std::cout << "within 5 %: " << double(w5) / estimated << ", 10 %: " << double(w10) / estimated
-              << "\n";
-    io::WritePng("/tmp/ibr-sweep-err.png", err);
-    io::WritePng("/tmp/ibr-sweep-photo.png", demo.photos[reference]);
   }
   const double coverage = static_cast<double>(estimated) / surface;
   const double precision = static_cast<double>(accurate) / estimated;
