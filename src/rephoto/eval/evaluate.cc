@@ -210,6 +210,8 @@ struct ViewOutcome {
   std::string message;         // when !ok
   compare::ImageResult image;  // when ok
   std::string key;
+  std::string render_key;     // built-in renderings: what the rendering depends on
+  bool reuse_render = false;  // the rendering on disk has render_key: compare only
   double render_seconds = 0;
   double compare_seconds = 0;
   fs::path record;
@@ -1001,6 +1003,7 @@ void Evaluation::WriteViewRecord(const FoldState& fold, const ViewOutcome& outco
   Json j;
   j["schema"] = "rephoto.evaluate.view/1";
   j["key"] = outcome.key;
+  j["render_key"] = outcome.render_key.empty() ? Json() : Json(outcome.render_key);
   j["status"] = "ok";
   j["fold"] = fold.name;
   j["name"] = outcome.name;
@@ -1083,7 +1086,11 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
   fs::path render_path;
   Image render;
   auto start = Clock::now();
-  if (renderer != nullptr) {
+  if (outcome->reuse_render) {
+    // Only compare settings changed: the rendering on disk is the one this view needs.
+    render_path = renders_dir / (test.stem + ".png");
+    io::ReadImage(render_path, &render);
+  } else if (renderer != nullptr) {
     render::Rephoto rephoto;
     renderer->Render(test, &rephoto);
     render_path = renders_dir / (test.stem + ".png");
@@ -1150,6 +1157,19 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
       render_hash = image.empty() ? std::string() : hashes_->Hash(image);
     }
     outcome.key = ViewKey(fold, test, base_key, render_hash);
+    if (!external) {
+      Hasher render_key;
+      render_key.Add(kKeyVersion).Add("render").Add(base_key).Add(test.stem);
+      AddCamera(render_key, test.camera);
+      AddPose(render_key, test.pose);
+      outcome.render_key = render_key.Hex();
+      const std::optional<Json> previous = ReadJsonFile(outcome.record);
+      std::error_code ec;
+      outcome.reuse_render =
+          previous && previous->value("render_key", "") == outcome.render_key &&
+          fs::is_regular_file(fold.dir / "renders" / (test.stem + ".png"), ec) &&
+          fs::is_regular_file(fold.dir / "renders" / (test.stem + ".depth.exr"), ec);
+    }
     if (ReuseView(outcome.record, outcome.key, &outcome)) {
       outcome.ok = true;
       outcome.reused = true;
@@ -1161,8 +1181,10 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
     }
   }
 
+  bool need_renderer = false;
+  for (size_t i : todo) need_renderer |= !external && !fold.views[i].reuse_render;
   std::unique_ptr<FoldRenderer> renderer;
-  if (!todo.empty() && !external) {
+  if (need_renderer) {
     std::shared_ptr<const render::RenderModel> model;
     if (cached_model_ && cached_model_key_ == fold.model_key) {
       model = cached_model_;

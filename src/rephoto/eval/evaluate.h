@@ -72,24 +72,43 @@
 // in flight and throws Error "interrupted ... rerun the same command to resume". A run
 // directory that holds a run of another scene (different set of image names) is an Error.
 //
-// Outputs in `out` (every file written atomically):
-//   run.json       schema "rephoto.evaluate/1": tool version, command line, resolved settings,
-//                  inputs with hashes (scene, model, photos), the split, timings in seconds
-//                  {total, external, rephoto: {split, prepare, colorize, render, compare,
-//                  aggregate, project, report}} and per-fold status.
-//   manifest.json  the independent tasks: one "reconstruct"/"render" task per fold when a
-//                  command is used, one per fold x test view ("fold_00/<stem>"), each with its
-//                  key, inputs, outputs and dependencies, so a scheduler could run them elsewhere.
-//   split/         exactly what split::WriteSplit writes.
-//   folds/fold_XX/ reconstruction/ (the command's {out}), model.ply (when rephoto changed the
-//                  model: --colorize), renders/<stem>.png + <stem>.depth.exr (built-in
-//                  renderer), errors/<stem>.<metric>.exr|png, views/<stem>.json, fold.json.
+// Outputs in `out` (every file written atomically; the full contract with all fields is
+// /work/notes/run-layout.md):
+//   run.json       schema "rephoto.evaluate/1": tool version, command line, resolved settings
+//                  (eval/settings.h names), scene identity, inputs with XXH3 content hashes
+//                  (scene, model, photos, missing photos), the split, timings in seconds
+//                  {total, external, rephoto: {total, split, prepare, colorize, render, compare,
+//                  aggregate, project, report}}, counters, per-fold status, outputs (projected
+//                  PLYs, report, or why they are missing). status: running | interrupted | ok |
+//                  incomplete.
+//   manifest.json  the independent tasks: one "<fold>/reconstruct" or "<fold>/render" task per
+//                  fold when a command is used, one "<fold>/<stem>" task per test view, each with
+//                  its key, inputs, outputs and dependencies, so a scheduler could run them
+//                  elsewhere and this command would then reuse their records.
+//   split/         exactly what split::WriteSplit writes (photos that exist only).
+//   folds/fold_XX/ reconstruction/ (the command's {out}), model.ply + model.key (the coloured
+//                  model, --colorize), train/ and test/ (only when they differ from split/, see
+//                  Sweeps), renders/<stem>.png (RGBA 8-bit, alpha = coverage) and
+//                  <stem>.depth.exr (built-in renderer), errors/<stem>.<metric>.exr|png,
+//                  views/<stem>.json (the view's result and key, written last), fold.json.
+//                  <stem>: the view name's file name without extension, or its relative path
+//                  without extension when two views share a file name.
 //   logs/fold_XX.reconstruct.log, logs/fold_XX.render.log
-//   per_image.csv  fold, then compare's per_image.csv columns; status ok | failed (the fold or
-//                  the view failed; measurements empty); photo absolute, render relative to RUN.
-//   per_fold.csv   fold, status, test_images, evaluated_images, seconds, completeness, <metric>...
-//   summary.json   schema "rephoto.evaluate/1" (see WriteSummary in evaluate.cc / run-layout.md).
+//   per_image.csv  fold, then compare's per_image.csv columns, sorted by fold then name; status
+//                  ok | failed (the fold or the view failed; measurements empty); photo = the
+//                  absolute path of the photo compared (the cached downscaled copy with
+//                  eval_short_side), render relative to RUN.
+//   per_fold.csv   fold, status, test_images, evaluated_images, seconds (recorded compute time),
+//                  completeness, <metric>... (means over the fold's images), message.
+//   summary.json   schema "rephoto.evaluate/1": scene, scheme, folds, failed_folds, missing,
+//                  "completeness" and "metrics"/<metric>, each {across_folds, over_images: {mean,
+//                  min, q1, median, q3, max, count}, pooled}.
+//   projected/<metric>.ply  the `projection_metric` error projected onto the model
+//                  (project::ProjectErrors; one model for all folds, else per fold
+//                  fold_XX.<metric>.ply when there are several), mesh and point models only.
+//   report.html    report::WriteRunReport of the run directory.
 //   cache/         file hashes and downscaled photos (safe to delete: only costs time).
+// Outputs of an earlier run with another split (folds, test views) are removed.
 #pragma once
 
 #include <cstdint>

@@ -240,16 +240,23 @@ TEST(EvaluateTest, ResumeSkipsFinishedWorkAndRecomputesExactlyWhatChanged) {
   EXPECT_EQ(third.counters.views_reused, static_cast<size_t>(kViews - 1));
   EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
 
-  // A compare setting changed: every view is compared again, nothing else reused wrongly.
+  // A compare setting changed: every view is compared again, the renderings are reused.
   o.metric_options.window = 7;
   const EvaluateResult fourth = RunEvaluate(o);
   EXPECT_EQ(fourth.counters.views_compared, static_cast<size_t>(kViews));
+  EXPECT_EQ(fourth.counters.views_rendered, 0u);
   EXPECT_NE(ReadFileToString(run / "per_image.csv"), per_image);
 
   // Back to the first settings: recomputed again, the same numbers as at first.
   o.metric_options.window = 9;
   RunEvaluate(o);
   EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
+
+  // A render setting changed: rendered and compared again.
+  o.samples_per_pixel = 2;
+  const EvaluateResult fifth = RunEvaluate(o);
+  EXPECT_EQ(fifth.counters.views_rendered, static_cast<size_t>(kViews));
+  EXPECT_NE(ReadFileToString(run / "per_image.csv"), per_image);
 }
 
 TEST(EvaluateTest, AnotherSplitReplacesTheOldFoldsOutputs) {
