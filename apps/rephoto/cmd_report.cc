@@ -1,7 +1,8 @@
 // rephoto report RUN_DIR [RUN_DIR ...] --out report.html [--labels a,b,...] [--title T]
-//                [--metric M] [--examples N] [--thumbnail-width PX]
-// One run directory: report::WriteRunReport; several: report::WriteCollectionReport (ranking
-// table, boxplots per run, best/worst images of each). See src/rephoto/report/report.h.
+//                [--metric M] [--examples N] [--thumbnail-width PX] [--keep-order]
+// One run directory: report::WriteRunReport (a single --labels entry becomes the title when
+// --title is not given); several: report::WriteCollectionReport (ranking table, boxplots per
+// run, best/worst images of each). See src/rephoto/report/report.h.
 #include <fmt/format.h>
 
 #include <memory>
