@@ -1,5 +1,6 @@
 #include "rephoto/report/report.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -237,6 +238,27 @@ TEST(RunReport, EvaluateRunAcrossFoldsFailedFoldsAndSettings) {
   // The per-fold table: 5 folds, the failed one marked.
   EXPECT_EQ(Elements(html, "<tr data-fold=").size(), 5u);
   EXPECT_NE(html.find("<tr data-fold=\"fold_04\" class=\"bad\">"), std::string::npos);
+}
+
+TEST(RunReport, HundredsOfImagesStayTextWithThumbnailsOnlyForExamples) {
+  // 400 compared images (compare layout written by hand, no image files): every row is in the
+  // table, the only images are the examples' (here unavailable, so none), and the file grows by
+  // well under 1 KB per image.
+  const fs::path dir = rephoto::testing::MakeTempDir() / "run";
+  std::string csv = "name,status,photo,render,width,height,resized,completeness,1-ncc,psnr\n";
+  for (int i = 0; i < 400; ++i) {
+    csv += fmt::format("img_{:04d},ok,p/{:04d}.png,r/{:04d}.png,640,480,0,{},{},{}\n", i, i, i,
+                       0.5 + i / 1000.0, (i * 37 % 400) / 400.0, 20 + i % 7);
+  }
+  WriteTextFileAtomically(dir / "per_image.csv", csv);
+  WriteRunReport(dir, dir / "report.html", {.example_images = 2});
+  const std::string html = ReadFileToString(dir / "report.html");
+  EXPECT_EQ(Elements(html, "<tr data-name=").size(), 400u);
+  EXPECT_EQ(Elements(html, "<div class=\"example\"").size(), 4u);
+  EXPECT_EQ(Elements(html, "<img ").size(), 0u);
+  EXPECT_LT(html.size(), 400u * 1024u);
+  // The worst image by 1-ncc: (i * 37) % 400 is largest (399) for i = 227.
+  EXPECT_EQ(Elements(html, "<div class=\"example\"")[0].at("data-name"), "img_0227");
 }
 
 TEST(RunData, FailedFoldMessageFromPerFoldCsvWithoutSummary) {
