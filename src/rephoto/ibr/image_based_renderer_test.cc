@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -202,7 +203,20 @@ TEST_F(ImageBasedRendererTest, IbrFromTrueDepthMapsReproducesHeldOutView) {
   const ImageBasedRenderer ibr = ImageBasedRenderer::Ibr(training, {});
   EXPECT_EQ(ibr.depth_map(0).width(), 100);
   const scene::View& view = demo_->scene.views[0];
-  const Score score = Evaluate(ibr.Render(demo_->scene.CameraOf(view), view.cam_from_world), 0);
+  const render::Rephoto r = ibr.Render(demo_->scene.CameraOf(view), view.cam_from_world);
+  // The forward-warped proxies give the true depth (perspective-correct interpolation).
+  const Image truth = demo_->TrueDepth(0);
+  std::vector<float> errors;
+  for (size_t i = 0; i < truth.pixel_count(); ++i) {
+    if (std::isfinite(truth.data()[i]) && std::isfinite(r.depth.data()[i])) {
+      errors.push_back(std::abs(r.depth.data()[i] - truth.data()[i]) / truth.data()[i]);
+    }
+  }
+  ASSERT_GT(errors.size(), truth.pixel_count() / 2);
+  std::sort(errors.begin(), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.002);
+  EXPECT_LT(errors[errors.size() * 95 / 100], 0.02);
+  const Score score = Evaluate(r, 0);
   const Score vertex = VertexColourScore(0);
   std::cout << "IBR (true depth maps) 1-NCC " << score.one_minus_ncc << " (completeness "
             << score.completeness << "), vertex colours " << vertex.one_minus_ncc << "\n";
@@ -222,6 +236,52 @@ TEST_F(ImageBasedRendererTest, IbrFromPlaneSweepDepthRendersHeldOutViewReasonabl
             << score.completeness << "), vertex colours " << vertex.one_minus_ncc << "\n";
   EXPECT_LT(score.one_minus_ncc, 0.36);
   EXPECT_GT(score.completeness, 0.6);
+}
+
+// Two constant-colour training photos of a plane, 10 and 25 degrees to either side of the novel
+// camera: the weighted median returns the colour of the view with the smaller angle (Buehler's
+// weights: 1 - p/p_th over p + epsilon), the other one when the novel camera moves towards it,
+// and exactly a view's own colour at its own camera (epipole consistency).
+TEST(ImageBasedRendererFusion, NearerViewWinsAndEpipoleIsConsistent) {
+  mesh::Mesh plane;  // z = 0, [-5, 5]^2, facing +z
+  plane.positions = {{-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}};
+  plane.faces = {{0, 1, 2}, {0, 2, 3}};
+  const camera::Camera camera{camera::CameraModel::kPinhole, 64, 48, {60, 60, 32, 24}};
+  // A camera 4 units from the origin at `degrees` around the y axis, looking at the origin.
+  auto pose_at = [](double degrees) {
+    const double a = degrees * 3.14159265358979 / 180;
+    const Eigen::Vector3d centre(4 * std::sin(a), 0, 4 * std::cos(a));
+    const Eigen::Vector3d forward = -centre.normalized();
+    const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
+    camera::Pose pose;
+    pose.rotation.row(0) = right.transpose();
+    pose.rotation.row(1) = forward.cross(right).transpose();
+    pose.rotation.row(2) = forward.transpose();
+    pose.translation = -pose.rotation * centre;
+    return pose;
+  };
+  const auto dir = rephoto::testing::MakeTempDir();
+  io::WritePng(dir / "a.png", Image(64, 48, 3, 0.2f));
+  io::WritePng(dir / "b.png", Image(64, 48, 3, 0.8f));
+  const std::vector<TrainingView> training = {{"a", camera, pose_at(-10), dir / "a.png", {}},
+                                              {"b", camera, pose_at(25), dir / "b.png", {}}};
+  ImageBasedOptions options;
+  options.k_best = 2;
+  const ImageBasedRenderer vdt = ImageBasedRenderer::Vdt(plane, training, options);
+  auto centre_value = [&](double degrees) {
+    const camera::Pose pose = pose_at(degrees);
+    const render::Rephoto r = vdt.Render(camera, pose);
+    EXPECT_EQ(r.color.at(32, 24, 3), 1.f);
+    // Depth of the plane z = 0 through the centre of pixel (32, 24): (32.5 - 32) / 60 etc.
+    const Eigen::Vector3d direction =
+        pose.rotation.transpose() * Eigen::Vector3d(0.5 / 60, 0.5 / 60, 1);
+    EXPECT_NEAR(r.depth.at(32, 24), -pose.Center().z() / direction.z(), 1e-4);
+    return r.color.at(32, 24, 0);
+  };
+  EXPECT_NEAR(centre_value(0), 0.2f, 1e-6);   // 10 vs 25 degrees: a
+  EXPECT_NEAR(centre_value(15), 0.8f, 1e-6);  // 25 vs 10 degrees: b
+  EXPECT_NEAR(centre_value(-10), 0.2f, 1e-6);
+  EXPECT_NEAR(centre_value(25), 0.8f, 1e-6);
 }
 
 TEST_F(ImageBasedRendererTest, BadInputThrowsNamingTheFile) {
