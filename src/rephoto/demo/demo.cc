@@ -72,6 +72,7 @@ DemoResult RunDemo(const DemoOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const fs::path scene_dir = options.out / "scene";
   const fs::path images_dir = scene_dir / "images";
+  const fs::path masks_dir = scene_dir / "masks";
 
   LogInfo(fmt::format("demo: generating the procedural scene ({} cameras, {}x{} photos)",
                       options.scene.camera_count, options.scene.image_width,
@@ -90,6 +91,14 @@ DemoResult RunDemo(const DemoOptions& options) {
               const Image photo = synth::SimulatePhoto(clean.color, gain, options.noise_sigma,
                                                        options.scene.seed * 1000 + i);
               io::WritePng(images_dir / scene.views[i].name, photo);
+              // The user's mask of what the photo shows of the scene (not the empty sky), as
+              // people mask the sky or background of real photos: completeness then measures
+              // how much of the scene a reconstruction covers.
+              Mask mask(clean.color.width(), clean.color.height(), 1);
+              for (size_t p = 0; p < mask.pixel_count(); ++p) {
+                mask.data()[p] = clean.color.data()[4 * p + 3] >= 1.f ? 1 : 0;
+              }
+              io::WritePng(masks_dir / (Stem(scene.views[i].name) + ".png"), mask);
             });
 
   struct Recipe {
@@ -127,6 +136,7 @@ DemoResult RunDemo(const DemoOptions& options) {
     e.scene = scene_dir / "sparse";
     e.format = "colmap";
     e.image_root = images_dir;
+    e.photo_masks = masks_dir;
     e.scheme = options.scheme;
     e.model = model_path;
     e.metrics = options.metrics;

@@ -15,6 +15,8 @@
 //
 // Output folder layout (all files written atomically):
 //   scene/images/view_XXX.png     the photos
+//   scene/masks/view_XXX.png      their masks: 0 where the photo shows no scene (the empty
+//                                 sky), as users mask the background of real photos
 //   scene/sparse/                 their cameras (COLMAP text)
 //   scene/ground_truth.ply        the ground-truth mesh
 //   models/<reconstruction>.ply   the reconstructions
