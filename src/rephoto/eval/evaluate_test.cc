@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "rephoto/compare/compare.h"
+#include "rephoto/compare/resample.h"
 #include "rephoto/core/file.h"
 #include "rephoto/eval/command.h"
 #include "rephoto/io/csv.h"
@@ -446,6 +447,40 @@ TEST(EvaluateTest, ExternalRendererImagesAreComparedAsTheyAre) {
   const EvaluateResult again = RunEvaluate(o);
   EXPECT_EQ(again.counters.commands_run, 0u);
   EXPECT_EQ(again.counters.views_compared, 0u);
+}
+
+TEST(EvaluateTest, ExternalRendererGetsTheTestCamerasAtTheEvaluationSize) {
+  // The by-hand renderings at half size, as a renderer told to render 80x60 would write them.
+  const fs::path half = testing::MakeTempDir() / "half";
+  for (const scene::View& view : Files().scene.views) {
+    const std::string name = fs::path(view.name).replace_extension(".png").string();
+    Image small;
+    compare::ResizeImage(io::ReadImage(Files().by_hand / name), 80, 60, &small);
+    io::WritePng(half / name, small);
+  }
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "kfold:2";
+  o.eval_short_side = 60;
+  o.render =
+      "head -n 4 {test_sparse}/cameras.txt | tail -n 1 > {out}/camera.txt; "
+      "while read n; do cp " +
+      ShellQuote(half.string()) + "/\"${n%.*}.png\" {out}/; done < {test_list}";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kOk);
+  EXPECT_EQ(result.evaluated_images, static_cast<size_t>(kViews));
+  const std::string camera = Lines(run / "folds/fold_00/reconstruction/camera.txt").at(0);
+  EXPECT_NE(camera.find(" 80 60 "), std::string::npos) << camera;
+  EXPECT_EQ(ReadCsv(run / "per_image.csv")[1][5], "80");
+  // Close to the built-in renderer at that size (the area-downscaled 4-spp rendering is a
+  // slightly smoother image than a 4-spp rendering at 80x60).
+  EvaluateOptions m = BaseOptions(testing::MakeTempDir() / "model");
+  m.model = Files().truth;
+  m.scheme = "kfold:2";
+  m.eval_short_side = 60;
+  const EvaluateResult model = RunEvaluate(m);
+  EXPECT_NEAR(result.metrics[0].over_images.median, model.metrics[0].over_images.median, 0.05);
+  EXPECT_NEAR(result.completeness_over_images.median, model.completeness_over_images.median, 0.02);
 }
 
 TEST(EvaluateTest, RendererWithTooFewOrWrongSizeImagesFailsItsFold) {
