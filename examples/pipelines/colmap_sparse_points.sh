@@ -4,7 +4,7 @@
 # points with normals; rephoto renders them as splats sized from the local point density).
 # Usage: colmap_sparse_points.sh [options] SPARSE_DIR IMAGE_DIR OUT_DIR [THREADS]
 #   (options as colmap_sparse_poisson.sh: --max-image-size, --max-features, --matcher,
-#    --neighbors, --keep-work)
+#    --neighbors, --two-view-tracks, --keep-work)
 # Needs: colmap, python3-numpy, python3-scipy.
 set -euo pipefail
 exec "$(dirname "${BASH_SOURCE[0]}")/colmap_sparse_poisson.sh" --mesher none "$@"

@@ -30,6 +30,9 @@
 #   --subdivide S        midpoint subdivisions of the mesh, or auto (default: edges of about
 #                        --target-pixels full-size photo pixels, at most 2M triangles)
 #   --target-pixels P    (default 4)
+#   --two-view-tracks B  1 (default): keep points seen by only two photos; 0: COLMAP's default
+#                        of dropping them (fewer, surer points, a smaller scene box; nothing at
+#                        all from two photos)
 #   --keep-work          keep OUT_DIR/work (the COLMAP database; about 1.5 MB per photo)
 # Writes OUT_DIR/points.ply, OUT_DIR/mesh.ply (unless --mesher none), OUT_DIR/sparse/ (the
 # triangulated COLMAP text model), OUT_DIR/pipeline.log (the time of each step) and
@@ -45,7 +48,7 @@ die() { echo "$prog: error: $*" >&2; exit 1; }
 usage() { sed -n '/^# Usage:/,/^set -euo/p' "$0" | sed '$d; s/^# \{0,1\}//' >&2; exit 1; }
 
 max_image_size=1600 max_features=8192 matcher=auto neighbors=20 mesher=open3d depth=9
-trim="" subdivide=auto target_pixels=4 keep_work=0
+trim="" subdivide=auto target_pixels=4 keep_work=0 two_view_tracks=1
 positional=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -58,6 +61,7 @@ while [ $# -gt 0 ]; do
     --trim) trim=${2:?}; shift 2 ;;
     --subdivide) subdivide=${2:?}; shift 2 ;;
     --target-pixels) target_pixels=${2:?}; shift 2 ;;
+    --two-view-tracks) two_view_tracks=${2:?}; shift 2 ;;
     --keep-work) keep_work=1; shift ;;
     -h|--help) usage ;;
     --*) die "unknown option $1 (see --help)" ;;
@@ -69,6 +73,7 @@ sparse=${positional[0]} images=${positional[1]} out=${positional[2]}
 threads=${positional[3]:-$(nproc)}
 case "$matcher" in auto|exhaustive|poses) ;; *) die "--matcher must be auto, exhaustive or poses" ;; esac
 case "$mesher" in open3d|colmap|none) ;; *) die "--mesher must be open3d, colmap or none" ;; esac
+case "$two_view_tracks" in 0|1) ;; *) die "--two-view-tracks must be 0 or 1" ;; esac
 [[ "$threads" =~ ^[1-9][0-9]*$ ]] || die "THREADS must be a positive integer, got '$threads'"
 [ -f "$sparse/cameras.txt" ] && [ -f "$sparse/images.txt" ] ||
   die "$sparse: no cameras.txt/images.txt (expected a COLMAP text model)"
@@ -94,7 +99,8 @@ mkdir -p "$work/model_in" "$work/model_tri" "$out/sparse"
 log="$out/pipeline.log"
 : >"$log"
 echo "# $prog $(date -u +%FT%TZ) threads=$threads max_image_size=$max_image_size" \
-  "matcher=$matcher mesher=$mesher depth=$depth subdivide=$subdivide" >>"$log"
+  "matcher=$matcher mesher=$mesher depth=$depth subdivide=$subdivide" \
+  "two_view_tracks=$two_view_tracks" >>"$log"
 total_start=$(date +%s.%N) total_cpu=0
 
 # step NAME COMMAND...: runs COMMAND with its output in logs/NAME.log; pipeline.log gets its wall
@@ -154,12 +160,12 @@ else
 fi
 
 # Poses and intrinsics are known: refine none of them (only the points are adjusted). Points seen
-# by only two photos are kept (COLMAP drops them by default, which suits unknown poses; with
-# known poses they are as good as others, and with two training photos they are all there is).
+# by only two photos are kept unless --two-view-tracks 0 (COLMAP drops them by default, which
+# suits unknown poses; with known poses they are sound, and from two photos all there is).
 step triangulate colmap point_triangulator --database_path "$work/database.db" \
   --image_path "$images" --input_path "$work/model_in" --output_path "$work/model_tri" \
   --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 \
-  --Mapper.ba_refine_extra_params 0 --Mapper.tri_ignore_two_view_tracks 0 \
+  --Mapper.ba_refine_extra_params 0 --Mapper.tri_ignore_two_view_tracks "$((1 - two_view_tracks))" \
   --Mapper.num_threads "$threads"
 step convert colmap model_converter --input_path "$work/model_tri" --output_path "$out/sparse" \
   --output_type TXT
