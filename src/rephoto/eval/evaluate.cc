@@ -780,7 +780,7 @@ bool Evaluation::ValidateCommandOutput(FoldState& fold) {
     return true;
   }
   // External renderer: one image per test view at the evaluation size.
-  std::vector<std::string> missing, wrong;
+  std::vector<std::string> missing, wrong, unreadable;
   for (const TestView& test : fold.tests) {
     const fs::path image = FindImageByStem(fold.out_dir, test.stem);
     if (image.empty()) {
@@ -796,7 +796,7 @@ bool Evaluation::ValidateCommandOutput(FoldState& fold) {
                                     test.camera.height));
       }
     } catch (const Error& e) {
-      wrong.push_back(e.what());
+      unreadable.push_back(e.what());
     }
   }
   if (!missing.empty()) {
@@ -805,6 +805,12 @@ bool Evaluation::ValidateCommandOutput(FoldState& fold) {
     if (missing.size() > 5) list += ", ...";
     FailFold(fold, fmt::format("{} wrote {} of {} images (missing: {}); see {}", head,
                                fold.tests.size() - missing.size(), fold.tests.size(), list, log));
+    return false;
+  }
+  if (!unreadable.empty()) {
+    FailFold(fold,
+             fmt::format("{} wrote {} unreadable image(s) ({}{}); see {}", head, unreadable.size(),
+                         unreadable[0], unreadable.size() > 1 ? ", ..." : "", log));
     return false;
   }
   if (!wrong.empty()) {

@@ -488,8 +488,9 @@ TEST(EvaluateTest, RendererWithTooFewOrWrongSizeImagesFailsItsFold) {
   const fs::path small = testing::MakeTempDir() / "small.png";
   io::WritePng(small, Image(80, 60, 4, 1.f));
   EvaluateOptions o = BaseOptions(run);
-  o.scheme = "kfold:3";
-  // fold 0: all but the first test image; fold 1: wrong size; fold 2: fine.
+  o.scheme = "kfold:4";
+  // fold 0: all but the first test image; fold 1: wrong size; fold 2: a corrupt image;
+  // fold 3: fine.
   o.render =
       "first=1; while read n; do s=\"${n%.*}\"; case {fold} in "
       "0) [ $first = 1 ] || cp " +
@@ -498,13 +499,14 @@ TEST(EvaluateTest, RendererWithTooFewOrWrongSizeImagesFailsItsFold) {
       "1) cp " +
       ShellQuote(small.string()) +
       " {out}/\"$s.png\";; "
+      "2) echo garbage > {out}/\"$s.png\";; "
       "*) cp " +
       ShellQuote(Files().by_hand.string()) +
       "/\"$s.png\" {out}/;; "
       "esac; first=0; done < {test_list}";
   const EvaluateResult result = RunEvaluate(o);
   EXPECT_EQ(result.exit_code, ExitCode::kIncomplete);
-  ASSERT_EQ(result.folds.size(), 3u);
+  ASSERT_EQ(result.folds.size(), 4u);
   EXPECT_FALSE(result.folds[0].ok);
   EXPECT_NE(result.folds[0].message.find("wrote 1 of 2 images (missing: "), std::string::npos)
       << result.folds[0].message;
@@ -512,8 +514,11 @@ TEST(EvaluateTest, RendererWithTooFewOrWrongSizeImagesFailsItsFold) {
   EXPECT_FALSE(result.folds[1].ok);
   EXPECT_NE(result.folds[1].message.find("is 80x60, expected 160x120"), std::string::npos)
       << result.folds[1].message;
-  EXPECT_TRUE(result.folds[2].ok);
-  EXPECT_EQ(result.folds[2].evaluated_images, 2u);
+  EXPECT_FALSE(result.folds[2].ok);
+  EXPECT_NE(result.folds[2].message.find("wrote 1 unreadable image(s)"), std::string::npos)
+      << result.folds[2].message;
+  EXPECT_TRUE(result.folds[3].ok);
+  EXPECT_EQ(result.folds[3].evaluated_images, 1u);
 }
 
 TEST(EvaluateTest, ColorizeUsesEachFoldsTrainingPhotos) {
