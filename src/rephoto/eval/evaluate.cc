@@ -1143,6 +1143,11 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
   std::optional<mesh::Mesh> mesh;  // read by ComputeModelKey unless its key was known
   if (!external) {
     ComputeModelKey(fold, &mesh);  // model_key = the colorize key when colouring
+    // The recorded colouring time stays the fold's cost while its coloured model is reused.
+    if (o_.colorize && fold.previous &&
+        fold.previous->value("colorize_key", "") == fold.colorize_key) {
+      fold.colorize_seconds = fold.previous->value("/seconds/colorize"_json_pointer, 0.0);
+    }
     base_key = Hasher().Add(fold.model_key).Add(RenderSettingsKey()).Hex();
   } else {
     base_key = fold.command_key;

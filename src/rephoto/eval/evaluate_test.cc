@@ -543,8 +543,10 @@ TEST(EvaluateTest, ColorizeUsesEachFoldsTrainingPhotos) {
   const EvaluateResult grey = RunEvaluate(g);
   EXPECT_GT(grey.metrics[0].over_images.median, 0.8);
   EXPECT_LT(coloured.metrics[0].over_images.median, 0.6 * grey.metrics[0].over_images.median);
-  // Resume reuses the coloured models.
+  // Resume reuses the coloured models; the recorded costs stay.
+  const std::string per_fold = ReadFileToString(run / "per_fold.csv");
   const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(ReadFileToString(run / "per_fold.csv"), per_fold);
   EXPECT_EQ(again.counters.models_colorized, 0u);
   EXPECT_EQ(again.counters.views_rendered, 0u);
 }
