@@ -201,9 +201,8 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
   } else if (n == "scheme") {
     o->scheme = AsString(value, source);
   } else if (n == "model") {
-    // Resolved against the base folder only when it names a file (no reconstruct command);
-    // EvaluateOptions::Check decides, so keep both forms: relative stays relative here and
-    // the caller of LoadConfigFile fixes it up (see LoadConfigFile).
+    // Kept as given: a model file, or with a reconstruct command a path inside {out};
+    // LoadConfigFile resolves a model file against the config file's folder.
     o->model = AsString(value, source);
   } else if (n == "reconstruct") {
     o->reconstruct = AsString(value, source);
