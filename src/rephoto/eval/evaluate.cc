@@ -188,6 +188,40 @@ void RemoveStaleErrorImages(const fs::path& errors_dir, const std::string& stem)
   }
 }
 
+// Makes `dir` hold exactly `files` (relative name -> source file), each a hard link to its
+// source (a symbolic link when hard links are impossible, e.g. across file systems); other
+// files in `dir` are removed. Existing links to the right file are kept.
+void SyncLinkedFolder(const fs::path& dir, const std::map<std::string, fs::path>& files) {
+  std::set<fs::path> expected;
+  std::error_code ec;
+  for (const auto& [name, source] : files) {
+    const fs::path target = (dir / name).lexically_normal();
+    expected.insert(target);
+    if (fs::exists(target, ec) && fs::equivalent(target, source, ec)) continue;
+    fs::create_directories(target.parent_path(), ec);
+    fs::remove(target, ec);
+    ec.clear();
+    fs::create_hard_link(source, target, ec);
+    if (ec) {
+      ec.clear();
+      fs::create_symlink(fs::absolute(source).lexically_normal(), target, ec);
+    }
+    if (ec) {
+      ec.clear();
+      fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
+    }
+    REPHOTO_CHECK(!ec, "{}: cannot link or copy {} there: {}", dir.string(), source.string(),
+                  ec.message());
+  }
+  std::vector<fs::path> stale;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!it->is_directory() && !expected.count(it->path().lexically_normal())) {
+      stale.push_back(it->path());
+    }
+  }
+  for (const fs::path& path : stale) fs::remove(path, ec);
+}
+
 // ------------------------------------------------------------------------------ the plan
 
 struct TestView {
@@ -556,16 +590,28 @@ void Evaluation::PrepareFold(FoldState& fold) {
   for (const std::string& name : fold.train_names) {
     photos.Add(name).Add(hashes_->Hash(scene_.views[view_index_.at(name)].image_path));
   }
+  // Commands see a folder with only the fold's training photos (links), so that a pipeline
+  // that takes every image of {images} cannot see a test photo.
+  const bool commands = source_ != ModelSource::kModel;
   const bool own_train =
-      o_.train_count > 0 || o_.train_short_side > 0;  // else the split's folder is used
+      o_.train_count > 0 || o_.train_short_side > 0;  // else the split's scene is used
+  fold.images_dir = scene_.image_root;
+  if (commands && o_.train_short_side == 0) {
+    fold.images_dir = fold.dir / "train" / "images";
+    std::map<std::string, fs::path> links;
+    for (scene::View& view : train.views) {
+      links[view.name] = view.image_path;
+      view.image_path = fold.images_dir / view.name;
+    }
+    SyncLinkedFolder(fold.images_dir, links);
+    train.image_root = fold.images_dir;
+  }
   if (!own_train) {
     fold.train_dir = split_dir / "train";
-    fold.images_dir = scene_.image_root;
     fold.train_list = split_dir / "train.txt";
   } else {
     fold.train_dir = fold.dir / "train";
     fold.train_list = fold.train_dir / "train.txt";
-    fold.images_dir = scene_.image_root;
     if (o_.train_short_side > 0) {
       // Downscaled photos as PNG in the fold's images/ folder (hard links to one shared cache,
       // so a photo is decoded and filtered once for all folds); cameras scaled with them.
@@ -576,7 +622,7 @@ void Evaluation::PrepareFold(FoldState& fold) {
       for (const auto& [id, camera] : train.cameras) {
         new_sizes[id] = ScaledSize(camera.width, camera.height, o_.train_short_side);
       }
-      std::set<fs::path> expected;
+      std::map<std::string, fs::path> links;
       for (size_t v = 0; v < train.views.size(); ++v) {
         scene::View& view = train.views[v];
         const camera::Camera& camera = train.CameraOf(view);
@@ -601,30 +647,11 @@ void Evaluation::PrepareFold(FoldState& fold) {
           WriteTextFileAtomically(cached_key, key);
           ++counters_.photos_downscaled;
         }
-        if (!(fs::exists(target, ec) && fs::equivalent(target, cached, ec))) {
-          fs::create_directories(target.parent_path(), ec);
-          fs::remove(target, ec);
-          fs::create_hard_link(cached, target, ec);
-          if (ec) {
-            fs::copy_file(cached, target, fs::copy_options::overwrite_existing, ec);
-            REPHOTO_CHECK(!ec, "{}: cannot copy to {}: {}", cached.string(), target.string(),
-                          ec.message());
-          }
-        }
-        expected.insert(target.lexically_normal());
+        links[png_name] = cached;
         view.name = png_name;
         view.image_path = target;
       }
-      // Only this fold's training photos may be in its images folder.
-      std::error_code ec;
-      std::vector<fs::path> stale;
-      for (fs::recursive_directory_iterator it(fold.images_dir, ec), end; !ec && it != end;
-           it.increment(ec)) {
-        if (it->is_regular_file() && !expected.count(it->path().lexically_normal())) {
-          stale.push_back(it->path());
-        }
-      }
-      for (const fs::path& path : stale) fs::remove(path, ec);
+      SyncLinkedFolder(fold.images_dir, links);
       // Observations move with the pixels.
       for (auto& [id, camera] : train.cameras) {
         const auto [w, h] = new_sizes.at(id);

@@ -21,7 +21,11 @@
 //   {train}            the fold's training scene folder: {train}/sparse (COLMAP text model of
 //                      the training views with their sparse points), {train}/transforms.json
 //   {sparse} {transforms} those two paths
-//   {images}           the folder the training image names are relative to
+//   {images}           the folder the training image names are relative to; it holds only the
+//                      fold's training photos (RUN/folds/fold_XX/train/images: hard links, or
+//                      symbolic links across file systems, to the photos; the downscaled PNGs
+//                      with train_short_side), so a pipeline that takes every image in it cannot
+//                      see a test photo
 //   {train_list}       train.txt: the training image names, one per line
 //   {test} {test_sparse} {test_transforms} {test_list}   the same for the held-out cameras (no
 //                      points); at the evaluation resolution when eval_short_side is set

@@ -346,7 +346,16 @@ TEST(EvaluateTest, ReconstructCommandGetsQuotedPlaceholdersAndIsResumed) {
   EXPECT_EQ(args[0], (run / "split/fold_01/train").string());
   EXPECT_EQ(args[1], (run / "split/fold_01/train/sparse").string());
   EXPECT_EQ(args[2], (run / "split/fold_01/train/transforms.json").string());
-  EXPECT_EQ(args[3], fs::absolute(Files().images).lexically_normal().string());
+  // {images}: only the fold's training photos (links), never a test photo.
+  EXPECT_EQ(args[3], (fold1 / "train/images").string());
+  std::vector<std::string> linked;
+  for (const auto& entry : fs::directory_iterator(args[3])) {
+    linked.push_back(entry.path().filename().string());
+  }
+  std::sort(linked.begin(), linked.end());
+  EXPECT_EQ(linked, Lines(run / "split/fold_01/train.txt"));
+  EXPECT_EQ(ReadFileToString(fs::path(args[3]) / linked[0]),
+            ReadFileToString(Files().images / linked[0]));
   EXPECT_EQ(args[4], (run / "split/fold_01/train.txt").string());
   EXPECT_EQ(args[5], (run / "split/fold_01/test").string());
   EXPECT_EQ(args[8], (run / "split/fold_01/test.txt").string());
