@@ -444,6 +444,29 @@ std::vector<Image> EstimateDepthMaps(const std::vector<TrainingView>& views,
     const PlaneSweepView reference{cameras[v], poses[v], &photos[v]};
     std::vector<PlaneSweepView> others;
     for (size_t n : neighbors) others.push_back({cameras[n], poses[n], &photos[n]});
+    const bool given_range = options.plane_sweep.min_depth > 0 && options.plane_sweep.max_depth > 0;
+    if (!given_range && options.sweep_refine_range) {
+      // Coarse pass at a quarter of the working width over the estimated range; the fine pass
+      // sweeps the 2nd..98th percentile of its confident depths, widened by 15 % each way.
+      PlaneSweepOptions coarse = sweep;
+      coarse.max_width = std::max(16, photos[v].width() / 4);
+      const Image depth = ComputePlaneSweepDepth(reference, others, coarse).depth;
+      std::vector<float> found;
+      for (size_t p = 0; p < depth.pixel_count(); ++p) {
+        if (std::isfinite(depth.data()[p])) found.push_back(depth.data()[p]);
+      }
+      if (found.size() >= 50) {
+        std::sort(found.begin(), found.end());
+        const double low = found[static_cast<size_t>(0.02 * (found.size() - 1))] / 1.15;
+        const double high = found[static_cast<size_t>(0.98 * (found.size() - 1))] * 1.15;
+        sweep.min_depth = std::max(near, low);
+        sweep.max_depth = std::min(far, high);
+        if (!(sweep.max_depth > sweep.min_depth)) {
+          sweep.min_depth = near;
+          sweep.max_depth = far;
+        }
+      }
+    }
     depths[v] = ComputePlaneSweepDepth(reference, others, sweep).depth;
     swept.push_back(v);
     swept_neighbors.push_back(neighbors);

@@ -102,6 +102,10 @@ struct ImageBasedOptions {
   // [d / 2.5, 2.5 d].
   PlaneSweepOptions plane_sweep;
   int sweep_neighbors = 4;
+  // When the range is estimated (not set in plane_sweep), first sweep at a quarter of the
+  // working width and narrow the range to the 2nd..98th percentile of the depths found there
+  // (widened by 15 % each way), so that the planes are dense where the scene is.
+  bool sweep_refine_range = true;
   // Estimated depths survive only when at least this many of the view's sweep neighbours agree
   // within depth_tolerance (FilterInconsistentDepths; 0 = keep all).
   int sweep_min_consistent = 1;
