@@ -24,7 +24,8 @@
 #   --matcher M          auto | exhaustive | poses (default auto: exhaustive up to 40 images)
 #   --neighbors K        poses matcher: partners per image (default 20)
 #   --mesher M           open3d (default) | colmap (colmap poisson_mesher) | none (points only)
-#   --depth D            Poisson octree depth (default 9)
+#   --depth D            Poisson octree depth, or auto (default): finest cell about the median
+#                        distance between neighbouring points, at most 11
 #   --trim Q             open3d: drop vertices below the Q-quantile of density (default 0.1);
 #                        colmap: PoissonRecon trim value (default 7)
 #   --subdivide S        midpoint subdivisions of the mesh, or auto (default: edges of about
@@ -47,7 +48,7 @@ prog=$(basename "$0")
 die() { echo "$prog: error: $*" >&2; exit 1; }
 usage() { sed -n '/^# Usage:/,/^set -euo/p' "$0" | sed '$d; s/^# \{0,1\}//' >&2; exit 1; }
 
-max_image_size=1600 max_features=8192 matcher=auto neighbors=20 mesher=open3d depth=9
+max_image_size=1600 max_features=8192 matcher=auto neighbors=20 mesher=open3d depth=auto
 trim="" subdivide=auto target_pixels=4 keep_work=0 two_view_tracks=1
 positional=()
 while [ $# -gt 0 ]; do
@@ -179,6 +180,10 @@ case "$mesher" in
       --model "$out/sparse" --target-pixels "$target_pixels" --threads "$threads"
     ;;
   colmap)
+    if [ "$depth" = auto ]; then
+      depth=$("$python" "$here/poisson_mesh.py" "$out/points.ply" "$work/unused.ply" --only-depth \
+        2>/dev/null) || die "poisson_mesh.py --only-depth failed on $out/points.ply"
+    fi
     step poisson colmap poisson_mesher --input_path "$out/points.ply" \
       --output_path "$work/poisson.ply" --PoissonMeshing.depth "$depth" \
       --PoissonMeshing.trim "${trim:-7}" --PoissonMeshing.num_threads "$threads"

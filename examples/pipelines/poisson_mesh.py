@@ -1,14 +1,16 @@
 #!/usr/bin/python3
 """Screened Poisson surface from an oriented point cloud with Open3D, trimmed by density.
 
-Usage: poisson_mesh.py POINTS.ply OUT_MESH.ply [--depth D] [--trim-quantile Q]
+Usage: poisson_mesh.py POINTS.ply OUT_MESH.ply [--depth D|auto] [--trim-quantile Q]
                        [--margin M] [--min-component F] [--threads N]
                        [--subdivide S | --subdivide auto --model SPARSE [--target-pixels P]
                         [--max-triangles T]] [--from-mesh MESH.ply]
 
 POINTS.ply needs x, y, z and nx, ny, nz (normals pointing out of the surface, towards the
 cameras; known_poses.py export writes them). Steps:
-  1. Poisson reconstruction (Kazhdan & Hoppe 2013, Open3D's implementation) at octree depth D;
+  1. Poisson reconstruction (Kazhdan & Hoppe 2013, Open3D's implementation) at octree depth D,
+     or with 'auto' (default) the depth whose finest cell is at most the median distance between
+     neighbouring points (at most --max-depth, 11), so the resolution follows the point density;
   2. trimming: vertices whose Poisson density (how many samples support them) is below the
      Q-quantile of all vertex densities are removed, as are vertices outside the points'
      bounding box enlarged by M times its diagonal (Poisson closes the surface far from data);
@@ -18,6 +20,7 @@ cameras; known_poses.py export writes them). Steps:
      'auto' picks the smallest S at which the median edge spans at most P photo pixels (the pixel
      footprint: median over points of distance to the nearest camera / its focal length, from
      the COLMAP text model SPARSE), but stops before the mesh exceeds T triangles.
+With --only-depth, only the depth of step 1 is printed (for colmap poisson_mesher).
 With --from-mesh, step 1 is skipped and MESH.ply (e.g. from colmap poisson_mesher) is cropped,
 cleaned and subdivided instead (its colours and normals are dropped).
 Writes a binary PLY with positions (float, the points' frame and units) and triangles, without
@@ -26,6 +29,7 @@ Needs Debian python3-open3d and python3-numpy.
 """
 
 import argparse
+import math
 import os
 import sys
 
@@ -53,6 +57,32 @@ def pixel_footprint(model_dir, points):
 
     distance, index = cKDTree(centers).query(points)
     return float(np.median(distance / focal[index]))
+
+
+def poisson_depth(args, xyz):
+    """--depth D, or 'auto': the depth whose finest octree cell (Open3D: the points' bounding
+    cube enlarged 1.1 times, split 2^D times) is at most the median distance between a point and
+    its nearest neighbour, clamped to [5, --max-depth]. The surface's resolution then follows the
+    point density and not the scene's extent (far, sparse points would coarsen a fixed depth)."""
+    if args.depth != "auto":
+        try:
+            depth = int(args.depth)
+        except ValueError:
+            fail(f"--depth must be an octree depth or 'auto', got '{args.depth}'")
+        if not 1 <= depth <= 14:
+            fail(f"--depth must be in [1, 14], got {depth}")
+        return depth
+    from scipy.spatial import cKDTree
+
+    distance, _ = cKDTree(xyz).query(xyz, k=2)
+    spacing = float(np.median(distance[:, 1]))
+    extent = float((xyz.max(axis=0) - xyz.min(axis=0)).max())
+    if not spacing > 0:
+        fail(f"{args.points}: points coincide (median neighbour distance 0): give --depth")
+    depth = int(min(max(math.ceil(math.log2(1.1 * extent / spacing)), 5), args.max_depth))
+    print(f"point spacing {spacing:.4g}, extent {extent:.4g}: Poisson depth {depth}",
+          file=sys.stderr if args.only_depth else sys.stdout)
+    return depth
 
 
 def subdivisions(args, mesh):
@@ -84,7 +114,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("points")
     parser.add_argument("out_mesh")
-    parser.add_argument("--depth", type=int, default=9)
+    parser.add_argument("--depth", default="auto")
+    parser.add_argument("--max-depth", type=int, default=11)
     parser.add_argument("--trim-quantile", type=float, default=0.1)
     parser.add_argument("--margin", type=float, default=0.02)
     parser.add_argument("--min-component", type=float, default=0.01)
@@ -93,12 +124,11 @@ def main():
     parser.add_argument("--target-pixels", type=float, default=4.0)
     parser.add_argument("--max-triangles", type=int, default=2000000)
     parser.add_argument("--from-mesh", default="")
+    parser.add_argument("--only-depth", action="store_true")
     parser.add_argument("--threads", type=int, default=0)
     args = parser.parse_args()
     if not 0 <= args.trim_quantile < 1:
         fail(f"--trim-quantile must be in [0, 1), got {args.trim_quantile}")
-    if not 1 <= args.depth <= 14:
-        fail(f"--depth must be in [1, 14], got {args.depth}")
     if args.threads > 0:
         os.environ["OMP_NUM_THREADS"] = str(args.threads)
     try:
@@ -115,6 +145,12 @@ def main():
     if not cloud.has_normals():
         fail(f"{args.points}: no normals (nx, ny, nz) in the point cloud")
 
+    if args.only_depth:  # for colmap poisson_mesher: the auto depth alone, on stdout
+        xyz = np.asarray(cloud.points)
+        depth = poisson_depth(args, xyz)
+        print(depth)
+        return
+    depth = args.depth
     if args.from_mesh:
         # A surface made elsewhere (e.g. colmap poisson_mesher, already trimmed): only cropped,
         # cleaned and subdivided here.
@@ -123,8 +159,9 @@ def main():
             fail(f"{args.from_mesh}: no triangles")
         remove = np.zeros(len(mesh.vertices), dtype=bool)
     else:
+        depth = poisson_depth(args, np.asarray(cloud.points))
         mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
-            cloud, depth=args.depth, linear_fit=False)
+            cloud, depth=depth, linear_fit=False)
         densities = np.asarray(densities)
         remove = densities < np.quantile(densities, args.trim_quantile)
     xyz = np.asarray(cloud.points)
@@ -148,9 +185,11 @@ def main():
 
     vertices = np.asarray(mesh.vertices, dtype="<f4")
     faces = np.asarray(mesh.triangles, dtype="<i4")
+    comment = (f"Open3D screened Poisson, depth {depth}, density trim quantile "
+               f"{args.trim_quantile}" if not args.from_mesh else
+               f"cropped and cleaned {os.path.basename(args.from_mesh)}")
     header = ("ply\nformat binary_little_endian 1.0\n"
-              f"comment Open3D screened Poisson, depth {args.depth}, density trim quantile "
-              f"{args.trim_quantile}\n"
+              f"comment {comment}\n"
               f"element vertex {len(vertices)}\n"
               "property float x\nproperty float y\nproperty float z\n"
               f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
