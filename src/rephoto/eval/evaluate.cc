@@ -362,6 +362,8 @@ class Evaluation {
   void FailFold(FoldState& fold, const std::string& message);
   void Aggregate(EvaluateResult* result);
   void ProjectAndReport(EvaluateResult* result);
+  // The rendered model is made from the fold's model: coloured and/or degraded (model.ply).
+  bool DerivesModel() const { return o_.colorize || HasDefects(o_.degrade); }
   void ProjectOnto(const fs::path& model_path, const std::string& model_key,
                    const std::vector<const FoldState*>& folds, metrics::Metric metric,
                    const fs::path& out);
@@ -511,14 +513,7 @@ void Evaluation::PrepareRunDirectory() {
 }
 
 void Evaluation::MakeSplit() {
-  scheme_text_ = o_.scheme;
-  if (scheme_text_.empty()) {
-    if (source_ == ModelSource::kModel && !o_.colorize) {
-      scheme_text_ = "none";
-    } else {
-      scheme_text_ = photo_names_.size() >= 5 ? "kfold:5" : "loo";
-    }
-  }
+  scheme_text_ = ResolvedScheme(o_, photo_names_.size());
   split::Scheme scheme;
   try {
     scheme = split::ParseScheme(scheme_text_);
@@ -972,9 +967,20 @@ void Evaluation::ComputeModelKey(FoldState& fold, std::optional<mesh::Mesh>* mes
     fold.model_key = ModelFileKey(fold.model_path, **mesh);
     model_file_keys_[cache_key] = fold.model_key;
   }
-  if (o_.colorize) {
-    fold.colorize_key =
-        Hasher().Add(kKeyVersion).Add("colorize").Add(fold.model_key).Add(fold.train_key).Hex();
+  if (DerivesModel()) {
+    // The coloured and/or degraded model: its key covers what it was made from.
+    Hasher h;
+    h.Add(kKeyVersion).Add("colorize").Add(fold.model_key);
+    if (o_.colorize) h.Add(fold.train_key);
+    if (HasDefects(o_.degrade)) {
+      h.Add("degrade")
+          .AddDouble(o_.degrade.texture_noise)
+          .AddDouble(o_.degrade.geometry_noise)
+          .AddDouble(o_.degrade.simplify)
+          .AddDouble(o_.degrade.noise_frequency)
+          .AddInt(static_cast<int64_t>(o_.degrade.seed));
+    }
+    fold.colorize_key = h.Hex();
     fold.model_key = fold.colorize_key;
   }
 }
@@ -1171,7 +1177,7 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
   if (!external) {
     ComputeModelKey(fold, &mesh);  // model_key = the colorize key when colouring
     // The recorded colouring time stays the fold's cost while its coloured model is reused.
-    if (o_.colorize && fold.previous &&
+    if (DerivesModel() && fold.previous &&
         fold.previous->value("colorize_key", "") == fold.colorize_key) {
       fold.colorize_seconds = fold.previous->value("/seconds/colorize"_json_pointer, 0.0);
     }
@@ -1232,11 +1238,11 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
       const fs::path coloured_key = fold.dir / "model.key";
       std::error_code ec;
       std::string previous_colorize;
-      if (o_.colorize && fs::is_regular_file(coloured, ec) &&
+      if (DerivesModel() && fs::is_regular_file(coloured, ec) &&
           fs::is_regular_file(coloured_key, ec)) {
         previous_colorize = ReadFileToString(coloured_key);
       }
-      if (o_.colorize && previous_colorize == fold.colorize_key) {
+      if (DerivesModel() && previous_colorize == fold.colorize_key) {
         mesh.emplace(mesh::ReadPly(coloured));
       } else {
         if (!mesh) mesh.emplace(mesh::ReadMesh(fold.model_path));
@@ -1259,6 +1265,23 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
                               fold.name, report.colored_vertices, report.vertices,
                               train.views.size(), fold.colorize_seconds));
         }
+        if (HasDefects(o_.degrade)) {
+          const auto degrade_start = Clock::now();
+          fs::remove(coloured_key, ec);
+          degrade::DegradeOptions d = o_.degrade;
+          d.texture_dir = fold.dir / "textures";
+          d.texture_prefix = "model";
+          degrade::DegradeReport report;
+          *mesh = degrade::Degrade(*mesh, d, &report);
+          timings_.prepare += Seconds(degrade_start);
+          LogInfo(fmt::format("{}: degraded the model ({} -> {} vertices)", fold.name,
+                              report.vertices_before, report.vertices_after));
+        }
+        if (HasDefects(o_.degrade)) {
+          // With colouring alone this was written above.
+          mesh::WritePly(coloured, *mesh);
+          WriteTextFileAtomically(coloured_key, fold.colorize_key);
+        }
       }
       render::ModelOptions model_options;
       model_options.point_radius = o_.point_radius;
@@ -1269,7 +1292,7 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
       timings_.render += Seconds(build_start);
       cached_model_ = model;
       cached_model_key_ = fold.model_key;
-      cached_model_path_ = fold.model_path;
+      cached_model_path_ = HasDefects(o_.degrade) ? coloured : fold.model_path;
     }
     render::RenderOptions render_options;
     render_options.samples_per_pixel = o_.samples_per_pixel;
@@ -1319,7 +1342,7 @@ void Evaluation::WriteFoldJson(const FoldState& fold, const std::string& status)
   j["model"] = fold.model_path.empty() ? Json() : Json(fold.model_path.string());
   j["model_key"] = fold.model_key;
   j["colorize_key"] = fold.colorize_key;
-  if (o_.colorize) j["colorized_model"] = "model.ply";
+  if (DerivesModel()) j["colorized_model"] = "model.ply";
   j["train"] = {{"folder", fold.train_dir.string()},
                 {"images", fold.images_dir.string()},
                 {"count", fold.train_names.size()},
@@ -1578,16 +1601,23 @@ void Evaluation::ProjectAndReport(EvaluateResult* result) {
           for (const FoldState& fold : folds_) {
             if (fold.ok) folds.push_back(&fold);
           }
-          const fs::path model = fs::absolute(o_.model).lexically_normal();
-          ProjectOnto(model, hashes_->Hash(model), folds, *metric,
-                      run_ / "projected" / (name + ".ply"));
+          fs::path model = fs::absolute(o_.model).lexically_normal();
+          std::string model_key = hashes_->Hash(model);
+          if (HasDefects(o_.degrade) && !folds.empty()) {
+            // Geometry noise and simplification change the geometry the errors belong to;
+            // it is the same in every fold (the defects are deterministic).
+            model = folds.front()->dir / "model.ply";
+            model_key = folds.front()->model_key;
+          }
+          ProjectOnto(model, model_key, folds, *metric, run_ / "projected" / (name + ".ply"));
         } else {
           for (const FoldState& fold : folds_) {
             if (!fold.ok || fold.model_path.empty()) continue;
             const fs::path out =
                 run_ / "projected" /
                 (folds_.size() == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
-            ProjectOnto(fold.model_path, fold.model_key, {&fold}, *metric, out);
+            ProjectOnto(HasDefects(o_.degrade) ? fold.dir / "model.ply" : fold.model_path,
+                        fold.model_key, {&fold}, *metric, out);
           }
         }
       } catch (const Error& e) {
@@ -1934,6 +1964,16 @@ const std::vector<std::string>& CommandPlaceholders() {
   return names;
 }
 
+std::string ResolvedScheme(const EvaluateOptions& options, size_t photo_count) {
+  if (!options.scheme.empty()) return options.scheme;
+  if (options.source() == ModelSource::kModel && !options.colorize) return "none";
+  return photo_count >= 5 ? "kfold:5" : "loo";
+}
+
+bool HasDefects(const degrade::DegradeOptions& d) {
+  return d.texture_noise > 0 || d.geometry_noise > 0 || d.simplify > 0;
+}
+
 ModelSource EvaluateOptions::source() const {
   if (!render.empty()) return ModelSource::kRender;
   if (!reconstruct.empty()) return ModelSource::kReconstruct;
@@ -1964,6 +2004,18 @@ void EvaluateOptions::Check() const {
   }
   if (!render.empty() && colorize) {
     throw UsageError("evaluate: --colorize needs a model (not --render)");
+  }
+  if (!render.empty() && HasDefects(degrade)) {
+    throw UsageError(
+        "evaluate: model defects (--texture-noise, --geometry-noise, --simplify) need a model "
+        "rendered by rephoto (not --render)");
+  }
+  if (!(degrade.texture_noise >= 0) || !(degrade.geometry_noise >= 0) ||
+      !(degrade.simplify >= 0 && degrade.simplify < 1)) {
+    throw UsageError(fmt::format(
+        "evaluate: defects out of range (texture noise {} >= 0, geometry noise {} >= 0, "
+        "simplify {} in [0, 1))",
+        degrade.texture_noise, degrade.geometry_noise, degrade.simplify));
   }
   if (!reconstruct.empty())
     TemplatePlaceholders(reconstruct, CommandPlaceholders(), "--reconstruct");

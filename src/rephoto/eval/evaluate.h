@@ -122,6 +122,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/stats.h"
+#include "rephoto/degrade/degrade.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/metrics/validity.h"
 
@@ -145,6 +146,12 @@ struct EvaluateOptions {
   bool colorize = false;  // colour the model from each fold's training photos
 
   // ---- sweeps
+  // Synthetic defects (paper Section 4.1, degrade/degrade.h) applied to each fold's model after
+  // it was obtained (and coloured), before it is rendered: texture_noise, geometry_noise,
+  // simplify, seed. All zero = none. The degraded model is RUN/folds/fold_XX/model.ply (noisy
+  // textures in RUN/folds/fold_XX/textures/) and is what the error is projected onto. Not with
+  // an external renderer.
+  degrade::DegradeOptions degrade;
   int train_count = 0;  // 0 = all training views
   uint64_t train_seed = 0;
   int train_short_side = 0;  // 0 = original resolution
@@ -240,6 +247,13 @@ struct EvaluateResult {
 // settings, Error for bad input that stops everything (unreadable scene, another scene's run
 // directory, interrupt); failures of single folds or views are recorded, not thrown.
 EvaluateResult RunEvaluate(const EvaluateOptions& options);
+
+// The split scheme a run uses: options.scheme, or the default described above for
+// `photo_count` photos on disk.
+std::string ResolvedScheme(const EvaluateOptions& options, size_t photo_count);
+
+// True when options.degrade asks for any defect.
+bool HasDefects(const degrade::DegradeOptions& degrade);
 
 // The placeholder names the command templates may use (see above).
 const std::vector<std::string>& CommandPlaceholders();

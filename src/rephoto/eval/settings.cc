@@ -2,8 +2,10 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <sstream>
 
 #include "rephoto/core/file.h"
 #include "rephoto/eval/command.h"
@@ -34,6 +36,12 @@ const std::vector<SettingInfo>& Settings() {
        "Built-in renderer: auto (mesh or point cloud by the file)"},
       {"colorize", SettingType::kBool,
        "Colour each fold's mesh from that fold's training photos before rendering"},
+      {"texture-noise", SettingType::kDouble,
+       "Defect: offset colours/texels by simplex noise of this maximum (colour units)"},
+      {"geometry-noise", SettingType::kDouble,
+       "Defect: move vertices along normals by simplex noise, max fraction of the extent"},
+      {"simplify", SettingType::kDouble, "Defect: remove this fraction of the faces, in [0,1)"},
+      {"defect-seed", SettingType::kInt, "Seed of the defects' noise"},
       {"train-count", SettingType::kInt,
        "Train each fold on a seeded subset of N training views (0 = all)"},
       {"train-seed", SettingType::kInt, "Seed of the --train-count subsets"},
@@ -212,6 +220,20 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->representation = AsString(value, source);
   } else if (n == "colorize") {
     o->colorize = AsBool(value, source);
+  } else if (n == "texture-noise" || n == "geometry-noise" || n == "simplify") {
+    const double v = AsDouble(value, source);
+    if (!(v >= 0) || (n == "simplify" && !(v < 1))) {
+      throw UsageError(fmt::format("{}: {} is out of range ({})", source, v,
+                                   n == "simplify" ? "[0, 1)" : ">= 0"));
+    }
+    float& target = n == "texture-noise"    ? o->degrade.texture_noise
+                    : n == "geometry-noise" ? o->degrade.geometry_noise
+                                            : o->degrade.simplify;
+    target = static_cast<float>(v);
+  } else if (n == "defect-seed") {
+    const int64_t seed = AsInt(value, source);
+    if (seed < 0) throw UsageError(fmt::format("{}: the seed must not be negative", source));
+    o->degrade.seed = static_cast<uint64_t>(seed);
   } else if (n == "train-count") {
     o->train_count = CheckedInt(value, source, 0, 1 << 30);
   } else if (n == "train-seed") {
@@ -315,7 +337,12 @@ SettingValue FromJson(const nlohmann::json& node, const std::string& source) {
 
 }  // namespace
 
-void LoadConfigFile(const fs::path& file, EvaluateOptions* options) {
+void LoadConfigFile(const fs::path& file, EvaluateOptions* options,
+                    const std::vector<std::string>& extra_tables, nlohmann::json* tables) {
+  auto is_extra = [&](const std::string& name) {
+    return tables != nullptr &&
+           std::find(extra_tables.begin(), extra_tables.end(), name) != extra_tables.end();
+  };
   std::string extension = file.extension().string();
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   REPHOTO_CHECK(extension == ".toml" || extension == ".json", "{}: config files are .toml or .json",
@@ -334,6 +361,15 @@ void LoadConfigFile(const fs::path& file, EvaluateOptions* options) {
     for (const auto& [key, node] : table) {
       const std::string name(key.str());
       const std::string source = fmt::format("{}: key '{}'", file.string(), name);
+      if (is_extra(name)) {
+        const auto* sub = node.as_table();
+        if (sub == nullptr)
+          throw UsageError(fmt::format("{}: expected a table [{}]", source, name));
+        std::ostringstream json;
+        json << toml::json_formatter{*sub};
+        (*tables)[name] = nlohmann::json::parse(json.str());
+        continue;
+      }
       if (FindSetting(name) == nullptr) {
         throw UsageError(
             fmt::format("{}: unknown key '{}' (known: {})", file.string(), name, KnownNames()));
@@ -350,6 +386,11 @@ void LoadConfigFile(const fs::path& file, EvaluateOptions* options) {
     REPHOTO_CHECK(json.is_object(), "{}: expected a JSON object of settings", file.string());
     for (const auto& [name, node] : json.items()) {
       const std::string source = fmt::format("{}: key '{}'", file.string(), name);
+      if (is_extra(name)) {
+        if (!node.is_object()) throw UsageError(fmt::format("{}: expected an object", source));
+        (*tables)[name] = node;
+        continue;
+      }
       if (FindSetting(name) == nullptr) {
         throw UsageError(
             fmt::format("{}: unknown key '{}' (known: {})", file.string(), name, KnownNames()));
@@ -387,6 +428,10 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["train-count"] = o.train_count;
   j["train-seed"] = o.train_seed;
   j["train-short-side"] = o.train_short_side;
+  j["texture-noise"] = o.degrade.texture_noise;
+  j["geometry-noise"] = o.degrade.geometry_noise;
+  j["simplify"] = o.degrade.simplify;
+  j["defect-seed"] = o.degrade.seed;
   j["eval-short-side"] = o.eval_short_side;
   Json metric_names = Json::array();
   for (metrics::Metric m : o.metrics) metric_names.push_back(metrics::MetricName(m));

@@ -46,7 +46,12 @@ void ApplySetting(EvaluateOptions* options, std::string_view name, const Setting
                   std::string_view source, const std::filesystem::path& base_dir = {});
 
 // Reads a config file (see above) into `options`; records it in options->config_file.
-void LoadConfigFile(const std::filesystem::path& file, EvaluateOptions* options);
+// Tables (TOML) or objects (JSON) named in `extra_tables` are not settings: they are returned
+// in `tables` (by name, as JSON; e.g. the [sweep] table of `rephoto sweep`) instead of being
+// an error.
+void LoadConfigFile(const std::filesystem::path& file, EvaluateOptions* options,
+                    const std::vector<std::string>& extra_tables = {},
+                    nlohmann::json* tables = nullptr);
 
 // All settings with their resolved values, by name (for run.json).
 nlohmann::ordered_json SettingsJson(const EvaluateOptions& options);

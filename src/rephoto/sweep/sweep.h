@@ -1,0 +1,86 @@
+// `rephoto sweep CONFIG`: `rephoto evaluate` over a grid of settings (paper Section 4: synthetic
+// defects, Fig. 5/6; training-set size |T| and training resolution, Fig. 7), one combined table
+// and one report with error vs. setting as boxplots across folds.
+//
+// Config file (TOML .toml or JSON .json): the top level holds the experiment exactly as
+// `rephoto evaluate --config` reads it (eval/settings.h: scene, scheme, reconstruct, model,
+// colorize, metrics, eval_short_side, ...; relative paths are relative to the config file),
+// plus one table "sweep":
+//   [sweep]
+//   train_count = "halve"          # or a list of sizes; "halve" = the paper's series: the
+//                                  # smallest fold's training-set size, halved repeatedly
+//   min_train_count = 2            # where "halve" stops (default 2)
+//   train_short_side = [1024, 512] # any parameter of sweep/grid.h as a list of numbers:
+//   texture_noise = [0, 0.1, 0.2]  #   texture_noise, geometry_noise, simplify, seed,
+//                                  #   train_count, train_short_side
+//   x = "train_count"              # the plots' x axis (default: the last axis, see below)
+//   out = "sweep_out"              # the sweep's folder (or --out; default "<config stem>.sweep")
+// Config tables have no order, so the axes are taken by name, except the x axis, which comes
+// last and so varies fastest; the other axes' combinations are the series of the plots.
+//
+// What a setting changes in the evaluation: train_count and train_short_side set the
+// evaluate options of the same names (every fold's pipeline gets fewer or smaller training
+// photos; rephotos are always rendered and compared at the one evaluation resolution,
+// eval_short_side); texture_noise, geometry_noise, simplify and seed degrade each fold's model
+// after it was reconstructed (and coloured), before it is rendered (degrade/degrade.h; only
+// for models rendered by rephoto, not with an external renderer).
+//
+// Output folder:
+//   settings/<setting name>/   one evaluate run directory per setting (eval/evaluate.h)
+//   sweep.csv, sweep_per_fold.csv   the combined tables (sweep/table.h)
+//   sweep.json     schema "rephoto.sweep/1": the axes, x axis, each setting's folder, status and
+//                  timings, and the time split into the external pipeline and rephoto's own
+//                  work (split, render, compare, aggregate, ...) with rephoto's share
+//   report.html    report::WriteCollectionReport: one series per combination of the other axes
+// Settings are independent tasks; each is an evaluate run and resumes like one, so rerunning
+// the same command skips everything already done. A setting whose evaluation fails is recorded
+// and the others go on (exit code kIncomplete).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "rephoto/core/error.h"
+#include "rephoto/eval/evaluate.h"
+#include "rephoto/sweep/grid.h"
+#include "rephoto/sweep/table.h"
+
+namespace rephoto::sweep {
+
+struct SweepOptions {
+  eval::EvaluateOptions base;  // the experiment; base.out is ignored
+  std::vector<SweepAxis> axes;
+  bool halve_train_count = false;  // train_count = "halve": its values are computed at run time
+  int min_train_count = 2;
+  std::string x_axis;  // "" = the last axis
+  std::filesystem::path out;
+  bool report = true;
+};
+
+struct SettingOutcome {
+  SweepSetting setting;
+  std::filesystem::path run_dir;
+  bool ok = true;
+  std::string message;  // when the whole evaluation of the setting failed
+  eval::EvaluateResult result;
+};
+
+struct SweepResult {
+  std::vector<SweepAxis> axes;  // with "halve" resolved
+  std::vector<SettingOutcome> settings;
+  SweepTable table;
+  double total_seconds = 0;
+  double external_seconds = 0;  // the pipelines' commands
+  double rephoto_seconds = 0;   // rephoto's own work inside the evaluations
+  ExitCode exit_code = ExitCode::kOk;
+};
+
+// Reads a sweep config file (see above). Throws Error naming the file and key.
+SweepOptions LoadSweepConfig(const std::filesystem::path& file);
+
+// Runs the sweep and writes the outputs. Throws Error for bad settings; a failing setting is
+// recorded, not thrown.
+SweepResult RunSweep(const SweepOptions& options);
+
+}  // namespace rephoto::sweep
