@@ -27,7 +27,8 @@
 #   --depth D            Poisson octree depth, or auto (default): finest cell about the median
 #                        distance between neighbouring points, at most 11
 #   --trim Q             open3d: drop vertices below the Q-quantile of density (default 0.1);
-#                        colmap: PoissonRecon trim value (default 7)
+#                        colmap: PoissonRecon trim value (default depth - 3; its density
+#                        values run up to about depth - 0.5)
 #   --subdivide S        midpoint subdivisions of the mesh, or auto (default: edges of about
 #                        --target-pixels full-size photo pixels, at most 2M triangles)
 #   --target-pixels P    (default 4)
@@ -186,7 +187,7 @@ case "$mesher" in
     fi
     step poisson colmap poisson_mesher --input_path "$out/points.ply" \
       --output_path "$work/poisson.ply" --PoissonMeshing.depth "$depth" \
-      --PoissonMeshing.trim "${trim:-7}" --PoissonMeshing.num_threads "$threads"
+      --PoissonMeshing.trim "${trim:-$((depth - 3))}" --PoissonMeshing.num_threads "$threads"
     step mesh "$python" "$here/poisson_mesh.py" "$out/points.ply" "$out/mesh.ply" \
       --from-mesh "$work/poisson.ply" --subdivide "$subdivide" --model "$out/sparse" \
       --target-pixels "$target_pixels" --threads "$threads"
