@@ -25,6 +25,8 @@
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/hash.h"
 #include "rephoto/eval/settings.h"
+#include "rephoto/ibr/image_based_renderer.h"
+#include "rephoto/ibr/training_views.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
@@ -320,11 +322,45 @@ class ModelRenderer : public FoldRenderer {
 // image-based representations ("vdt": training photos reprojected through the model; "ibr":
 // per-view depth maps as proxies, ibr/image_based_renderer.h) need besides the model. They are
 // added here; EvaluateOptions::Check accepts only "auto" until then.
-std::unique_ptr<FoldRenderer> MakeFoldRenderer(
-    const std::string& representation, std::shared_ptr<const render::RenderModel> model,
-    const render::RenderOptions& options, const std::function<scene::Scene()>& training_scene) {
-  (void)training_scene;
+// Image-based representations (ibr/image_based_renderer.h): the fold's training photos
+// reprojected into the novel view through the model ("vdt") or through per-view depth maps
+// ("ibr": files from --depth-maps, else plane-sweep stereo over the training photos). Only the
+// fold's training photos are used, never the test photo (evaluate's folds guarantee it).
+class ImageBasedFoldRenderer : public FoldRenderer {
+ public:
+  explicit ImageBasedFoldRenderer(ibr::ImageBasedRenderer renderer)
+      : renderer_(std::move(renderer)) {}
+  void Render(const TestView& view, render::Rephoto* out) override {
+    renderer_.Render(view.camera, view.pose, out);
+  }
+
+ private:
+  ibr::ImageBasedRenderer renderer_;
+};
+
+std::unique_ptr<FoldRenderer> MakeFoldRenderer(const std::string& representation,
+                                               std::shared_ptr<const render::RenderModel> model,
+                                               const render::RenderOptions& options,
+                                               const std::function<scene::Scene()>& training_scene,
+                                               const fs::path& depth_maps) {
   if (representation == "auto") return std::make_unique<ModelRenderer>(std::move(model), options);
+  const scene::Scene train = training_scene();
+  std::vector<size_t> indices(train.views.size());
+  for (size_t i = 0; i < indices.size(); ++i) indices[i] = i;
+  ibr::ImageBasedOptions ibr_options;
+  ibr_options.scene_points = ibr::ScenePoints(train);
+  auto views = ibr::TrainingViewsFromScene(train, indices,
+                                           representation == "ibr" ? depth_maps : fs::path());
+  if (representation == "vdt") {
+    REPHOTO_CHECK(model && !model->mesh().is_point_cloud(),
+                  "--representation vdt needs a mesh as geometry proxy (got a point cloud)");
+    return std::make_unique<ImageBasedFoldRenderer>(
+        ibr::ImageBasedRenderer::Vdt(model->mesh(), std::move(views), ibr_options));
+  }
+  if (representation == "ibr") {
+    return std::make_unique<ImageBasedFoldRenderer>(
+        ibr::ImageBasedRenderer::Ibr(std::move(views), ibr_options));
+  }
   throw UsageError(fmt::format("--representation {}: not available", representation));
 }
 
@@ -1171,17 +1207,36 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
 void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
   const auto start = Clock::now();
   const bool external = source_ == ModelSource::kRender;
-  if (source_ == ModelSource::kModel) fold.model_path = fs::absolute(o_.model).lexically_normal();
+  if (source_ == ModelSource::kModel && !o_.model.empty()) {
+    fold.model_path = fs::absolute(o_.model).lexically_normal();
+  }
   std::string base_key;
   std::optional<mesh::Mesh> mesh;  // read by ComputeModelKey unless its key was known
   if (!external) {
-    ComputeModelKey(fold, &mesh);  // model_key = the colorize key when colouring
+    if (fold.model_path.empty()) {
+      fold.model_key = Hasher().Add(kKeyVersion).Add("no model").Hex();  // ibr from depth
+    } else {
+      ComputeModelKey(fold, &mesh);  // model_key = the colorize key when colouring
+    }
     // The recorded colouring time stays the fold's cost while its coloured model is reused.
     if (DerivesModel() && fold.previous &&
         fold.previous->value("colorize_key", "") == fold.colorize_key) {
       fold.colorize_seconds = fold.previous->value("/seconds/colorize"_json_pointer, 0.0);
     }
-    base_key = Hasher().Add(fold.model_key).Add(RenderSettingsKey()).Hex();
+    Hasher base;
+    base.Add(fold.model_key).Add(RenderSettingsKey());
+    // Image-based representations render from the fold's training photos (and depth maps).
+    if (o_.representation != "auto") {
+      base.Add(fold.train_key);
+      if (o_.representation == "ibr" && !o_.depth_maps.empty()) {
+        base.Add(o_.depth_maps.string());
+        std::error_code ec;
+        for (const auto& entry : fs::directory_iterator(o_.depth_maps, ec)) {
+          if (entry.is_regular_file(ec)) base.Add(hashes_->Hash(entry.path()));
+        }
+      }
+    }
+    base_key = base.Hex();
   } else {
     base_key = fold.command_key;
   }
@@ -1230,7 +1285,9 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
   std::unique_ptr<FoldRenderer> renderer;
   if (need_renderer) {
     std::shared_ptr<const render::RenderModel> model;
-    if (cached_model_ && cached_model_key_ == fold.model_key) {
+    if (fold.model_path.empty()) {
+      // No model (image-based rendering from depth maps alone).
+    } else if (cached_model_ && cached_model_key_ == fold.model_key) {
       model = cached_model_;
     } else {
       cached_model_.reset();
@@ -1297,8 +1354,11 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
     render::RenderOptions render_options;
     render_options.samples_per_pixel = o_.samples_per_pixel;
     render_options.backfaces = o_.backfaces;
-    renderer = MakeFoldRenderer(o_.representation, model, render_options,
-                                [&] { return TrainingScene(fold); });
+    const auto build_start = Clock::now();
+    renderer = MakeFoldRenderer(
+        o_.representation, model, render_options, [&] { return TrainingScene(fold); },
+        o_.depth_maps);
+    timings_.render += Seconds(build_start);
   }
   WriteFoldJson(fold, "running");
 
@@ -1583,7 +1643,8 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
 void Evaluation::ProjectAndReport(EvaluateResult* result) {
   (void)result;
   auto start = Clock::now();
-  if (o_.projection_metric != "none" && source_ != ModelSource::kRender) {
+  if (o_.projection_metric != "none" && source_ != ModelSource::kRender &&
+      !(source_ == ModelSource::kModel && o_.model.empty())) {
     const std::optional<metrics::Metric> metric = metrics::ParseMetric(o_.projection_metric);
     const bool have_metric =
         metric && std::find(o_.metrics.begin(), o_.metrics.end(), *metric) != o_.metrics.end();
@@ -1821,7 +1882,7 @@ EvaluateResult Evaluation::Run() {
   o_.Check();
   source_ = o_.source();
   run_ = fs::absolute(o_.out).lexically_normal();
-  if (source_ == ModelSource::kModel) {
+  if (source_ == ModelSource::kModel && !o_.model.empty()) {
     std::error_code ec;
     REPHOTO_CHECK(fs::is_regular_file(o_.model, ec), "{}: no such model file (--model)",
                   o_.model.string());
@@ -1994,7 +2055,7 @@ void EvaluateOptions::Check() const {
         "absolute path {})",
         model.string()));
   }
-  if (render.empty() && reconstruct.empty() && model.empty()) {
+  if (render.empty() && reconstruct.empty() && model.empty() && representation != "ibr") {
     throw UsageError(
         "evaluate: give a model source: --model FILE, --reconstruct CMD --model "
         "PATH, or --render CMD");
@@ -2020,11 +2081,17 @@ void EvaluateOptions::Check() const {
   if (!reconstruct.empty())
     TemplatePlaceholders(reconstruct, CommandPlaceholders(), "--reconstruct");
   if (!render.empty()) TemplatePlaceholders(render, CommandPlaceholders(), "--render");
-  if (representation != "auto") {
+  if (representation != "auto" && representation != "vdt" && representation != "ibr") {
     throw UsageError(fmt::format(
-        "evaluate: --representation '{}' is not available (built-in: auto = mesh or point "
-        "cloud by the file)",
+        "evaluate: --representation '{}' is not one of auto (the model as it is), vdt "
+        "(view-dependent texturing on the model), ibr (image-based rendering with depth maps)",
         representation));
+  }
+  if (representation != "auto" && !render.empty()) {
+    throw UsageError("evaluate: --representation is for rephoto's renderers, not --render");
+  }
+  if (!depth_maps.empty() && representation != "ibr") {
+    throw UsageError("evaluate: --depth-maps is for --representation ibr");
   }
   if (jobs < 1) throw UsageError("evaluate: --jobs must be at least 1");
   if (samples_per_pixel < 1) throw UsageError("evaluate: --spp must be at least 1");

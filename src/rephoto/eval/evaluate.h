@@ -139,10 +139,19 @@ struct EvaluateOptions {
   std::filesystem::path model;       // a model file, or with `reconstruct` a path inside {out}
   std::string reconstruct;           // command template (see above)
   std::string render;                // command template (see above)
-  // Built-in representation used to render a model. Only "auto" (mesh or point cloud by the
-  // file, render/render_model.h) exists; "vdt" and "ibr" (image-based renderers that need the
-  // fold's training photos and cameras) are reserved (see MakeFoldRenderer in evaluate.cc).
+  // Built-in representation (the paper's Table I):
+  //   "auto"  the model as it is: mesh (vertex colours or texture) or point cloud
+  //   "vdt"   view-dependent texturing: the fold's training photos reprojected through the
+  //           model (a mesh), ibr/image_based_renderer.h
+  //   "ibr"   image-based rendering: the fold's training photos warped by per-view depth maps
+  //           (from depth_maps, else plane-sweep stereo over the training photos); needs no
+  //           model (model may be empty)
+  // vdt and ibr use only the fold's training photos: with a cross-validating scheme a test
+  // photo never contributes to its own rephoto.
   std::string representation = "auto";
+  // ibr: folder of per-view depth maps (ibr/training_views.h names: COLMAP
+  // stereo/depth_maps/<name>.geometric.bin, <stem>.pfm, <stem>.exr, ...); "" = estimate.
+  std::filesystem::path depth_maps;
   bool colorize = false;  // colour the model from each fold's training photos
 
   // ---- sweeps

@@ -560,6 +560,62 @@ TEST(EvaluateTest, ColorizeUsesEachFoldsTrainingPhotos) {
   EXPECT_EQ(again.counters.views_rendered, 0u);
 }
 
+// Issue 7: view-dependent texturing renders a test view from the fold's training photos only.
+// If the test photo were among them (scheme "none": every photo trains and tests) it would
+// reproduce itself almost exactly; evaluate's folds are what makes the error honest.
+TEST(EvaluateTest, ImageBasedRenderersUseOnlyTheFoldsTrainingPhotos) {
+  EvaluateOptions o = BaseOptions(testing::MakeTempDir() / "vdt");
+  o.model = Files().truth;
+  o.representation = "vdt";
+  o.scheme = "kfold:3";
+  o.error_images = false;
+  const EvaluateResult held_out = RunEvaluate(o);
+  ASSERT_EQ(held_out.exit_code, ExitCode::kOk);
+  EXPECT_EQ(held_out.evaluated_images, 6u);
+  o.out = testing::MakeTempDir() / "vdt_leak";
+  o.scheme = "none";
+  const EvaluateResult leaked = RunEvaluate(o);
+  ASSERT_EQ(leaked.exit_code, ExitCode::kOk);
+  const double fair = held_out.metrics[0].over_images.median;
+  const double cheat = leaked.metrics[0].over_images.median;
+  std::printf("vdt 1-ncc median: held out %.4f, test photo in training %.4f\n", fair, cheat);
+  EXPECT_LT(cheat, 0.02);
+  EXPECT_GT(fair, 3 * cheat);
+  // Still a good rendering: well below the vertex-coloured ground truth's error... of flat grey.
+  EXPECT_LT(fair, 0.5);
+  EXPECT_GT(held_out.completeness_over_images.median, 0.8);
+
+  // IBR needs no model: per-view depth maps (here the ground truth's, as EXR files named like
+  // `rephoto render` writes them; plane-sweep estimation is tested in ibr/).
+  const fs::path depth_dir = testing::MakeTempDir() / "depth";
+  const render::RenderModel truth(mesh::ReadPly(Files().truth));
+  for (const auto& view : Files().scene.views) {
+    const auto r = render::RenderRephoto(truth, Files().scene.CameraOf(view), view.cam_from_world);
+    io::WriteExr(depth_dir / (fs::path(view.name).stem().string() + ".depth.exr"), r.depth);
+  }
+  EvaluateOptions i = BaseOptions(testing::MakeTempDir() / "ibr");
+  i.representation = "ibr";
+  i.depth_maps = depth_dir;
+  i.scheme = "kfold:3";
+  i.error_images = false;
+  const EvaluateResult ibr = RunEvaluate(i);
+  for (const auto& fold : ibr.folds) EXPECT_TRUE(fold.ok) << fold.message;
+  ASSERT_EQ(ibr.exit_code, ExitCode::kOk);
+  EXPECT_EQ(ibr.evaluated_images, 6u);
+  std::printf("ibr: completeness %.4f, 1-ncc %.4f\n", ibr.completeness_over_images.median,
+              ibr.metrics[0].over_images.median);
+  EXPECT_GT(ibr.completeness_over_images.median, 0.7);
+  EXPECT_LT(ibr.metrics[0].over_images.median, 0.3);
+  // A resumed run reuses it; --depth-maps is only for ibr, and vdt needs a model.
+  EXPECT_EQ(RunEvaluate(i).counters.views_rendered, 0u);
+  EvaluateOptions bad = i;
+  bad.representation = "vdt";
+  EXPECT_THROW(RunEvaluate(bad), UsageError);
+  bad = o;
+  bad.depth_maps = "somewhere";
+  EXPECT_THROW(RunEvaluate(bad), UsageError);
+}
+
 TEST(EvaluateTest, EvalShortSideRendersAndComparesSmaller) {
   const fs::path run = testing::MakeTempDir() / "run";
   EvaluateOptions o = BaseOptions(run);
@@ -762,7 +818,7 @@ TEST(EvaluateTest, BadSettingsAreUsageErrors) {
   }
   o.reconstruct.clear();
   o.model = Files().truth;
-  o.representation = "ibr";
+  o.representation = "bilinear";
   EXPECT_THROW(RunEvaluate(o), UsageError);
 }
 

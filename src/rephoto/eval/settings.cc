@@ -33,7 +33,12 @@ const std::vector<SettingInfo>& Settings() {
        "External renderer command per fold writing RGBA <test stem>.<png|jpg|exr|pfm> into "
        "{out} (placeholders as --reconstruct)"},
       {"representation", SettingType::kString,
-       "Built-in renderer: auto (mesh or point cloud by the file)"},
+       "Built-in renderer: auto (the model: mesh or point cloud), vdt (view-dependent "
+       "texturing of the fold's training photos on the model), ibr (training photos warped by "
+       "depth maps; no model needed)"},
+      {"depth-maps", SettingType::kPath,
+       "ibr: folder of depth maps per training view (COLMAP .bin, PFM, EXR); default: plane "
+       "sweep"},
       {"colorize", SettingType::kBool,
        "Colour each fold's mesh from that fold's training photos before rendering"},
       {"texture-noise", SettingType::kDouble,
@@ -218,6 +223,8 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->render = AsString(value, source);
   } else if (n == "representation") {
     o->representation = AsString(value, source);
+  } else if (n == "depth-maps") {
+    o->depth_maps = AsPath(value, source, base_dir);
   } else if (n == "colorize") {
     o->colorize = AsBool(value, source);
   } else if (n == "texture-noise" || n == "geometry-noise" || n == "simplify") {
@@ -424,6 +431,7 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["reconstruct"] = o.reconstruct;
   j["render"] = o.render;
   j["representation"] = o.representation;
+  j["depth-maps"] = o.depth_maps.string();
   j["colorize"] = o.colorize;
   j["train-count"] = o.train_count;
   j["train-seed"] = o.train_seed;

@@ -1,5 +1,7 @@
 #include "rephoto/ibr/image_based_renderer.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -437,7 +439,16 @@ std::vector<Image> EstimateDepthMaps(const std::vector<TrainingView>& views,
     const auto [near, far] = SweepRange(views, cameras, v, options, all);
     const std::vector<size_t> neighbors =
         SelectNeighbors(poses, v, std::sqrt(near * far), options.sweep_neighbors);
-    REPHOTO_CHECK(!neighbors.empty(), "{}: no neighbouring view for plane sweep", views[v].name);
+    if (neighbors.empty()) {
+      // Nothing to match against (e.g. a sparse ring of training cameras): the view's depth is
+      // unknown everywhere, so it contributes no pixels; the other views still do.
+      LogWarning(fmt::format("{}: no neighbouring view for plane sweep; its depth is unknown",
+                             views[v].name));
+      depths[v] =
+          Image(photos[v].width(), photos[v].height(), 1, std::numeric_limits<float>::quiet_NaN());
+      if (progress) progress->Advance(views[v].name);
+      continue;
+    }
     PlaneSweepOptions sweep = options.plane_sweep;
     sweep.min_depth = near;
     sweep.max_depth = far;
