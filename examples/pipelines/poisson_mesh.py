@@ -45,6 +45,7 @@ def pixel_footprint(model_dir, points):
     """Median over points of (distance to the nearest camera centre / that camera's focal length):
     the world size of one photo pixel on the surface."""
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    sys.dont_write_bytecode = True  # no __pycache__ next to the scripts
     import known_poses
 
     try:
