@@ -36,19 +36,20 @@ CommandRunner SetupDemo(CLI::App& app) {
     int rank = 1;
     for (const auto& r : result.ranking) {
       fmt::print("{:<4} {:<16} {:>12.4f} {:>8.4f} {:>8.4f} {:>8.4f}  {}\n", rank++, r.name,
-                 r.result.completeness_across_folds.median,
-                 r.Median(metrics::Metric::kOneMinusNcc), r.Median(metrics::Metric::kCbCr),
-                 r.Median(metrics::Metric::kDssim), r.description);
+                 r.result.completeness_across_folds.median, r.Median(metrics::Metric::kOneMinusNcc),
+                 r.Median(metrics::Metric::kCbCr), r.Median(metrics::Metric::kDssim),
+                 r.description);
     }
-    fmt::print("Done in {:.0f} s. Open {} in a browser; tables in ranking.csv and runs/<name>/, "
-               "error on the models in runs/<name>/projected/1-ncc.ply\n",
-               result.seconds, (options->out / "report.html").string());
+    fmt::print(
+        "Done in {:.0f} s. Open {} in a browser; tables in ranking.csv and runs/<name>/, "
+        "error on the models in runs/<name>/projected/1-ncc.ply\n",
+        result.seconds, (options->out / "report.html").string());
     return static_cast<int>(ExitCode::kOk);
   };
 }
 
 REPHOTO_COMMAND(90, "demo",
-                "Run the built-in example: photograph a procedural scene, evaluate five "
+                "Run the built-in example: photograph a procedural scene, evaluate six "
                 "reconstructions of it and rank them",
                 SetupDemo);
 

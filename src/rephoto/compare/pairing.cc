@@ -22,6 +22,8 @@ std::vector<ImageFile> ListImages(const fs::path& folder, const std::string& wha
     const fs::path& path = it->path();
     const std::string filename = path.filename().string();
     if (filename.empty() || filename[0] == '.' || !io::IsImageFile(path)) continue;
+    // Depth maps that `rephoto render` writes next to its rephotos are not images to compare.
+    if (filename.size() > 10 && filename.ends_with(".depth.exr")) continue;
     std::error_code file_ec;
     if (!it->is_regular_file(file_ec)) continue;
     images.push_back({path.stem().string(), path});

@@ -1,7 +1,8 @@
 // Pairing photos with renderings (and masks) by file stem.
 //
 // A folder's images are its regular files whose extension ReadImage handles (.png .jpg .jpeg
-// .exr .pfm, any case), not recursively; hidden files (".name") and other files are ignored.
+// .exr .pfm, any case), not recursively; hidden files (".name"), other files and the depth maps
+// `rephoto render` writes next to its rephotos ("<stem>.depth.exr") are ignored.
 // The stem is the file name without its last extension ("IMG_0001.JPG" -> "IMG_0001"),
 // compared case-sensitively. Two images of one folder with the same stem ("a.png", "a.jpg")
 // are an error naming both, since it is unclear which one is meant.

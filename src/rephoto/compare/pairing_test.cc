@@ -22,6 +22,7 @@ TEST(Pairing, ListsImagesByStemIgnoringOtherFiles) {
   Touch(dir / "notes.txt");
   Touch(dir / ".hidden.png");
   fs::create_directories(dir / "sub.png");  // a folder, not a file
+  Touch(dir / "a.depth.exr");               // `rephoto render`'s depth map of a.png
   const auto images = ListImages(dir, "photos");
   ASSERT_EQ(images.size(), 3u);
   EXPECT_EQ(images[0].stem, "A");

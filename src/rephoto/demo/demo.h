@@ -6,7 +6,8 @@
 //    noise (sigma 0.01), quantized to 8 bits.
 // 2. Produces several reconstructions of it, each a model file a user could open in MeshLab:
 //    the ground truth itself, texture noise, geometry noise, a simplified mesh and a coloured
-//    point cloud (degrade/degrade.h).
+//    point cloud (degrade/degrade.h), and view-dependent texturing of the simplified mesh from
+//    each fold's training photos (ibr/image_based_renderer.h; no model file of its own).
 // 3. Evaluates each reconstruction with `rephoto evaluate` (eval/evaluate.h: the model as a
 //    global reconstruction, k-fold test views so that every photo is a test photo exactly
 //    once and the folds give the boxplots, error projected onto the model, a report per run),

@@ -23,7 +23,7 @@ TEST(Demo, SmallDemoRanksGroundTruthFirstAndWritesItsOutputs) {
   options.photo_samples_per_pixel = 4;
   options.metrics = {metrics::Metric::kOneMinusNcc, metrics::Metric::kCbCr};
   const DemoResult result = RunDemo(options);
-  ASSERT_EQ(result.ranking.size(), 5u);
+  ASSERT_EQ(result.ranking.size(), 6u);
   EXPECT_EQ(result.ranking.front().name, "ground_truth");
   for (const auto& r : result.ranking) {
     EXPECT_EQ(r.result.evaluated_images, 4u) << r.name;
