@@ -219,7 +219,8 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     html += fmt::format("<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>",
                         l.run.failed_folds.size(), l.run.missing.size());
     if (any_description) {
-      html += fmt::format("<td class=\"text\">{}</td>", HtmlEscape(l.entry.description));
+      html +=
+          fmt::format("<td class=\"text description\">{}</td>", HtmlEscape(l.entry.description));
     }
     html += "</tr>\n";
   }

@@ -34,6 +34,7 @@ table { border-collapse: collapse; margin: 6px 0 12px; }
 th, td { border: 1px solid var(--line); padding: 3px 8px; text-align: right; white-space: nowrap; }
 th { background: var(--head); font-weight: 600; }
 td.text, th.text { text-align: left; white-space: normal; }
+td.description { min-width: 26em; }
 table.kv td { text-align: left; white-space: normal; }
 table.kv td:first-child { color: var(--muted); white-space: nowrap; }
 table.sortable th { cursor: pointer; user-select: none; }
