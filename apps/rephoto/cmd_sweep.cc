@@ -35,10 +35,14 @@ CommandRunner SetupSweep(CLI::App& app) {
     options.base.handle_interrupts = true;
     const sweep::SweepResult result = sweep::RunSweep(options);
     const double accounted = result.external_seconds + result.rephoto_seconds;
+    const double cpu = result.external_cpu_seconds + result.rephoto_cpu_seconds;
     LogInfo(fmt::format(
-        "sweep: {} settings in {:.1f} s (pipeline {:.1f} s, rephoto {:.1f} s = {:.1f} %) -> {}",
+        "sweep: {} settings in {:.1f} s (pipeline {:.1f} s, rephoto {:.1f} s = {:.1f} %; CPU: "
+        "pipeline {:.1f} s, rephoto {:.1f} s = {:.1f} %) -> {}",
         result.settings.size(), result.total_seconds, result.external_seconds,
         result.rephoto_seconds, accounted > 0 ? 100 * result.rephoto_seconds / accounted : 0.0,
+        result.external_cpu_seconds, result.rephoto_cpu_seconds,
+        cpu > 0 ? 100 * result.rephoto_cpu_seconds / cpu : 0.0,
         (options.out / "sweep.csv").string()));
     return static_cast<int>(result.exit_code);
   };

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -228,10 +229,11 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
 
   CommandOutcome outcome;
   int status = 0;
+  struct rusage usage {};
   bool terminated = false;
   auto kill_time = std::chrono::steady_clock::time_point::max();
   for (;;) {
-    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    const pid_t done = ::wait4(pid, &status, WNOHANG, &usage);
     if (done == pid) break;
     if (done == -1 && errno != EINTR) break;
     if (InterruptRequested()) {
@@ -250,6 +252,8 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
   }
   if (slot >= 0) g_children[slot].store(0);
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  outcome.cpu_seconds = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                        1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
   if (WIFEXITED(status)) outcome.exit_status = WEXITSTATUS(status);
   if (WIFSIGNALED(status)) outcome.signal = WTERMSIG(status);
   if (InterruptRequested()) outcome.interrupted = true;

@@ -46,6 +46,9 @@ struct CommandOutcome {
   int signal = 0;            // terminating signal, 0 if it exited
   bool interrupted = false;  // stopped because the run was interrupted (SIGINT/SIGTERM)
   double seconds = 0;        // wall-clock time
+  // CPU time (user + system) of the shell and every descendant it waited for (wait4's rusage):
+  // what the command cost, independent of what else the machine ran meanwhile.
+  double cpu_seconds = 0;
   bool ok() const { return exit_status == 0 && signal == 0 && !interrupted; }
 };
 

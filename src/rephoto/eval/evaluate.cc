@@ -1,5 +1,7 @@
 #include "rephoto/eval/evaluate.h"
 
+#include <sys/resource.h>
+
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -54,6 +56,14 @@ constexpr const char* kSchema = "rephoto.evaluate/1";
 constexpr const char* kKeyVersion = "rephoto.evaluate.key/1";
 constexpr const char* kImageExtensions[] = {".png", ".jpg", ".jpeg", ".exr", ".pfm",
                                             ".PNG", ".JPG", ".JPEG", ".EXR", ".PFM"};
+
+// User + system CPU seconds of this process so far (all threads; not its children).
+double ProcessCpuSeconds() {
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
 
 double Seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
@@ -170,13 +180,17 @@ fs::path FindImageByStem(const fs::path& folder, const std::string& stem) {
 
 // Quantizes to 8 bits exactly as io::WritePng does (clamp, NaN -> 0, round half up), so the
 // rendering compared is the PNG written.
+// The values io::ReadImage returns for what io::WritePng wrote: clamped to [0,1], rounded to
+// 8 (or 16) bits, divided by 255 (65535). Saves reading back a file just written.
+template <typename T = uint8_t>
 void QuantizeLikePng(Image* image) {
+  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
   float* values = image->data();
   ParallelFor(0, static_cast<int64_t>(image->size()), 1 << 16, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       const float v = values[i];
       const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;
-      values[i] = static_cast<float>(static_cast<uint8_t>(clamped * 255.f + 0.5f)) / 255.f;
+      values[i] = static_cast<float>(static_cast<T>(clamped * kMax + 0.5f)) / kMax;
     }
   });
 }
@@ -277,6 +291,7 @@ struct FoldState {
   bool interrupted = false;
   double external_seconds = 0;  // this run
   double command_seconds = 0;   // recorded (this run or the reused one)
+  double command_cpu_seconds = 0;  // its CPU time (user + system of its process tree)
   int exit_status = 0;
 
   // Rephoto stage.
@@ -389,6 +404,10 @@ class Evaluation {
   void EvaluateView(FoldState& fold, const TestView& test, FoldRenderer* renderer,
                     const std::string& base_key, ViewOutcome* outcome);
   const Image& EvalPhoto(const TestView& test, Image* scratch, fs::path* used_path);
+  // EvaluateOptions::cache_dir, else RUN/cache.
+  fs::path CacheDir() const {
+    return o_.cache_dir.empty() ? run_ / "cache" : fs::absolute(o_.cache_dir).lexically_normal();
+  }
   std::optional<Mask> EvalMask(const TestView& test);
   std::string ViewKey(const FoldState& fold, const TestView& test, const std::string& base,
                       const std::string& render_hash) const;
@@ -416,6 +435,7 @@ class Evaluation {
   ModelSource source_ = ModelSource::kModel;
   fs::path run_;
   Clock::time_point start_;
+  double start_cpu_ = 0;  // ProcessCpuSeconds() at start_
   scene::Scene scene_;
   scene::SceneSource scene_source_;
   std::vector<std::string> missing_photos_;
@@ -430,6 +450,9 @@ class Evaluation {
   EvaluateTimings timings_;
   std::mutex timings_mutex_;
   compare::CompareWorkspace compare_workspace_;
+  // Full-size photos decoded before downscaling: one buffer reused for all of them (a fresh
+  // 6-24 MP float image costs more in zeroing and page faults than in decoding).
+  Image full_photo_scratch_;
   // The last built render model, reused by the next fold when its key is the same (one model
   // for all folds).
   std::string cached_model_key_;
@@ -544,7 +567,7 @@ void Evaluation::PrepareRunDirectory() {
                      {"format", std::string(scene::SceneFormatName(scene_source_.format))},
                      {"images", names.size()},
                      {"names_hash", identity}};
-  hashes_ = std::make_unique<FileHashCache>(run_ / "cache" / "file_hashes.json");
+  hashes_ = std::make_unique<FileHashCache>(CacheDir() / "file_hashes.json");
   WriteRunJson(nullptr, "running");  // marks the folder as this scene's run from now on
 }
 
@@ -648,7 +671,7 @@ void Evaluation::PrepareFold(FoldState& fold) {
       // so a photo is decoded and filtered once for all folds); cameras scaled with them.
       fold.images_dir = fold.train_dir / "images";
       const fs::path cache_dir =
-          run_ / "cache" / fmt::format("train_photos_s{}", o_.train_short_side);
+          CacheDir() / fmt::format("train_photos_s{}", o_.train_short_side);
       std::map<int, std::pair<int, int>> new_sizes;
       for (const auto& [id, camera] : train.cameras) {
         new_sizes[id] = ScaledSize(camera.width, camera.height, o_.train_short_side);
@@ -658,6 +681,12 @@ void Evaluation::PrepareFold(FoldState& fold) {
         scene::View& view = train.views[v];
         const camera::Camera& camera = train.CameraOf(view);
         const auto [w, h] = new_sizes.at(view.camera_id);
+        if (w == camera.width && h == camera.height) {
+          // Already at most that size: the pipeline gets the original file, not a re-encoding.
+          links[view.name] = view.image_path;
+          view.image_path = fold.images_dir / view.name;
+          continue;
+        }
         const std::string png_name = WithoutExtension(view.name) + ".png";
         const fs::path cached = cache_dir / png_name;
         const fs::path cached_key = cache_dir / (png_name + ".key");
@@ -668,7 +697,8 @@ void Evaluation::PrepareFold(FoldState& fold) {
         if (!(fs::is_regular_file(cached, ec) && fs::is_regular_file(cached_key, ec) &&
               ReadFileToString(cached_key) == key)) {
           fs::remove(cached_key, ec);
-          const Image photo = io::ReadImage(view.image_path);
+          Image& photo = full_photo_scratch_;
+          io::ReadImage(view.image_path, &photo);
           REPHOTO_CHECK(photo.width() == camera.width && photo.height() == camera.height,
                         "{}: photo is {}x{} but its camera is {}x{}", view.image_path.string(),
                         photo.width(), photo.height(), camera.width, camera.height);
@@ -910,6 +940,7 @@ void Evaluation::CommandStage(FoldState& fold) {
     if (previous.value("key", "") == fold.command_key && previous.value("status", "") == "ok") {
       fold.command_reused = true;
       fold.command_seconds = previous.value("seconds", 0.0);
+      fold.command_cpu_seconds = previous.value("cpu_seconds", 0.0);
       fold.command_status = "ok";
       if (ValidateCommandOutput(fold)) return;
       // The outputs changed since: run the command again.
@@ -933,9 +964,11 @@ void Evaluation::CommandStage(FoldState& fold) {
     std::lock_guard<std::mutex> lock(timings_mutex_);
     ++counters_.commands_run;
     timings_.external += outcome.seconds;
+    timings_.external_cpu += outcome.cpu_seconds;
   }
   fold.external_seconds = outcome.seconds;
   fold.command_seconds = outcome.seconds;
+  fold.command_cpu_seconds = outcome.cpu_seconds;
   fold.exit_status = outcome.exit_status;
   fold.command_status = "failed";
   if (outcome.interrupted) {
@@ -1110,7 +1143,7 @@ const Image& Evaluation::EvalPhoto(const TestView& test, Image* scratch, fs::pat
     return *scratch;
   }
   // Downscaled once into the cache, as 16-bit PNG (keeps the filtered values to 1/65535).
-  const fs::path cache_dir = run_ / "cache" / "eval_photos";
+  const fs::path cache_dir = CacheDir() / "eval_photos";
   const fs::path cached = fs::absolute(cache_dir / (test.stem + ".png")).lexically_normal();
   const fs::path key_file = cache_dir / (test.stem + ".key");
   const std::string key =
@@ -1129,7 +1162,8 @@ const Image& Evaluation::EvalPhoto(const TestView& test, Image* scratch, fs::pat
       // recompute below
     }
   }
-  const Image photo = io::ReadImage(test.photo);
+  Image& photo = full_photo_scratch_;
+  io::ReadImage(test.photo, &photo);
   REPHOTO_CHECK(photo.width() == full.width && photo.height() == full.height,
                 "{}: photo is {}x{} but its camera is {}x{}", test.photo.string(), photo.width(),
                 photo.height(), full.width, full.height);
@@ -1137,8 +1171,8 @@ const Image& Evaluation::EvalPhoto(const TestView& test, Image* scratch, fs::pat
   io::WritePng(cached, *scratch, io::PngDepth::k16);
   WriteTextFileAtomically(key_file, key);
   ++counters_.photos_downscaled;
-  // Read back what was written, so the values compared are the cached file's.
-  io::ReadImage(cached, scratch);
+  // The values compared are the cached file's (as if read back).
+  QuantizeLikePng<uint16_t>(scratch);
   *used_path = cached;
   return *scratch;
 }
@@ -1395,6 +1429,7 @@ void Evaluation::WriteFoldJson(const FoldState& fold, const std::string& status)
                     {"key", fold.command_key},
                     {"status", fold.command_status},
                     {"seconds", fold.command_seconds},
+                    {"cpu_seconds", fold.command_cpu_seconds},
                     {"reused", fold.command_reused},
                     {"command", fold.command},
                     {"log", RelativeTo(fold.log_file, run_)}};
@@ -1826,8 +1861,13 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
   split_json["folds"] = folds;
   j["split"] = split_json;
   const double total = Seconds(start_);
+  timings_.rephoto_cpu = ProcessCpuSeconds() - start_cpu_;
   j["timings"] = {{"total", total},
                   {"external", timings_.external},
+                  {"cpu",
+                   {{"external", timings_.external_cpu},
+                    {"rephoto", timings_.rephoto_cpu},
+                    {"rephoto_share", timings_.rephoto_cpu_share()}}},
                   {"rephoto",
                    {{"total", timings_.rephoto()},
                     {"split", timings_.split},
@@ -1840,7 +1880,9 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
                     {"report", timings_.report}}},
                   {"note",
                    "seconds of this invocation; external = sum over commands, which run in "
-                   "background threads and may overlap rephoto's own work"}};
+                   "background threads and may overlap rephoto's own work (wall-clock sums "
+                   "then count the overlap twice); cpu = user + system CPU seconds of the "
+                   "commands' process trees and of rephoto's own process"}};
   j["counters"] = {{"commands_run", counters_.commands_run},
                    {"folds_reused", counters_.folds_reused},
                    {"models_colorized", counters_.models_colorized},
@@ -1879,6 +1921,7 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
 
 EvaluateResult Evaluation::Run() {
   start_ = Clock::now();
+  start_cpu_ = ProcessCpuSeconds();
   o_.Check();
   source_ = o_.source();
   run_ = fs::absolute(o_.out).lexically_normal();
@@ -2007,6 +2050,7 @@ EvaluateResult Evaluation::Run() {
   WriteRunJson(&result, status);  // the report reads it
   ProjectAndReport(&result);
   timings_.total = Seconds(start_);
+  timings_.rephoto_cpu = ProcessCpuSeconds() - start_cpu_;
   result.counters = counters_;
   result.timings = timings_;
   WriteRunJson(&result, status);

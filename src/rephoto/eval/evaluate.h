@@ -54,7 +54,8 @@
 //     compare/resample.h) so that the shorter side is PX (never upscaled), written as 8-bit PNG
 //     RUN/folds/fold_XX/train/images/<name without extension>.png, and the training scene's
 //     cameras are scaled with Camera::Scaled (observations too); the training scene then names
-//     the PNGs. Either option writes the fold's own training scene RUN/folds/fold_XX/train/
+//     the PNGs. A photo whose shorter side is already at most PX is linked as it is (no
+//     re-encoding), under its own name. Either option writes the fold's own training scene RUN/folds/fold_XX/train/
 //     (sparse, transforms.json, train.txt, images/), which {train} etc. then point to.
 //   eval_short_side PX > 0: rephotos are rendered and photos compared at the size whose shorter
 //     side is PX (never upscaled): the test cameras are scaled (Camera::Scaled) and the photos
@@ -111,7 +112,8 @@
 //                  (project::ProjectErrors; one model for all folds, else per fold
 //                  fold_XX.<metric>.ply when there are several), mesh and point models only.
 //   report.html    report::WriteRunReport of the run directory.
-//   cache/         file hashes and downscaled photos (safe to delete: only costs time).
+//   cache/         file hashes and downscaled photos (safe to delete: only costs time; a sweep
+//                  shares SWEEP/cache among its settings instead, EvaluateOptions::cache_dir).
 // Outputs of an earlier run with another split (folds, test views) are removed.
 #pragma once
 
@@ -182,6 +184,9 @@ struct EvaluateOptions {
 
   // ---- run
   std::filesystem::path out;
+  // Where file hashes and downscaled photos are cached ("" = RUN/cache). Entries are keyed by
+  // the photo's content hash and size, so runs of one scene can share a folder (sweeps do).
+  std::filesystem::path cache_dir;
   int jobs = 1;  // folds whose external commands run at once
   // Metric projected onto the model after the folds ("none" = no projection).
   std::string projection_metric = "1-ncc";
@@ -234,6 +239,14 @@ struct EvaluateTimings {
   double external = 0;  // sum over commands (may overlap rephoto's own work)
   double split = 0, prepare = 0, colorize = 0, render = 0, compare = 0, aggregate = 0, project = 0,
          report = 0;
+  // CPU seconds (user + system, all threads) of this invocation: the commands' (their whole
+  // process trees, from wait4) and rephoto's own process. Unlike wall-clock sums these do not
+  // depend on what overlapped what, nor much on other load on the machine.
+  double external_cpu = 0, rephoto_cpu = 0;
+  double rephoto_cpu_share() const {
+    const double sum = external_cpu + rephoto_cpu;
+    return sum > 0 ? rephoto_cpu / sum : 0.0;
+  }
   double rephoto() const {
     return split + prepare + colorize + render + compare + aggregate + project + report;
   }

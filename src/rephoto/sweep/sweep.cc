@@ -164,12 +164,16 @@ SweepResult RunSweep(const SweepOptions& options) {
         fmt::format("sweep: setting {}/{}: {}", s + 1, settings.size(), SettingLabel(settings[s])));
     eval::EvaluateOptions evaluate = options.base;
     evaluate.out = outcome.run_dir;
+    // One cache of hashes and downscaled photos for all settings (keyed by content and size).
+    if (evaluate.cache_dir.empty()) evaluate.cache_dir = options.out / "cache";
     ApplySetting(settings[s], &evaluate);
     try {
       outcome.result = eval::RunEvaluate(evaluate);
       if (outcome.result.exit_code != ExitCode::kOk) result.exit_code = ExitCode::kIncomplete;
       result.external_seconds += outcome.result.timings.external;
       result.rephoto_seconds += outcome.result.timings.rephoto();
+      result.external_cpu_seconds += outcome.result.timings.external_cpu;
+      result.rephoto_cpu_seconds += outcome.result.timings.rephoto_cpu;
     } catch (const eval::UsageError&) {
       throw;  // the same bad setting would fail every setting
     } catch (const Error& e) {
@@ -236,7 +240,9 @@ SweepResult RunSweep(const SweepOptions& options) {
     if (!outcome.ok) entry["message"] = outcome.message;
     entry["seconds"] = {{"total", outcome.result.timings.total},
                         {"external", outcome.result.timings.external},
-                        {"rephoto", outcome.result.timings.rephoto()}};
+                        {"rephoto", outcome.result.timings.rephoto()},
+                        {"external_cpu", outcome.result.timings.external_cpu},
+                        {"rephoto_cpu", outcome.result.timings.rephoto_cpu}};
     list.push_back(entry);
   }
   json["settings"] = list;
@@ -245,6 +251,10 @@ SweepResult RunSweep(const SweepOptions& options) {
                      {"external", result.external_seconds},
                      {"rephoto", result.rephoto_seconds},
                      {"rephoto_share", accounted > 0 ? result.rephoto_seconds / accounted : 0.0}};
+  const double cpu = result.external_cpu_seconds + result.rephoto_cpu_seconds;
+  json["cpu_seconds"] = {{"external", result.external_cpu_seconds},
+                         {"rephoto", result.rephoto_cpu_seconds},
+                         {"rephoto_share", cpu > 0 ? result.rephoto_cpu_seconds / cpu : 0.0}};
   WriteTextFileAtomically(options.out / "sweep.json", json.dump(2) + "\n");
   return result;
 }

@@ -73,6 +73,9 @@ struct SweepResult {
   double total_seconds = 0;
   double external_seconds = 0;  // the pipelines' commands
   double rephoto_seconds = 0;   // rephoto's own work inside the evaluations
+  // CPU seconds (eval::EvaluateTimings::external_cpu / rephoto_cpu summed over the settings):
+  // the share that does not depend on overlap or on other load on the machine.
+  double external_cpu_seconds = 0, rephoto_cpu_seconds = 0;
   ExitCode exit_code = ExitCode::kOk;
 };
 

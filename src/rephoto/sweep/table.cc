@@ -40,7 +40,7 @@ double ParseNumber(const std::string& field, const std::filesystem::path& path, 
 // Columns of per_fold.csv that are not measurements.
 bool IsBookkeeping(const std::string& column) {
   return column == "fold" || column == "status" || column == "test_images" ||
-         column == "evaluated_images" || column == "seconds";
+         column == "evaluated_images" || column == "seconds" || column == "message";
 }
 
 }  // namespace

@@ -27,10 +27,11 @@ TEST(SweepTable, StatisticsAcrossFoldsFromEachRunsPerFoldCsv) {
         "fold_01,ok,2,2,1.5,0.8,0.4,0.03\n"
         "fold_02,ok,2,2,1.5,1.0,0.2,0.01\n"
         "fold_03,ok,2,2,1.5,0.7,0.3,\n");
+  // As evaluate writes it: the message column last (text, not a measurement).
   Write(dir / "b" / "per_fold.csv",
-        "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,cb+cr\n"
-        "fold_00,ok,2,2,1.5,0.5,0.6,0.05\n"
-        "fold_01,failed,2,0,0.1,,,\n");
+        "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,cb+cr,message\n"
+        "fold_00,ok,2,2,1.5,0.5,0.6,0.05,\n"
+        "fold_01,failed,2,0,0.1,,,,fold_01: reconstruct command failed (exit status 1)\n");
   const SweepTable table = ReadSweepTable(settings, {dir / "a", dir / "b", dir / "c"});
   ASSERT_EQ(table.columns, (std::vector<std::string>{"completeness", "1-ncc", "cb+cr"}));
   ASSERT_EQ(table.settings.size(), 3u);
