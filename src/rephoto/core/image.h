@@ -10,9 +10,38 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace rephoto {
+
+// std::allocator whose value-less construct() default-initializes: vector::resize() of
+// arithmetic types then leaves new elements unwritten instead of zeroing them (the first
+// touch of tens of MB is costly; every writer of an image fills all of it anyway).
+template <typename T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <typename U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <typename U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
+// A vector whose resize() does not zero new elements.
+template <typename T>
+using UninitVector = std::vector<T, DefaultInitAllocator<T>>;
 
 template <typename T>
 class ImageT {
@@ -51,8 +80,9 @@ class ImageT {
     return width_ == other.width() && height_ == other.height();
   }
 
-  // Reshapes without keeping values; reuses the allocation when it is large enough
-  // (first touch of new pages is expensive on the target machines).
+  // Reshapes without keeping values: the values are unspecified (not zeroed) until written.
+  // Reuses the allocation when it is large enough (first touch of new pages is expensive on
+  // the target machines).
   void Resize(int width, int height, int channels) {
     width_ = width;
     height_ = height;
@@ -64,7 +94,7 @@ class ImageT {
   int width_ = 0;
   int height_ = 0;
   int channels_ = 0;
-  std::vector<T> values_;
+  UninitVector<T> values_;
 };
 
 using Image = ImageT<float>;

@@ -96,8 +96,8 @@ std::vector<uint8_t>& FileScratch() {
   thread_local std::vector<uint8_t> bytes;
   return bytes;
 }
-std::vector<uint8_t>& PixelScratch() {
-  thread_local std::vector<uint8_t> pixels;
+UninitVector<uint8_t>& PixelScratch() {
+  thread_local UninitVector<uint8_t> pixels;
   return pixels;
 }
 
@@ -184,7 +184,7 @@ void DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* i
       static_cast<size_t>(ihdr.width) * ihdr.height * channels * (out16 ? 2 : 1);
   REPHOTO_CHECK(size == expected, "{}: unexpected PNG decoded size {} (expected {})", name, size,
                 expected);
-  std::vector<uint8_t>& pixels = PixelScratch();
+  UninitVector<uint8_t>& pixels = PixelScratch();
   pixels.resize(size);
   r = spng_decode_image(ctx.get(), pixels.data(), size, format, has_trns ? SPNG_DECODE_TRNS : 0);
   if (r != 0) {
@@ -225,7 +225,7 @@ void DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* 
                 "{}: CMYK JPEG is not supported (convert it to RGB)", name);
   const bool grey = colorspace == TJCS_GRAY;
   const int channels = grey ? 1 : 3;
-  std::vector<uint8_t>& pixels = PixelScratch();
+  UninitVector<uint8_t>& pixels = PixelScratch();
   pixels.resize(static_cast<size_t>(width) * height * channels);
   if (tjDecompress2(tj, data, size, pixels.data(), width, 0, height, grey ? TJPF_GRAY : TJPF_RGB,
                     0) != 0) {

@@ -98,7 +98,7 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
 
   std::vector<Observation> observations;
   std::vector<uint8_t> visible(n);
-  std::vector<Observation> per_vertex(n);
+  UninitVector<Observation> per_vertex(n);  // read only where visible[i] was set
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("colorize", views.size());
   // Photos are decoded two at a time (decoding dominates; one core each) into two reused
@@ -178,7 +178,7 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
   std::vector<size_t> offsets(n + 1, 0);
   for (const Observation& o : observations) ++offsets[o.vertex + 1];
   std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
-  std::vector<Observation> grouped(observations.size());
+  UninitVector<Observation> grouped(observations.size());  // every element written below
   {
     std::vector<size_t> cursor(offsets.begin(), offsets.end() - 1);
     for (const Observation& o : observations) grouped[cursor[o.vertex]++] = o;
