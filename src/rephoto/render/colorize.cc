@@ -96,7 +96,13 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
   const RenderModel model(std::move(geometry), model_options, "mesh");
   RTCScene rtc_scene = model.scene();
 
-  std::vector<Observation> observations;
+  // Per view, the vertices it sees in increasing order with their observations (compact: no
+  // reallocation growth, no global scatter; grouped per vertex range in parallel below).
+  struct ViewObservations {
+    std::vector<uint32_t> vertices;
+    std::vector<Observation> observations;
+  };
+  std::vector<ViewObservations> seen(views.size());
   std::vector<uint8_t> visible(n);
   UninitVector<Observation> per_vertex(n);  // read only where visible[i] was set
   std::unique_ptr<Progress> progress;
@@ -167,35 +173,48 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
                          SampleBilinear(photo, pixel->x(), pixel->y())};
       }
     });
+    ViewObservations& list = seen[position];
+    const size_t count = static_cast<size_t>(std::count(visible.begin(), visible.end(), 1));
+    list.vertices.reserve(count);
+    list.observations.reserve(count);
     for (size_t i = 0; i < n; ++i) {
-      if (visible[i]) observations.push_back(per_vertex[i]);
+      if (visible[i]) {
+        list.vertices.push_back(static_cast<uint32_t>(i));
+        list.observations.push_back(per_vertex[i]);
+      }
     }
     if (progress) progress->Advance(view.name);
   }
   if (progress) progress->Finish();
 
-  // Group the observations by vertex (stable counting sort: deterministic order).
-  std::vector<size_t> offsets(n + 1, 0);
-  for (const Observation& o : observations) ++offsets[o.vertex + 1];
-  std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
-  UninitVector<Observation> grouped(observations.size());  // every element written below
-  {
-    std::vector<size_t> cursor(offsets.begin(), offsets.end() - 1);
-    for (const Observation& o : observations) grouped[cursor[o.vertex]++] = o;
-  }
-  observations = {};
-
+  // Each vertex's observations in view order (deterministic), gathered per vertex range by
+  // walking every view's sorted list from where the range starts.
   mesh::Mesh out = mesh;
   out.colors.assign(n, Eigen::Vector3f::Zero());
   mesh::VertexScalar counts{"view_count", std::vector<float>(n, 0.0f)};
+  size_t total_observations = 0;
+  for (const ViewObservations& list : seen) total_observations += list.vertices.size();
   ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
     std::vector<std::pair<float, float>> scratch;
+    std::vector<Observation> gathered;
+    std::vector<size_t> cursor(seen.size());
+    for (size_t v = 0; v < seen.size(); ++v) {
+      const auto& ids = seen[v].vertices;
+      cursor[v] = static_cast<size_t>(
+          std::lower_bound(ids.begin(), ids.end(), static_cast<uint32_t>(begin)) - ids.begin());
+    }
     for (int64_t i = begin; i < end; ++i) {
-      const size_t count = offsets[i + 1] - offsets[i];
-      counts.values[i] = static_cast<float>(count);
-      if (count == 0) continue;
+      gathered.clear();
+      for (size_t v = 0; v < seen.size(); ++v) {
+        const auto& ids = seen[v].vertices;
+        if (cursor[v] < ids.size() && ids[cursor[v]] == static_cast<uint32_t>(i)) {
+          gathered.push_back(seen[v].observations[cursor[v]++]);
+        }
+      }
+      counts.values[i] = static_cast<float>(gathered.size());
+      if (gathered.empty()) continue;
       out.colors[i] =
-          RobustMean(grouped.data() + offsets[i], count, options.irls_iterations, scratch)
+          RobustMean(gathered.data(), gathered.size(), options.irls_iterations, scratch)
               .cwiseMax(0.0f)
               .cwiseMin(1.0f);
     }
@@ -204,13 +223,13 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
       std::remove_if(out.scalars.begin(), out.scalars.end(),
                      [](const mesh::VertexScalar& s) { return s.name == "view_count"; }),
       out.scalars.end());
-  out.scalars.push_back(std::move(counts));
   if (report != nullptr) {
     report->vertices = n;
-    report->observations = grouped.size();
-    report->colored_vertices = 0;
-    for (size_t i = 0; i < n; ++i) report->colored_vertices += offsets[i + 1] > offsets[i];
+    report->observations = total_observations;
+    report->colored_vertices = static_cast<size_t>(
+        std::count_if(counts.values.begin(), counts.values.end(), [](float c) { return c > 0; }));
   }
+  out.scalars.push_back(std::move(counts));
   return out;
 }
 
