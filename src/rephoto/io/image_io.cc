@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <spng.h>
+#include <zlib.h>
 #include <sys/stat.h>
 #include <tinyexr.h>
 #include <turbojpeg.h>
@@ -582,8 +583,11 @@ void EncodePng(const fs::path& path, const void* pixels, size_t size, int width,
     REPHOTO_CHECK(ctx, "{}: out of memory", path.string());
     spng_set_png_file(ctx.get(), out.file);
     // zlib level 6 (the default) took 4 s of CPU for a 12 MP RGBA error image here; level 2
-    // with the "up" filter is several times faster for a modestly larger file.
+    // with the "up" filter is several times faster for a modestly larger file. Z_RLE (matches
+    // at distance 1 only) was another 20-25 % faster on 768x1152 renders and jet error images,
+    // with files 1 % larger (renders) to 11 % smaller (error images).
     spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, 2);
+    spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_STRATEGY, Z_RLE);
     spng_set_option(ctx.get(), SPNG_FILTER_CHOICE, SPNG_FILTER_CHOICE_UP);
     spng_ihdr ihdr{};
     ihdr.width = static_cast<uint32_t>(width);
