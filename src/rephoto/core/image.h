@@ -65,9 +65,7 @@ class ImageT {
   T* data() { return values_.data(); }
   const T* data() const { return values_.data(); }
   T* row(int y) { return values_.data() + static_cast<size_t>(y) * width_ * channels_; }
-  const T* row(int y) const {
-    return values_.data() + static_cast<size_t>(y) * width_ * channels_;
-  }
+  const T* row(int y) const { return values_.data() + static_cast<size_t>(y) * width_ * channels_; }
   T& at(int x, int y, int c = 0) {
     return values_[(static_cast<size_t>(y) * width_ + x) * channels_ + c];
   }
@@ -99,5 +97,6 @@ class ImageT {
 
 using Image = ImageT<float>;
 using Mask = ImageT<uint8_t>;
+using Image8 = ImageT<uint8_t>;  // 8-bit samples as stored in a file (v stands for v / 255)
 
 }  // namespace rephoto

@@ -1,7 +1,6 @@
 #include "rephoto/eval/evaluate.h"
 
 #include <sys/resource.h>
-
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -289,8 +288,8 @@ struct FoldState {
   bool command_ok = true;
   std::string command_status;  // "" (none), "running", "ok", "failed"
   bool interrupted = false;
-  double external_seconds = 0;  // this run
-  double command_seconds = 0;   // recorded (this run or the reused one)
+  double external_seconds = 0;     // this run
+  double command_seconds = 0;      // recorded (this run or the reused one)
   double command_cpu_seconds = 0;  // its CPU time (user + system of its process tree)
   int exit_status = 0;
 
@@ -670,8 +669,7 @@ void Evaluation::PrepareFold(FoldState& fold) {
       // Downscaled photos as PNG in the fold's images/ folder (hard links to one shared cache,
       // so a photo is decoded and filtered once for all folds); cameras scaled with them.
       fold.images_dir = fold.train_dir / "images";
-      const fs::path cache_dir =
-          CacheDir() / fmt::format("train_photos_s{}", o_.train_short_side);
+      const fs::path cache_dir = CacheDir() / fmt::format("train_photos_s{}", o_.train_short_side);
       std::map<int, std::pair<int, int>> new_sizes;
       for (const auto& [id, camera] : train.cameras) {
         new_sizes[id] = ScaledSize(camera.width, camera.height, o_.train_short_side);

@@ -55,8 +55,9 @@
 //     RUN/folds/fold_XX/train/images/<name without extension>.png, and the training scene's
 //     cameras are scaled with Camera::Scaled (observations too); the training scene then names
 //     the PNGs. A photo whose shorter side is already at most PX is linked as it is (no
-//     re-encoding), under its own name. Either option writes the fold's own training scene RUN/folds/fold_XX/train/
-//     (sparse, transforms.json, train.txt, images/), which {train} etc. then point to.
+//     re-encoding), under its own name. Either option writes the fold's own training scene
+//     RUN/folds/fold_XX/train/ (sparse, transforms.json, train.txt, images/), which {train} etc.
+//     then point to.
 //   eval_short_side PX > 0: rephotos are rendered and photos compared at the size whose shorter
 //     side is PX (never upscaled): the test cameras are scaled (Camera::Scaled) and the photos
 //     (and photo masks, conservatively) downscaled once with the area filter into

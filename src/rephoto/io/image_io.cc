@@ -141,7 +141,10 @@ int PngChannels(int color_type, bool has_trns) {
   }
 }
 
-void DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+// With `image8`, 8-bit samples are decoded straight into it (no float conversion) and the
+// function returns true; otherwise (or for 16-bit PNGs) `image` gets floats and it returns false.
+bool DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* image,
+               Image8* image8 = nullptr) {
   SpngPtr ctx(spng_ctx_new(0));
   REPHOTO_CHECK(ctx, "{}: out of memory", name);
   spng_set_png_buffer(ctx.get(), bytes.data(), bytes.size());
@@ -185,19 +188,29 @@ void DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* i
       static_cast<size_t>(ihdr.width) * ihdr.height * channels * (out16 ? 2 : 1);
   REPHOTO_CHECK(size == expected, "{}: unexpected PNG decoded size {} (expected {})", name, size,
                 expected);
+  const bool direct = image8 != nullptr && !out16;
   UninitVector<uint8_t>& pixels = PixelScratch();
-  pixels.resize(size);
-  r = spng_decode_image(ctx.get(), pixels.data(), size, format, has_trns ? SPNG_DECODE_TRNS : 0);
+  uint8_t* target = nullptr;
+  if (direct) {
+    image8->Resize(static_cast<int>(ihdr.width), static_cast<int>(ihdr.height), channels);
+    target = image8->data();
+  } else {
+    pixels.resize(size);
+    target = pixels.data();
+  }
+  r = spng_decode_image(ctx.get(), target, size, format, has_trns ? SPNG_DECODE_TRNS : 0);
   if (r != 0) {
     if (r == SPNG_EOF) ThrowError("{}: truncated PNG ({})", name, spng_strerror(r));
     ThrowError("{}: corrupt PNG: {}", name, spng_strerror(r));
   }
+  if (direct) return true;
   if (out16) {
     ConvertToFloat(reinterpret_cast<const uint16_t*>(pixels.data()), ihdr.width, ihdr.height,
                    channels, image);
   } else {
     ConvertToFloat(pixels.data(), ihdr.width, ihdr.height, channels, image);
   }
+  return false;
 }
 
 // ---------------------------------------------------------------------------------- JPEG
@@ -211,7 +224,9 @@ tjhandle Decompressor() {
   return handle.get();
 }
 
-void DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+// As DecodePng: 8-bit samples into `image8` when given (returns true), else floats.
+bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* image,
+                Image8* image8 = nullptr) {
   tjhandle tj = Decompressor();
   REPHOTO_CHECK(tj != nullptr, "{}: cannot initialize the JPEG decoder", name);
   // TurboJPEG 2.x takes non-const buffers but does not write to them.
@@ -227,9 +242,16 @@ void DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* 
   const bool grey = colorspace == TJCS_GRAY;
   const int channels = grey ? 1 : 3;
   UninitVector<uint8_t>& pixels = PixelScratch();
-  pixels.resize(static_cast<size_t>(width) * height * channels);
-  if (tjDecompress2(tj, data, size, pixels.data(), width, 0, height, grey ? TJPF_GRAY : TJPF_RGB,
-                    0) != 0) {
+  uint8_t* target = nullptr;
+  if (image8 != nullptr) {
+    image8->Resize(width, height, channels);
+    target = image8->data();
+  } else {
+    pixels.resize(static_cast<size_t>(width) * height * channels);
+    target = pixels.data();
+  }
+  if (tjDecompress2(tj, data, size, target, width, 0, height, grey ? TJPF_GRAY : TJPF_RGB, 0) !=
+      0) {
     const std::string message = tjGetErrorStr2(tj);
     if (tjGetErrorCode(tj) == TJERR_FATAL) ThrowError("{}: corrupt JPEG: {}", name, message);
     // Warnings: libjpeg fills a truncated scan with grey and carries on; a missing part of the
@@ -240,7 +262,9 @@ void DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* 
     }
     LogWarning(fmt::format("{}: {} (decoded anyway)", name, message));
   }
+  if (image8 != nullptr) return true;
   ConvertToFloat(pixels.data(), width, height, channels, image);
+  return false;
 }
 
 // ----------------------------------------------------------------------------------- EXR
@@ -635,9 +659,11 @@ std::string LowerExtension(const fs::path& path) {
 void DecodeImage(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
   switch (DetectFormat(bytes)) {
     case Format::kPng:
-      return DecodePng(bytes, name, image);
+      DecodePng(bytes, name, image);
+      return;
     case Format::kJpeg:
-      return DecodeJpeg(bytes, name, image);
+      DecodeJpeg(bytes, name, image);
+      return;
     case Format::kExr:
       return DecodeExr(bytes, name, image);
     case Format::kPfm:
@@ -652,6 +678,21 @@ void ReadImage(const fs::path& path, Image* image) {
   std::vector<uint8_t>& bytes = FileScratch();
   ReadFileBytes(path, &bytes);
   DecodeImage(bytes, path.string(), image);
+}
+
+bool ReadImage8(const fs::path& path, Image8* image8, Image* image) {
+  std::vector<uint8_t>& bytes = FileScratch();
+  ReadFileBytes(path, &bytes);
+  const std::string name = path.string();
+  switch (DetectFormat(bytes)) {
+    case Format::kPng:
+      return DecodePng(bytes, name, image, image8);
+    case Format::kJpeg:
+      return DecodeJpeg(bytes, name, image, image8);
+    default:
+      DecodeImage(bytes, name, image);
+      return false;
+  }
 }
 
 Image ReadImage(const fs::path& path) {

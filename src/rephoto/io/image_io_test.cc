@@ -108,6 +108,47 @@ TEST(ImageIo, PaletteAndTransparency) {
   }
 }
 
+// ReadImage8 gives the stored 8-bit samples of 8-bit files (ReadImage's values times 255,
+// exactly, for the hand-encoded PNG patterns and for JPEG) and falls back to floats otherwise.
+TEST(ImageIo, ReadImage8KeepsEightBitSamplesAndFallsBackToFloats) {
+  for (const char* name :
+       {"grey8.png", "rgb8.png", "rgba8.png", "grey_alpha8.png", "rgb8_adam7.png", "palette.png",
+        "palette2_trns.png", "rgb8_trns.png", "grey4.png", "colour.jpg", "grey.jpg"}) {
+    const Image reference = ReadImage(Fixture(name));
+    Image8 bytes;
+    Image floats;
+    ASSERT_TRUE(ReadImage8(Fixture(name), &bytes, &floats)) << name;
+    ASSERT_EQ(bytes.width(), reference.width()) << name;
+    ASSERT_EQ(bytes.height(), reference.height()) << name;
+    ASSERT_EQ(bytes.channels(), reference.channels()) << name;
+    for (size_t i = 0; i < reference.size(); ++i) {
+      ASSERT_EQ(static_cast<float>(bytes.data()[i]) / 255.f, reference.data()[i])
+          << name << " " << i;
+    }
+  }
+  // The hand-written pattern itself, independent of ReadImage.
+  Image8 rgb;
+  Image unused;
+  ASSERT_TRUE(ReadImage8(Fixture("rgb8.png"), &rgb, &unused));
+  EXPECT_EQ(rgb.at(3, 2, 1), Pattern8(3, 2, 1));
+  for (const char* name : {"grey16.png", "rgba16.png", "half_rgb.exr", "rgb_big_endian.pfm"}) {
+    const Image reference = ReadImage(Fixture(name));
+    Image8 bytes;
+    Image floats;
+    EXPECT_FALSE(ReadImage8(Fixture(name), &bytes, &floats)) << name;
+    ASSERT_EQ(floats.size(), reference.size()) << name;
+    for (size_t i = 0; i < reference.size(); ++i) {
+      ASSERT_TRUE(floats.data()[i] == reference.data()[i] ||
+                  (std::isnan(floats.data()[i]) && std::isnan(reference.data()[i])))
+          << name << " " << i;
+    }
+  }
+  Image8 bytes;
+  Image floats;
+  EXPECT_THROW(ReadImage8(Fixture("truncated.jpg"), &bytes, &floats), Error);
+  EXPECT_THROW(ReadImage8(Fixture("not_an_image.png"), &bytes, &floats), Error);
+}
+
 TEST(ImageIo, HeaderAgreesWithTheDecodedImage) {
   for (const char* name :
        {"grey8.png", "grey16.png", "grey1.png", "grey_alpha8.png", "rgb8.png", "rgba16.png",

@@ -22,9 +22,27 @@ struct Observation {
   Eigen::Vector3f color;
 };
 
+// A photo as decoded: 8-bit samples (JPEG, 8-bit PNG) or floats (16-bit PNG, EXR, PFM).
+struct Photo {
+  Image8 bytes;
+  Image floats;
+  bool is8 = false;
+  int width() const { return is8 ? bytes.width() : floats.width(); }
+  int height() const { return is8 ? bytes.height() : floats.height(); }
+  int channels() const { return is8 ? bytes.channels() : floats.channels(); }
+  bool empty() const { return is8 ? bytes.empty() : floats.empty(); }
+};
+
+// Sample values as io::ReadImage returns them (v / 255 for 8-bit, exactly).
+inline float Value(const Image& image, int x, int y, int c) { return image.at(x, y, c); }
+inline float Value(const Image8& image, int x, int y, int c) {
+  return static_cast<float>(image.at(x, y, c)) / 255.f;
+}
+
 // Bilinear sample at continuous position (px, py), pixel-corner convention; the caller keeps
 // (px, py) within [0.5, width - 0.5] x [0.5, height - 0.5].
-Eigen::Vector3f SampleBilinear(const Image& photo, double px, double py) {
+template <typename ImageType>
+Eigen::Vector3f SampleBilinear(const ImageType& photo, double px, double py) {
   const double x = px - 0.5, y = py - 0.5;
   int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
   x0 = std::clamp(x0, 0, photo.width() - 1);
@@ -35,8 +53,10 @@ Eigen::Vector3f SampleBilinear(const Image& photo, double px, double py) {
   Eigen::Vector3f out;
   for (int k = 0; k < 3; ++k) {
     const int ch = c >= 3 ? k : 0;
-    const float top = photo.at(x0, y0, ch) + ax * (photo.at(x1, y0, ch) - photo.at(x0, y0, ch));
-    const float bottom = photo.at(x0, y1, ch) + ax * (photo.at(x1, y1, ch) - photo.at(x0, y1, ch));
+    const float v00 = Value(photo, x0, y0, ch), v10 = Value(photo, x1, y0, ch);
+    const float v01 = Value(photo, x0, y1, ch), v11 = Value(photo, x1, y1, ch);
+    const float top = v00 + ax * (v10 - v00);
+    const float bottom = v01 + ax * (v11 - v01);
     out[k] = top + ay * (bottom - top);
   }
   return out;
@@ -110,7 +130,7 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
   // Photos are decoded two at a time (decoding dominates; one core each) into two reused
   // buffers, then processed in view order, so the result does not depend on the thread count.
   constexpr size_t kBatch = 2;
-  std::vector<Image> batch(kBatch);
+  std::vector<Photo> batch(kBatch);
   for (size_t position = 0; position < views.size(); ++position) {
     const size_t view_index = views[position];
     const scene::View& view = scene.views[view_index];
@@ -118,11 +138,13 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
       const size_t count = std::min(kBatch, views.size() - position);
       ParallelFor(0, static_cast<int64_t>(count), 1, [&](int64_t begin, int64_t end) {
         for (int64_t b = begin; b < end; ++b) {
-          io::ReadImage(scene.views[views[position + b]].image_path, &batch[b]);
+          Photo& photo = batch[b];
+          photo.is8 = io::ReadImage8(scene.views[views[position + b]].image_path, &photo.bytes,
+                                     &photo.floats);
         }
       });
     }
-    const Image& photo = batch[position % kBatch];  // buffers reused: no zeroing, no faults
+    const Photo& photo = batch[position % kBatch];  // buffers reused: no zeroing, no faults
     REPHOTO_CHECK(photo.channels() >= 1 && photo.channels() <= 4 && !photo.empty(),
                   "{}: unsupported photo ({} channels)", view.image_path.string(),
                   photo.channels());
@@ -170,7 +192,8 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
         visible[i] = 1;
         const double density = focal / distance;
         per_vertex[i] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
-                         SampleBilinear(photo, pixel->x(), pixel->y())};
+                         photo.is8 ? SampleBilinear(photo.bytes, pixel->x(), pixel->y())
+                                   : SampleBilinear(photo.floats, pixel->x(), pixel->y())};
       }
     });
     ViewObservations& list = seen[position];
@@ -213,10 +236,9 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
       }
       counts.values[i] = static_cast<float>(gathered.size());
       if (gathered.empty()) continue;
-      out.colors[i] =
-          RobustMean(gathered.data(), gathered.size(), options.irls_iterations, scratch)
-              .cwiseMax(0.0f)
-              .cwiseMin(1.0f);
+      out.colors[i] = RobustMean(gathered.data(), gathered.size(), options.irls_iterations, scratch)
+                          .cwiseMax(0.0f)
+                          .cwiseMin(1.0f);
     }
   });
   out.scalars.erase(

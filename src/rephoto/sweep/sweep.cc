@@ -190,7 +190,7 @@ SweepResult RunSweep(const SweepOptions& options) {
   result.table = ReadSweepTable(settings, run_dirs);
   WriteTextFileAtomically(options.out / "sweep.csv", SweepSummaryCsv(result.table, result.axes));
   WriteTextFileAtomically(options.out / "sweep_per_fold.csv",
-                      SweepPerFoldCsv(result.table, result.axes));
+                          SweepPerFoldCsv(result.table, result.axes));
 
   if (options.report) {
     std::vector<report::CollectionEntry> entries;
