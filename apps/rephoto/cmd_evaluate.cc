@@ -125,16 +125,14 @@ CommandRunner SetupEvaluate(CLI::App& app) {
     }
     for (const std::string& name : result.missing_photos) fmt::print("missing photo: {}\n", name);
     const eval::EvaluateTimings& t = result.timings;
-    if (t.external_cpu > 0) {
-      fmt::print(
-          "Time {:.1f} s (external commands {:.1f} s, rephoto {:.1f} s; CPU: commands {:.1f} s, "
-          "rephoto {:.1f} s = {:.1f} %). Results in {}\n",
-          t.total, t.external, t.rephoto(), t.external_cpu, t.rephoto_cpu,
-          100 * t.rephoto_cpu_share(), options.out.string());
-    } else {
-      fmt::print("Time {:.1f} s (external commands {:.1f} s, rephoto {:.1f} s). Results in {}\n",
-                 t.total, t.external, t.rephoto(), options.out.string());
-    }
+    const std::string cpu = t.external_cpu > 0
+                                ? fmt::format(
+                                      "; CPU: commands {:.1f} s, rephoto {:.1f} s "
+                                      "= {:.1f} %",
+                                      t.external_cpu, t.rephoto_cpu, 100 * t.rephoto_cpu_share())
+                                : "";
+    fmt::print("Time {:.1f} s (external commands {:.1f} s, rephoto {:.1f} s{}). Results in {}\n",
+               t.total, t.external, t.rephoto(), cpu, options.out.string());
     return static_cast<int>(result.exit_code);
   };
 }

@@ -34,15 +34,12 @@ CommandRunner SetupSweep(CLI::App& app) {
     if (args->no_report) options.report = false;
     options.base.handle_interrupts = true;
     const sweep::SweepResult result = sweep::RunSweep(options);
-    const double accounted = result.external_seconds + result.rephoto_seconds;
-    const double cpu = result.external_cpu_seconds + result.rephoto_cpu_seconds;
     LogInfo(fmt::format(
         "sweep: {} settings in {:.1f} s (pipeline {:.1f} s, rephoto {:.1f} s = {:.1f} %; CPU: "
         "pipeline {:.1f} s, rephoto {:.1f} s = {:.1f} %) -> {}",
         result.settings.size(), result.total_seconds, result.external_seconds,
-        result.rephoto_seconds, accounted > 0 ? 100 * result.rephoto_seconds / accounted : 0.0,
-        result.external_cpu_seconds, result.rephoto_cpu_seconds,
-        cpu > 0 ? 100 * result.rephoto_cpu_seconds / cpu : 0.0,
+        result.rephoto_seconds, 100 * result.rephoto_share(), result.external_cpu_seconds,
+        result.rephoto_cpu_seconds, 100 * result.rephoto_cpu_share(),
         (options.out / "sweep.csv").string()));
     return static_cast<int>(result.exit_code);
   };

@@ -182,6 +182,18 @@ void RequestInterrupt(bool value) { g_interrupted.store(value); }
 
 // ------------------------------------------------------------------------------- running
 
+namespace {
+double CpuSeconds(const struct rusage& usage) {
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+}  // namespace
+
+double ProcessCpuSeconds() {
+  struct rusage usage {};
+  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? CpuSeconds(usage) : 0.0;
+}
+
 CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_file,
                                std::string_view header) {
   std::error_code ec;
@@ -252,8 +264,7 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
   }
   if (slot >= 0) g_children[slot].store(0);
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  outcome.cpu_seconds = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-                        1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+  outcome.cpu_seconds = CpuSeconds(usage);
   if (WIFEXITED(status)) outcome.exit_status = WEXITSTATUS(status);
   if (WIFSIGNALED(status)) outcome.signal = WTERMSIG(status);
   if (InterruptRequested()) outcome.interrupted = true;

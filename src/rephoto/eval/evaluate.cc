@@ -1,6 +1,5 @@
 #include "rephoto/eval/evaluate.h"
 
-#include <sys/resource.h>
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -55,14 +54,6 @@ constexpr const char* kSchema = "rephoto.evaluate/1";
 constexpr const char* kKeyVersion = "rephoto.evaluate.key/1";
 constexpr const char* kImageExtensions[] = {".png", ".jpg", ".jpeg", ".exr", ".pfm",
                                             ".PNG", ".JPG", ".JPEG", ".EXR", ".PFM"};
-
-// User + system CPU seconds of this process so far (all threads; not its children).
-double ProcessCpuSeconds() {
-  struct rusage usage {};
-  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
 
 double Seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
@@ -175,23 +166,6 @@ fs::path FindImageByStem(const fs::path& folder, const std::string& stem) {
     if (fs::is_regular_file(candidate, ec)) return candidate;
   }
   return {};
-}
-
-// Quantizes to 8 bits exactly as io::WritePng does (clamp, NaN -> 0, round half up), so the
-// rendering compared is the PNG written.
-// The values io::ReadImage returns for what io::WritePng wrote: clamped to [0,1], rounded to
-// 8 (or 16) bits, divided by 255 (65535). Saves reading back a file just written.
-template <typename T = uint8_t>
-void QuantizeLikePng(Image* image) {
-  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
-  float* values = image->data();
-  ParallelFor(0, static_cast<int64_t>(image->size()), 1 << 16, [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) {
-      const float v = values[i];
-      const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;
-      values[i] = static_cast<float>(static_cast<T>(clamped * kMax + 0.5f)) / kMax;
-    }
-  });
 }
 
 void RemoveStaleErrorImages(const fs::path& errors_dir, const std::string& stem) {
@@ -1170,7 +1144,7 @@ const Image& Evaluation::EvalPhoto(const TestView& test, Image* scratch, fs::pat
   WriteTextFileAtomically(key_file, key);
   ++counters_.photos_downscaled;
   // The values compared are the cached file's (as if read back).
-  QuantizeLikePng<uint16_t>(scratch);
+  io::QuantizeAsPng(scratch, io::PngDepth::k16);
   *used_path = cached;
   return *scratch;
 }
@@ -1204,7 +1178,7 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
     io::WritePng(render_path, rephoto.color);
     io::WriteExr(renders_dir / (test.stem + ".depth.exr"), rephoto.depth);
     render = std::move(rephoto.color);
-    QuantizeLikePng(&render);
+    io::QuantizeAsPng(&render);  // the rendering compared is the PNG written
     ++counters_.views_rendered;
   } else {
     render_path = FindImageByStem(fold.out_dir, test.stem);
@@ -1859,13 +1833,14 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
   split_json["folds"] = folds;
   j["split"] = split_json;
   const double total = Seconds(start_);
-  timings_.rephoto_cpu = ProcessCpuSeconds() - start_cpu_;
+  EvaluateTimings cpu = timings_;
+  cpu.rephoto_cpu = ProcessCpuSeconds() - start_cpu_;
   j["timings"] = {{"total", total},
                   {"external", timings_.external},
                   {"cpu",
-                   {{"external", timings_.external_cpu},
-                    {"rephoto", timings_.rephoto_cpu},
-                    {"rephoto_share", timings_.rephoto_cpu_share()}}},
+                   {{"external", cpu.external_cpu},
+                    {"rephoto", cpu.rephoto_cpu},
+                    {"rephoto_share", cpu.rephoto_cpu_share()}}},
                   {"rephoto",
                    {{"total", timings_.rephoto()},
                     {"split", timings_.split},

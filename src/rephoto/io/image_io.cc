@@ -630,18 +630,32 @@ void EncodePng(const fs::path& path, const void* pixels, size_t size, int width,
   });
 }
 
+// The PNG sample of a value: clamped to [0,1] (NaN fails both comparisons and becomes 0),
+// scaled to the sample's range, rounded half up.
+template <typename T>
+T QuantizeSample(float v) {
+  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
+  const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;
+  return static_cast<T>(clamped * kMax + 0.5f);
+}
+
 template <typename T>
 void QuantizeTo(const Image& image, std::vector<T>* out) {
-  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
   out->resize(image.size());
   const float* in = image.data();
   T* dst = out->data();
   ParallelFor(0, static_cast<int64_t>(image.size()), 1 << 16, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) dst[i] = QuantizeSample<T>(in[i]);
+  });
+}
+
+template <typename T>
+void QuantizeInPlace(Image* image) {
+  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
+  float* values = image->data();
+  ParallelFor(0, static_cast<int64_t>(image->size()), 1 << 16, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
-      const float v = in[i];
-      // NaN fails both comparisons and becomes 0.
-      const float clamped = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;
-      dst[i] = static_cast<T>(clamped * kMax + 0.5f);
+      values[i] = static_cast<float>(QuantizeSample<T>(values[i])) / kMax;
     }
   });
 }
@@ -747,6 +761,14 @@ Mask ReadMask(const fs::path& path) {
   Mask mask;
   ReadMask(path, &mask);
   return mask;
+}
+
+void QuantizeAsPng(Image* image, PngDepth depth) {
+  if (depth == PngDepth::k16) {
+    QuantizeInPlace<uint16_t>(image);
+  } else {
+    QuantizeInPlace<uint8_t>(image);
+  }
 }
 
 void WritePng(const fs::path& path, const Image& image, PngDepth depth) {

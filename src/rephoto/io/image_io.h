@@ -70,6 +70,9 @@ enum class PngDepth { k8 = 8, k16 = 16 };
 // Any channel count 1-4 (grey, grey+alpha, RGB, RGBA).
 void WritePng(const std::filesystem::path& path, const Image& image, PngDepth depth = PngDepth::k8);
 void WritePng(const std::filesystem::path& path, const Mask& mask);  // 0 -> 0, else 255
+// Replaces the values by those ReadImage returns for the PNG that WritePng(path, image, depth)
+// writes (clamped to [0,1], NaN -> 0, rounded to 8 or 16 bits), without the file round trip.
+void QuantizeAsPng(Image* image, PngDepth depth = PngDepth::k8);
 // 8-bit pixels already converted by the caller: width*height*channels bytes, interleaved, top
 // row first, channels 1-4. Avoids a float copy for large colour-mapped images.
 void WritePng8(const std::filesystem::path& path, std::span<const uint8_t> pixels, int width,

@@ -274,6 +274,27 @@ TEST(ImageIo, PngRoundTripsAtBothDepthsAndAllChannelCounts) {
   }
 }
 
+// QuantizeAsPng gives exactly what a WritePng/ReadImage round trip gives, at both depths.
+TEST(ImageIo, QuantizeAsPngEqualsTheFileRoundTrip) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> value(-0.2f, 1.2f);
+  Image image(37, 11, 3);
+  for (size_t i = 0; i < image.size(); ++i) image.data()[i] = value(rng);
+  image.data()[5] = std::nanf("");
+  image.data()[6] = 0.5f;
+  for (PngDepth depth : {PngDepth::k8, PngDepth::k16}) {
+    const fs::path path = testing::MakeTempDir() / "q.png";
+    WritePng(path, image, depth);
+    const Image back = ReadImage(path);
+    Image quantized = image;
+    QuantizeAsPng(&quantized, depth);
+    ASSERT_EQ(quantized.size(), back.size());
+    for (size_t i = 0; i < back.size(); ++i) {
+      ASSERT_EQ(quantized.data()[i], back.data()[i]) << static_cast<int>(depth) << " " << i;
+    }
+  }
+}
+
 TEST(ImageIo, PngWriteClampsAndMapsNanToZero) {
   const fs::path path = testing::MakeTempDir() / "clamp.png";
   Image image(4, 1, 1);

@@ -16,8 +16,8 @@
 namespace rephoto::render {
 namespace {
 
+// One photo's sample of a vertex (which vertex: the parallel ViewObservations::vertices).
 struct Observation {
-  uint32_t vertex;
   float weight;
   Eigen::Vector3f color;
 };
@@ -191,7 +191,7 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
         if (ray.tfar < 0) continue;  // something lies between the camera and the vertex
         visible[i] = 1;
         const double density = focal / distance;
-        per_vertex[i] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
+        per_vertex[i] = {static_cast<float>(cosine * density * density),
                          photo.is8 ? SampleBilinear(photo.bytes, pixel->x(), pixel->y())
                                    : SampleBilinear(photo.floats, pixel->x(), pixel->y())};
       }

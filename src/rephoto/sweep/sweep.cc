@@ -246,15 +246,13 @@ SweepResult RunSweep(const SweepOptions& options) {
     list.push_back(entry);
   }
   json["settings"] = list;
-  const double accounted = result.external_seconds + result.rephoto_seconds;
   json["seconds"] = {{"total", result.total_seconds},
                      {"external", result.external_seconds},
                      {"rephoto", result.rephoto_seconds},
-                     {"rephoto_share", accounted > 0 ? result.rephoto_seconds / accounted : 0.0}};
-  const double cpu = result.external_cpu_seconds + result.rephoto_cpu_seconds;
+                     {"rephoto_share", result.rephoto_share()}};
   json["cpu_seconds"] = {{"external", result.external_cpu_seconds},
                          {"rephoto", result.rephoto_cpu_seconds},
-                         {"rephoto_share", cpu > 0 ? result.rephoto_cpu_seconds / cpu : 0.0}};
+                         {"rephoto_share", result.rephoto_cpu_share()}};
   WriteTextFileAtomically(options.out / "sweep.json", json.dump(2) + "\n");
   return result;
 }

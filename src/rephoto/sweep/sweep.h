@@ -77,6 +77,12 @@ struct SweepResult {
   // the share that does not depend on overlap or on other load on the machine.
   double external_cpu_seconds = 0, rephoto_cpu_seconds = 0;
   ExitCode exit_code = ExitCode::kOk;
+  // rephoto's fraction of the accounted wall-clock seconds and of the CPU seconds (0 if none).
+  double rephoto_share() const { return Share(rephoto_seconds, external_seconds); }
+  double rephoto_cpu_share() const { return Share(rephoto_cpu_seconds, external_cpu_seconds); }
+  static double Share(double own, double other) {
+    return own + other > 0 ? own / (own + other) : 0.0;
+  }
 };
 
 // Reads a sweep config file (see above). Throws Error naming the file and key.
