@@ -390,6 +390,10 @@ class Evaluation {
   void FailFold(FoldState& fold, const std::string& message);
   void Aggregate(EvaluateResult* result);
   void ProjectAndReport(EvaluateResult* result);
+  // The metric projected onto the model, or none (no projection, or it cannot be made: the
+  // reason is logged once).
+  std::optional<metrics::Metric> ProjectionMetric();
+  void ProjectFold(const FoldState& fold);
   // The rendered model is made from the fold's model: coloured and/or degraded (model.ply).
   bool DerivesModel() const { return o_.colorize || HasDefects(o_.degrade); }
   void ProjectOnto(const fs::path& model_path, const std::string& model_key,
@@ -435,6 +439,8 @@ class Evaluation {
   Json scene_identity_;
   fs::path cached_model_path_;                       // the file cached_model_ was built from
   std::string projection_message_, report_message_;  // why they were not written
+  bool projection_checked_ = false;
+  std::optional<metrics::Metric> projection_metric_;
 };
 
 // ------------------------------------------------------------------------------ settings
@@ -1305,6 +1311,10 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
           fs::is_regular_file(coloured_key, ec)) {
         previous_colorize = ReadFileToString(coloured_key);
       }
+      render::ModelOptions model_options;
+      model_options.point_radius = o_.point_radius;
+      model_options.point_radius_neighbors = o_.point_neighbors;
+      std::unique_ptr<render::RenderModel> built;  // set when colouring built it already
       if (DerivesModel() && previous_colorize == fold.colorize_key) {
         mesh.emplace(mesh::ReadPly(coloured));
       } else {
@@ -1318,8 +1328,19 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
           for (size_t v = 0; v < views.size(); ++v) views[v] = v;
           render::ColorizeReport report;
           fs::remove(coloured_key, ec);
-          *mesh = render::ColorizeMesh(*mesh, train, views, {}, &report);
-          mesh::WritePly(coloured, *mesh);
+          if (HasDefects(o_.degrade)) {
+            // The defects change the geometry after colouring: two BVHs.
+            *mesh = render::ColorizeMesh(*mesh, train, views, {}, &report);
+          } else {
+            // One BVH for colouring, rendering and projecting (colours leave it as it is).
+            built = std::make_unique<render::RenderModel>(std::move(*mesh), model_options,
+                                                          fold.model_path.string());
+            render::VertexColors colors =
+                render::ColorizeVertices(*built, train, views, {}, &report);
+            built->SetVertexColors(std::move(colors.colors));
+            built->SetVertexScalar(std::move(colors.view_count));
+          }
+          mesh::WritePly(coloured, built ? built->mesh() : *mesh);
           WriteTextFileAtomically(coloured_key, fold.colorize_key);
           fold.colorize_seconds = Seconds(colorize_start);
           timings_.colorize += fold.colorize_seconds;
@@ -1346,13 +1367,14 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
           WriteTextFileAtomically(coloured_key, fold.colorize_key);
         }
       }
-      render::ModelOptions model_options;
-      model_options.point_radius = o_.point_radius;
-      model_options.point_radius_neighbors = o_.point_neighbors;
-      const auto build_start = Clock::now();
-      model = std::make_shared<const render::RenderModel>(std::move(*mesh), model_options,
-                                                          fold.model_path.string());
-      timings_.render += Seconds(build_start);
+      if (built) {
+        model = std::move(built);
+      } else {
+        const auto build_start = Clock::now();
+        model = std::make_shared<const render::RenderModel>(std::move(*mesh), model_options,
+                                                            fold.model_path.string());
+        timings_.render += Seconds(build_start);
+      }
       cached_model_ = model;
       cached_model_key_ = fold.model_key;
       cached_model_path_ = HasDefects(o_.degrade) ? coloured : fold.model_path;
@@ -1647,51 +1669,71 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
                       out.string()));
 }
 
+std::optional<metrics::Metric> Evaluation::ProjectionMetric() {
+  if (projection_checked_) return projection_metric_;
+  projection_checked_ = true;
+  if (o_.projection_metric == "none" || source_ == ModelSource::kRender ||
+      (source_ == ModelSource::kModel && o_.model.empty())) {
+    return std::nullopt;
+  }
+  const std::optional<metrics::Metric> metric = metrics::ParseMetric(o_.projection_metric);
+  const bool have_metric =
+      metric && std::find(o_.metrics.begin(), o_.metrics.end(), *metric) != o_.metrics.end();
+  if (!o_.error_images) {
+    LogWarning("no error projection: error images are off (--no-error-images)");
+  } else if (!have_metric) {
+    LogWarning(fmt::format("no error projection: '{}' is not among the metrics evaluated",
+                           o_.projection_metric));
+  } else {
+    projection_metric_ = metric;
+  }
+  return projection_metric_;
+}
+
+void Evaluation::ProjectFold(const FoldState& fold) {
+  if (source_ == ModelSource::kModel || !fold.ok || fold.model_path.empty()) return;
+  const std::optional<metrics::Metric> metric = ProjectionMetric();
+  if (!metric) return;
+  const auto start = Clock::now();
+  const std::string name(metrics::MetricName(*metric));
+  const fs::path out =
+      run_ / "projected" / (folds_.size() == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
+  try {
+    ProjectOnto(HasDefects(o_.degrade) ? fold.dir / "model.ply" : fold.model_path, fold.model_key,
+                {&fold}, *metric, out);
+  } catch (const Error& e) {
+    LogWarning(fmt::format("error projection failed: {}", e.what()));
+    projection_message_ = e.what();
+  }
+  timings_.project += Seconds(start);
+}
+
 void Evaluation::ProjectAndReport(EvaluateResult* result) {
   (void)result;
   auto start = Clock::now();
-  if (o_.projection_metric != "none" && source_ != ModelSource::kRender &&
-      !(source_ == ModelSource::kModel && o_.model.empty())) {
-    const std::optional<metrics::Metric> metric = metrics::ParseMetric(o_.projection_metric);
-    const bool have_metric =
-        metric && std::find(o_.metrics.begin(), o_.metrics.end(), *metric) != o_.metrics.end();
-    if (!o_.error_images) {
-      LogWarning("no error projection: error images are off (--no-error-images)");
-    } else if (!have_metric) {
-      LogWarning(fmt::format("no error projection: '{}' is not among the metrics evaluated",
-                             o_.projection_metric));
-    } else {
-      const std::string name(metrics::MetricName(*metric));
-      try {
-        if (source_ == ModelSource::kModel) {
-          // One geometry for all folds (colouring changes colours only).
-          std::vector<const FoldState*> folds;
-          for (const FoldState& fold : folds_) {
-            if (fold.ok) folds.push_back(&fold);
-          }
-          fs::path model = fs::absolute(o_.model).lexically_normal();
-          std::string model_key = hashes_->Hash(model);
-          if (HasDefects(o_.degrade) && !folds.empty()) {
-            // Geometry noise and simplification change the geometry the errors belong to;
-            // it is the same in every fold (the defects are deterministic).
-            model = folds.front()->dir / "model.ply";
-            model_key = folds.front()->model_key;
-          }
-          ProjectOnto(model, model_key, folds, *metric, run_ / "projected" / (name + ".ply"));
-        } else {
-          for (const FoldState& fold : folds_) {
-            if (!fold.ok || fold.model_path.empty()) continue;
-            const fs::path out =
-                run_ / "projected" /
-                (folds_.size() == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
-            ProjectOnto(HasDefects(o_.degrade) ? fold.dir / "model.ply" : fold.model_path,
-                        fold.model_key, {&fold}, *metric, out);
-          }
-        }
-      } catch (const Error& e) {
-        LogWarning(fmt::format("error projection failed: {}", e.what()));
-        projection_message_ = e.what();
+  // Per-fold models were projected fold by fold (ProjectFold), while each fold's model was in
+  // memory; one model for all folds is projected here, with the views of every fold.
+  const std::optional<metrics::Metric> metric =
+      source_ == ModelSource::kModel ? ProjectionMetric() : std::nullopt;
+  if (metric) {
+    const std::string name(metrics::MetricName(*metric));
+    try {
+      std::vector<const FoldState*> folds;
+      for (const FoldState& fold : folds_) {
+        if (fold.ok) folds.push_back(&fold);
       }
+      fs::path model = fs::absolute(o_.model).lexically_normal();
+      std::string model_key = hashes_->Hash(model);
+      if (HasDefects(o_.degrade) && !folds.empty()) {
+        // Geometry noise and simplification change the geometry the errors belong to; it is
+        // the same in every fold (the defects are deterministic).
+        model = folds.front()->dir / "model.ply";
+        model_key = folds.front()->model_key;
+      }
+      ProjectOnto(model, model_key, folds, *metric, run_ / "projected" / (name + ".ply"));
+    } catch (const Error& e) {
+      LogWarning(fmt::format("error projection failed: {}", e.what()));
+      projection_message_ = e.what();
     }
   }
   timings_.project += Seconds(start);
@@ -2000,6 +2042,7 @@ EvaluateResult Evaluation::Run() {
         }
       }
       WriteFoldJson(fold, fold.ok ? "ok" : "failed");
+      if (!InterruptRequested()) ProjectFold(fold);  // while its model is in memory
     }
   }
   for (std::thread& t : workers) t.join();

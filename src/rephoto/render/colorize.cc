@@ -94,26 +94,19 @@ Eigen::Vector3f RobustMean(const Observation* obs, size_t n, int iterations,
 
 }  // namespace
 
-mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
-                        const std::vector<size_t>& views, const ColorizeOptions& options,
-                        ColorizeReport* report) {
-  mesh.Validate("mesh");
+VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scene,
+                              const std::vector<size_t>& views, const ColorizeOptions& options,
+                              ColorizeReport* report) {
+  const mesh::Mesh& mesh = model.mesh();
   for (size_t v : views) {
     REPHOTO_CHECK(v < scene.views.size(), "colorize: view index {} out of range ({} views)", v,
                   scene.views.size());
   }
   const size_t n = mesh.positions.size();
-  std::vector<Eigen::Vector3f> normals = mesh.normals;
-  if (normals.empty() && !mesh.faces.empty()) normals = ComputeVertexNormals(mesh);
-
-  mesh::Mesh geometry;  // positions and faces only: the occlusion model
-  geometry.positions = mesh.positions;
-  geometry.faces = mesh.faces;
-  geometry.normals = mesh.is_point_cloud() ? mesh.normals : std::vector<Eigen::Vector3f>{};
-  geometry.radii = mesh.radii;
-  ModelOptions model_options;
-  model_options.load_textures = false;
-  const RenderModel model(std::move(geometry), model_options, "mesh");
+  std::vector<Eigen::Vector3f> computed_normals;
+  if (mesh.normals.empty() && !mesh.faces.empty()) computed_normals = ComputeVertexNormals(mesh);
+  const std::vector<Eigen::Vector3f>& normals =
+      mesh.normals.empty() ? computed_normals : mesh.normals;
   RTCScene rtc_scene = model.scene();
 
   // Per view, the vertices it sees in increasing order with their observations (compact: no
@@ -212,9 +205,9 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
 
   // Each vertex's observations in view order (deterministic), gathered per vertex range by
   // walking every view's sorted list from where the range starts.
-  mesh::Mesh out = mesh;
+  VertexColors out;
   out.colors.assign(n, Eigen::Vector3f::Zero());
-  mesh::VertexScalar counts{"view_count", std::vector<float>(n, 0.0f)};
+  out.view_count = {"view_count", std::vector<float>(n, 0.0f)};
   size_t total_observations = 0;
   for (const ViewObservations& list : seen) total_observations += list.vertices.size();
   ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
@@ -234,24 +227,42 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
           gathered.push_back(seen[v].observations[cursor[v]++]);
         }
       }
-      counts.values[i] = static_cast<float>(gathered.size());
+      out.view_count.values[i] = static_cast<float>(gathered.size());
       if (gathered.empty()) continue;
       out.colors[i] = RobustMean(gathered.data(), gathered.size(), options.irls_iterations, scratch)
                           .cwiseMax(0.0f)
                           .cwiseMin(1.0f);
     }
   });
+  if (report != nullptr) {
+    report->vertices = n;
+    report->observations = total_observations;
+    report->colored_vertices = static_cast<size_t>(std::count_if(
+        out.view_count.values.begin(), out.view_count.values.end(), [](float c) { return c > 0; }));
+  }
+  return out;
+}
+
+mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
+                        const std::vector<size_t>& views, const ColorizeOptions& options,
+                        ColorizeReport* report) {
+  mesh.Validate("mesh");
+  mesh::Mesh geometry;  // positions, faces and normals only: the occlusion model
+  geometry.positions = mesh.positions;
+  geometry.faces = mesh.faces;
+  geometry.normals = mesh.normals;
+  geometry.radii = mesh.radii;
+  ModelOptions model_options;
+  model_options.load_textures = false;
+  const RenderModel model(std::move(geometry), model_options, "mesh");
+  VertexColors colors = ColorizeVertices(model, scene, views, options, report);
+  mesh::Mesh out = mesh;
+  out.colors = std::move(colors.colors);
   out.scalars.erase(
       std::remove_if(out.scalars.begin(), out.scalars.end(),
                      [](const mesh::VertexScalar& s) { return s.name == "view_count"; }),
       out.scalars.end());
-  if (report != nullptr) {
-    report->vertices = n;
-    report->observations = total_observations;
-    report->colored_vertices = static_cast<size_t>(
-        std::count_if(counts.values.begin(), counts.values.end(), [](float c) { return c > 0; }));
-  }
-  out.scalars.push_back(std::move(counts));
+  out.scalars.push_back(std::move(colors.view_count));
   return out;
 }
 

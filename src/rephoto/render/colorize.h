@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "rephoto/mesh/mesh.h"
+#include "rephoto/render/render_model.h"
 #include "rephoto/scene/scene.h"
 
 namespace rephoto::render {
@@ -50,5 +51,16 @@ struct ColorizeReport {
 mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
                         const std::vector<size_t>& views, const ColorizeOptions& options = {},
                         ColorizeReport* report = nullptr);
+
+// The same colours for the mesh of a model whose BVH is already built (the occlusion tests use
+// it), so that one BVH serves colouring, rendering (RenderModel::SetVertexColors) and error
+// projection. The model's existing colours are ignored.
+struct VertexColors {
+  std::vector<Eigen::Vector3f> colors;  // one per vertex, 0 where no view sees it
+  mesh::VertexScalar view_count;        // "view_count": how many views saw each vertex
+};
+VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scene,
+                              const std::vector<size_t>& views, const ColorizeOptions& options = {},
+                              ColorizeReport* report = nullptr);
 
 }  // namespace rephoto::render

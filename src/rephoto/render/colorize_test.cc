@@ -151,6 +151,39 @@ TEST(ColorizeTest, OcclusionAndFacing) {
 }
 
 // Downscales by an integer factor with a box filter (area average).
+TEST(ColorizeTest, SharedModelColoursRenderAsVertexColours) {
+  // One BVH for colouring and rendering: the colours match ColorizeMesh's exactly, and the
+  // plain model renders them once SetVertexColors gave them to it.
+  const auto dir = testing::MakeTempDir();
+  const scene::Scene scene = ThreeViewScene(dir);
+  const mesh::Mesh mesh = PlaneGrid();
+  const mesh::Mesh expected = ColorizeMesh(mesh, scene, {0, 1, 2}, {});
+  RenderModel model(mesh);
+  EXPECT_EQ(model.representation(), Representation::kPlainMesh);
+  ColorizeReport report;
+  VertexColors colors = ColorizeVertices(model, scene, {0, 1, 2}, {}, &report);
+  EXPECT_EQ(report.colored_vertices, mesh.positions.size());
+  ASSERT_EQ(colors.colors.size(), expected.colors.size());
+  for (size_t i = 0; i < colors.colors.size(); ++i) {
+    EXPECT_EQ(colors.colors[i], expected.colors[i]) << i;
+    EXPECT_EQ(colors.view_count.values[i], expected.scalars.back().values[i]) << i;
+  }
+  EXPECT_EQ(colors.view_count.name, "view_count");
+  model.SetVertexColors(colors.colors);
+  model.SetVertexScalar(colors.view_count);
+  model.SetVertexScalar(colors.view_count);  // replaces, does not add
+  EXPECT_EQ(model.representation(), Representation::kVertexColoredMesh);
+  EXPECT_EQ(model.mesh().scalars.size(), 1u);
+  const Rephoto shot = RenderRephoto(model, scene.CameraOf(scene.views[0]),
+                                     scene.views[0].cam_from_world, RenderOptions{});
+  const int cx = shot.color.width() / 2, cy = shot.color.height() / 2;
+  const Eigen::Vector3f centre(shot.color.at(cx, cy, 0), shot.color.at(cx, cy, 1),
+                               shot.color.at(cx, cy, 2));
+  EXPECT_LT((centre - PlaneColor(0, 0)).cwiseAbs().maxCoeff(), 0.02f);
+  EXPECT_THROW(model.SetVertexColors(std::vector<Eigen::Vector3f>(3)), Error);
+  EXPECT_THROW(model.SetVertexScalar({"x", std::vector<float>(3)}), Error);
+}
+
 Image BoxDownscale(const Image& image, int factor) {
   Image out(image.width() / factor, image.height() / factor, 3);
   for (int y = 0; y < out.height(); ++y) {

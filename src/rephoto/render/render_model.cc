@@ -206,6 +206,29 @@ RenderModel::~RenderModel() {
   if (device_ != nullptr) rtcReleaseDevice(device_);
 }
 
+void RenderModel::SetVertexColors(std::vector<Eigen::Vector3f> colors) {
+  REPHOTO_CHECK(!mesh_.faces.empty() && colors.size() == mesh_.positions.size(),
+                "vertex colours: {} colours for a mesh of {} vertices and {} faces", colors.size(),
+                mesh_.positions.size(), mesh_.faces.size());
+  mesh_.colors = std::move(colors);
+  if (representation_ != Representation::kTexturedMesh) {
+    representation_ = Representation::kVertexColoredMesh;
+  }
+}
+
+void RenderModel::SetVertexScalar(mesh::VertexScalar scalar) {
+  REPHOTO_CHECK(scalar.values.size() == mesh_.positions.size(),
+                "vertex scalar '{}': {} values for {} vertices", scalar.name, scalar.values.size(),
+                mesh_.positions.size());
+  for (mesh::VertexScalar& existing : mesh_.scalars) {
+    if (existing.name == scalar.name) {
+      existing = std::move(scalar);
+      return;
+    }
+  }
+  mesh_.scalars.push_back(std::move(scalar));
+}
+
 std::shared_ptr<const CameraRays> RenderModel::RaysFor(const camera::Camera& camera) const {
   {
     std::lock_guard<std::mutex> lock(rays_mutex_);

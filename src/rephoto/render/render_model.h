@@ -75,6 +75,14 @@ class RenderModel {
   // Seconds spent building the BVH (rtcCommitScene).
   double build_seconds() const { return build_seconds_; }
 
+  // Attributes that leave the geometry, and so the BVH, as it is: one BVH serves colouring a
+  // mesh (ColorizeVertices), rendering it and projecting errors onto it. Not thread-safe: call
+  // before the model is shared. SetVertexColors needs one colour per vertex of a mesh with faces;
+  // an untextured mesh then renders as kVertexColoredMesh. SetVertexScalar adds the scalar or
+  // replaces the one of the same name (one value per vertex).
+  void SetVertexColors(std::vector<Eigen::Vector3f> colors);
+  void SetVertexScalar(mesh::VertexScalar scalar);
+
   // The ray table for these intrinsics, from a small cache (the last few intrinsics used):
   // views sharing a camera reuse it. Thread-safe.
   std::shared_ptr<const CameraRays> RaysFor(const camera::Camera& camera) const;
