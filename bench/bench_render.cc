@@ -6,6 +6,10 @@
 // Run: build-*/bench/rephoto_bench_render --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 // Threads: all cores (TBB default); pass --threads=N through REPHOTO_BENCH_THREADS=N.
+// BM_RenderFile renders a mesh of your own at a scene's view, as `rephoto evaluate` does (when
+// REPHOTO_BENCH_MESH=model.ply and REPHOTO_BENCH_SCENE=scene are set; REPHOTO_BENCH_VIEW=N picks
+// the view, default 0, and REPHOTO_BENCH_SHORT_SIDE=S the evaluation resolution, default 768),
+// e.g. a reconstruction from examples/pipelines of ../shared/data/strecha_fountain_p11.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 
@@ -13,12 +17,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <vector>
 
 #include "rephoto/core/parallel.h"
 #include "rephoto/mesh/mesh.h"
+#include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
+#include "rephoto/scene/read_scene.h"
 
 #ifdef REPHOTO_BENCH_EGL
 #define EGL_EGLEXT_PROTOTYPES
@@ -150,6 +157,54 @@ void BM_Render(benchmark::State& state) {
       benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_RenderFile(benchmark::State& state) {
+  const char* mesh_path = std::getenv("REPHOTO_BENCH_MESH");
+  const char* scene_path = std::getenv("REPHOTO_BENCH_SCENE");
+  if (mesh_path == nullptr || scene_path == nullptr) {
+    state.SkipWithError("set REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE");
+    for (auto _ : state) {
+    }
+    return;
+  }
+  static const auto model =
+      std::make_unique<rephoto::render::RenderModel>(rephoto::mesh::ReadMesh(mesh_path));
+  const rephoto::scene::Scene scene = rephoto::scene::ReadScene(scene_path);
+  const char* view_env = std::getenv("REPHOTO_BENCH_VIEW");
+  const char* side_env = std::getenv("REPHOTO_BENCH_SHORT_SIDE");
+  const size_t view = view_env != nullptr ? std::strtoul(view_env, nullptr, 10) : 0;
+  const int side = side_env != nullptr ? std::atoi(side_env) : 768;
+  if (view >= scene.views.size() || side <= 0) {
+    state.SkipWithError("REPHOTO_BENCH_VIEW or REPHOTO_BENCH_SHORT_SIDE out of range");
+    for (auto _ : state) {
+    }
+    return;
+  }
+  Camera camera = scene.CameraOf(scene.views[view]);
+  const double scale = static_cast<double>(side) / std::min(camera.width, camera.height);
+  camera = camera.Scaled(static_cast<int>(std::lround(camera.width * scale)),
+                         static_cast<int>(std::lround(camera.height * scale)));
+  const auto rays = model->RaysFor(camera);
+  rephoto::render::RenderOptions options;
+  options.samples_per_pixel = static_cast<int>(state.range(0));
+  rephoto::render::Rephoto out;
+  const Pose& pose = scene.views[view].cam_from_world;
+  rephoto::render::RenderRephoto(*model, *rays, pose, options, &out);  // warm buffers
+  const double cpu_start = ProcessCpuSeconds();
+  for (auto _ : state) {
+    rephoto::render::RenderRephoto(*model, *rays, pose, options, &out);
+    benchmark::DoNotOptimize(out.color.data());
+  }
+  state.counters["cpu_ms_per_frame"] =
+      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
+  state.counters["coverage"] = Coverage(out.color);
+  state.counters["triangles"] = static_cast<double>(model->mesh().faces.size());
+  state.counters["Mrays/s"] =
+      benchmark::Counter(static_cast<double>(camera.width) * camera.height *
+                             options.samples_per_pixel * state.iterations() / 1e6,
+                         benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_RenderFile)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 #ifdef REPHOTO_BENCH_EGL
 const char* kVertexShader = R"(#version 330 core

@@ -430,6 +430,10 @@ class Evaluation {
   // Full-size photos decoded before downscaling: one buffer reused for all of them (a fresh
   // 6-24 MP float image costs more in zeroing and page faults than in decoding).
   Image full_photo_scratch_;
+  // Buffers of EvaluateView, reused from view to view (same sizes: no allocation, no page
+  // faults): the rendering, its depth, the rendering compared and the evaluation photo.
+  render::Rephoto rephoto_scratch_;
+  Image render_scratch_, eval_photo_scratch_;
   // The last built render model, reused by the next fold when its key is the same (one model
   // for all folds).
   std::string cached_model_key_;
@@ -1171,20 +1175,20 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
   const fs::path renders_dir = fold.dir / "renders";
   const fs::path errors_dir = fold.dir / "errors";
   fs::path render_path;
-  Image render;
+  Image& render = render_scratch_;
   auto start = Clock::now();
   if (outcome->reuse_render) {
     // Only compare settings changed: the rendering on disk is the one this view needs.
     render_path = renders_dir / (test.stem + ".png");
     io::ReadImage(render_path, &render);
   } else if (renderer != nullptr) {
-    render::Rephoto rephoto;
+    render::Rephoto& rephoto = rephoto_scratch_;
     renderer->Render(test, &rephoto);
     render_path = renders_dir / (test.stem + ".png");
     io::WritePng(render_path, rephoto.color);
     io::WriteExr(renders_dir / (test.stem + ".depth.exr"), rephoto.depth);
-    render = std::move(rephoto.color);
-    io::QuantizeAsPng(&render);  // the rendering compared is the PNG written
+    std::swap(render, rephoto.color);  // the next view renders into the previous buffer
+    io::QuantizeAsPng(&render);        // the rendering compared is the PNG written
     ++counters_.views_rendered;
   } else {
     render_path = FindImageByStem(fold.out_dir, test.stem);
@@ -1196,9 +1200,8 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
   timings_.render += outcome->render_seconds;
 
   start = Clock::now();
-  Image photo_buffer;
   fs::path photo_path;
-  const Image& photo = EvalPhoto(test, &photo_buffer, &photo_path);
+  const Image& photo = EvalPhoto(test, &eval_photo_scratch_, &photo_path);
   const std::optional<Mask> mask = EvalMask(test);
   std::error_code ec;
   if (o_.error_images) {

@@ -116,8 +116,11 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
     std::vector<Observation> observations;
   };
   std::vector<ViewObservations> seen(views.size());
-  std::vector<uint8_t> visible(n);
-  UninitVector<Observation> per_vertex(n);  // read only where visible[i] was set
+  // Each view's vertices are tested in fixed blocks, in parallel, each block listing what it
+  // sees; the lists are joined in block order (deterministic, no per-vertex scratch arrays).
+  constexpr int64_t kBlock = 8192;
+  const int64_t blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
+  std::vector<ViewObservations> block_lists(static_cast<size_t>(blocks));
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("colorize", views.size());
   // Photos are decoded two at a time (decoding dominates; one core each) into two reused
@@ -149,55 +152,62 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
     const double focal = camera.MeanFocalLength();
     const double min_x = 0.5, max_x = photo.width() - 0.5;
     const double min_y = 0.5, max_y = photo.height() - 0.5;
-    ParallelFor(0, static_cast<int64_t>(n), 2048, [&](int64_t begin, int64_t end) {
+    ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
-      for (int64_t i = begin; i < end; ++i) {
-        visible[i] = 0;
-        const Eigen::Vector3d p = mesh.positions[i].cast<double>();
-        const Eigen::Vector3d to_camera = center - p;
-        const double distance = to_camera.norm();
-        if (!(distance > 0)) continue;
-        double cosine = 1.0;
-        if (!normals.empty() && normals[i].squaredNorm() > 0) {
-          cosine = normals[i].cast<double>().normalized().dot(to_camera / distance);
-          if (cosine <= options.min_facing_cosine) continue;
+      for (int64_t block = block_begin; block < block_end; ++block) {
+        ViewObservations& found = block_lists[block];
+        found.vertices.clear();
+        found.observations.clear();
+        const int64_t begin = block * kBlock;
+        const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
+        for (int64_t i = begin; i < end; ++i) {
+          const Eigen::Vector3d p = mesh.positions[i].cast<double>();
+          const Eigen::Vector3d to_camera = center - p;
+          const double distance = to_camera.norm();
+          if (!(distance > 0)) continue;
+          double cosine = 1.0;
+          if (!normals.empty() && normals[i].squaredNorm() > 0) {
+            cosine = normals[i].cast<double>().normalized().dot(to_camera / distance);
+            if (cosine <= options.min_facing_cosine) continue;
+          }
+          const auto pixel = camera.ImgFromCam(view.cam_from_world.CamFromWorld(p));
+          if (!pixel || !(pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
+                          pixel->y() <= max_y)) {
+            continue;
+          }
+          RTCRay ray;
+          ray.org_x = static_cast<float>(center.x());
+          ray.org_y = static_cast<float>(center.y());
+          ray.org_z = static_cast<float>(center.z());
+          ray.dir_x = static_cast<float>(-to_camera.x());
+          ray.dir_y = static_cast<float>(-to_camera.y());
+          ray.dir_z = static_cast<float>(-to_camera.z());
+          ray.tnear = 0.0f;
+          ray.tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
+          ray.mask = 0xFFFFFFFFu;
+          ray.time = 0.0f;
+          ray.flags = 0;
+          rtcOccluded1(rtc_scene, &context, &ray);
+          if (ray.tfar < 0) continue;  // something lies between the camera and the vertex
+          const double density = focal / distance;
+          found.vertices.push_back(static_cast<uint32_t>(i));
+          found.observations.push_back(
+              {static_cast<float>(cosine * density * density),
+               photo.is8 ? SampleBilinear(photo.bytes, pixel->x(), pixel->y())
+                         : SampleBilinear(photo.floats, pixel->x(), pixel->y())});
         }
-        const auto pixel = camera.ImgFromCam(view.cam_from_world.CamFromWorld(p));
-        if (!pixel || !(pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
-                        pixel->y() <= max_y)) {
-          continue;
-        }
-        RTCRay ray;
-        ray.org_x = static_cast<float>(center.x());
-        ray.org_y = static_cast<float>(center.y());
-        ray.org_z = static_cast<float>(center.z());
-        ray.dir_x = static_cast<float>(-to_camera.x());
-        ray.dir_y = static_cast<float>(-to_camera.y());
-        ray.dir_z = static_cast<float>(-to_camera.z());
-        ray.tnear = 0.0f;
-        ray.tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
-        ray.mask = 0xFFFFFFFFu;
-        ray.time = 0.0f;
-        ray.flags = 0;
-        rtcOccluded1(rtc_scene, &context, &ray);
-        if (ray.tfar < 0) continue;  // something lies between the camera and the vertex
-        visible[i] = 1;
-        const double density = focal / distance;
-        per_vertex[i] = {static_cast<float>(cosine * density * density),
-                         photo.is8 ? SampleBilinear(photo.bytes, pixel->x(), pixel->y())
-                                   : SampleBilinear(photo.floats, pixel->x(), pixel->y())};
       }
     });
     ViewObservations& list = seen[position];
-    const size_t count = static_cast<size_t>(std::count(visible.begin(), visible.end(), 1));
+    size_t count = 0;
+    for (const ViewObservations& found : block_lists) count += found.vertices.size();
     list.vertices.reserve(count);
     list.observations.reserve(count);
-    for (size_t i = 0; i < n; ++i) {
-      if (visible[i]) {
-        list.vertices.push_back(static_cast<uint32_t>(i));
-        list.observations.push_back(per_vertex[i]);
-      }
+    for (const ViewObservations& found : block_lists) {
+      list.vertices.insert(list.vertices.end(), found.vertices.begin(), found.vertices.end());
+      list.observations.insert(list.observations.end(), found.observations.begin(),
+                               found.observations.end());
     }
     if (progress) progress->Advance(view.name);
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
@@ -132,23 +133,63 @@ struct Shader {
   }
 };
 
+// SampleOffset's pattern with what does not depend on the pixel computed once per rendering.
+class SampleGrid {
+ public:
+  explicit SampleGrid(const RenderOptions& options)
+      : jitter_(options.pattern == SamplePattern::kStratifiedJittered),
+        n_(options.samples_per_pixel) {
+    kx_ = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n_))));
+    ky_ = (n_ + kx_ - 1) / kx_;
+    exact_reciprocals_ = PowerOfTwo(kx_) && PowerOfTwo(ky_);
+    inv_kx_ = 1.0f / static_cast<float>(kx_);
+    inv_ky_ = 1.0f / static_cast<float>(ky_);
+    const uint32_t seed = Hash(options.seed);
+    sample_hash_.resize(std::max(n_, 1));
+    for (int s = 0; s < n_; ++s) sample_hash_[s] = Hash(static_cast<uint32_t>(s) ^ seed);
+  }
+  Eigen::Vector2f Offset(int x, int y, int sample) const {
+    if (n_ <= 1) return Eigen::Vector2f(0.5f, 0.5f);
+    const int cx = sample % kx_, cy = sample / kx_;
+    float jx = 0.5f, jy = 0.5f;
+    if (jitter_) {
+      const uint32_t h = Hash(static_cast<uint32_t>(x) * 0x9E3779B1u ^
+                              Hash(static_cast<uint32_t>(y) * 0x85EBCA77u ^ sample_hash_[sample]));
+      jx = UnitFloat(h);
+      jy = UnitFloat(Hash(h ^ 0x68E31DA4u));
+    }
+    if (exact_reciprocals_) return Eigen::Vector2f((cx + jx) * inv_kx_, (cy + jy) * inv_ky_);
+    return Eigen::Vector2f((cx + jx) / kx_, (cy + jy) / ky_);
+  }
+
+ private:
+  static bool PowerOfTwo(int k) { return k > 0 && (k & (k - 1)) == 0; }
+  bool jitter_;
+  int n_, kx_ = 1, ky_ = 1;
+  // Multiplying by 1/k equals dividing by k exactly when k is a power of two (e.g. 4 samples).
+  bool exact_reciprocals_ = false;
+  float inv_kx_ = 1, inv_ky_ = 1;
+  std::vector<uint32_t> sample_hash_;
+};
+
+// Lane `lane` of packet `p` of a tile: its pixel (0..15, row-major in the 4 x 4 tile) and sample.
+// samples_per_packet 4: packet p = block * groups + group covers the 2 x 2 block `block` and
+// samples 4 * group .. 4 * group + 3 (lane = 4 * sample-in-group + pixel-in-block); 1: packet p
+// is sample p of all 16 pixels.
+inline int PacketPixel(int p, int lane, int samples_per_packet, int groups) {
+  if (samples_per_packet == 1) return lane;
+  const int block = p / groups, in_block = lane & 3;
+  return ((block >> 1) * 2 + (in_block >> 1)) * 4 + (block & 1) * 2 + (in_block & 1);
+}
+inline int PacketSample(int p, int lane, int samples_per_packet, int groups) {
+  if (samples_per_packet == 1) return p;
+  return (p % groups) * 4 + (lane >> 2);
+}
+
 }  // namespace
 
 Eigen::Vector2f SampleOffset(int x, int y, int sample, const RenderOptions& options) {
-  const int n = options.samples_per_pixel;
-  if (n <= 1) return Eigen::Vector2f(0.5f, 0.5f);
-  const int kx = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
-  const int ky = (n + kx - 1) / kx;
-  const int cx = sample % kx, cy = sample / kx;
-  float jx = 0.5f, jy = 0.5f;
-  if (options.pattern == SamplePattern::kStratifiedJittered) {
-    const uint32_t h = Hash(static_cast<uint32_t>(x) * 0x9E3779B1u ^
-                            Hash(static_cast<uint32_t>(y) * 0x85EBCA77u ^
-                                 Hash(static_cast<uint32_t>(sample) ^ Hash(options.seed))));
-    jx = UnitFloat(h);
-    jy = UnitFloat(Hash(h ^ 0x68E31DA4u));
-  }
-  return Eigen::Vector2f((cx + jx) / kx, (cy + jy) / ky);
+  return SampleGrid(options).Offset(x, y, sample);
 }
 
 void RenderRephoto(const RenderModel& model, const CameraRays& rays,
@@ -173,6 +214,13 @@ void RenderRephoto(const RenderModel& model, const CameraRays& rays,
   const float inf = std::numeric_limits<float>::infinity();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const int tile_rows = (height + kTile - 1) / kTile;
+  const SampleGrid grid(options);
+  // Packets of a 4 x 4 tile: with 4 or more samples per pixel, the 4 samples of a 2 x 2 pixel
+  // block (a narrow packet meets fewer BVH nodes than 16 pixels' worth of one sample each),
+  // else one sample of all 16 pixels.
+  const int samples_per_packet = spp >= 4 ? 4 : 1;
+  const int groups = (spp + samples_per_packet - 1) / samples_per_packet;  // per pixel block
+  const int packets = (samples_per_packet == 4 ? 4 : 1) * groups;
   RTCScene scene = model.scene();
 
   ParallelFor(0, tile_rows, 1, [&](int64_t row_begin, int64_t row_end) {
@@ -184,6 +232,7 @@ void RenderRephoto(const RenderModel& model, const CameraRays& rays,
     alignas(64) RTCRayHit16 packet;
     alignas(64) int valid[16];
     float sample_x[16], sample_y[16];
+    int lane_pixel[16];
     float sum_r[16], sum_g[16], sum_b[16], nearest[16];
     int hits[16];
     for (int64_t tile_row = row_begin; tile_row < row_end; ++tile_row) {
@@ -194,14 +243,17 @@ void RenderRephoto(const RenderModel& model, const CameraRays& rays,
           nearest[i] = inf;
           hits[i] = 0;
         }
-        for (int s = 0; s < spp; ++s) {
+        for (int p = 0; p < packets; ++p) {
           int active = 0;
           for (int i = 0; i < 16; ++i) {
-            const int px = x0 + (i & 3), py = y0 + (i >> 2);
+            const int pixel = PacketPixel(p, i, samples_per_packet, groups);
+            const int s = PacketSample(p, i, samples_per_packet, groups);
+            const int px = x0 + (pixel & 3), py = y0 + (pixel >> 2);
+            lane_pixel[i] = pixel;
             valid[i] = 0;
             packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-            if (px >= width || py >= height) continue;
-            const Eigen::Vector2f offset = SampleOffset(px, py, s, options);
+            if (px >= width || py >= height || s >= spp) continue;
+            const Eigen::Vector2f offset = grid.Offset(px, py, s);
             sample_x[i] = static_cast<float>(px) + offset.x();
             sample_y[i] = static_cast<float>(py) + offset.y();
             float xn, yn;
@@ -224,17 +276,19 @@ void RenderRephoto(const RenderModel& model, const CameraRays& rays,
           }
           if (active == 0) continue;
           rtcIntersect16(valid, scene, &context.context, &packet);
+          // Lanes in order: each pixel's samples are summed in increasing sample order.
           for (int i = 0; i < 16; ++i) {
             if (valid[i] == 0 || packet.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
             // dir has camera-frame z = 1, so the ray parameter is the camera-frame depth.
             const float z = packet.ray.tfar[i];
             const Eigen::Vector3f c = shader.Shade(packet.hit.primID[i], packet.hit.u[i],
                                                    packet.hit.v[i], sample_x[i], sample_y[i]);
-            sum_r[i] += c.x();
-            sum_g[i] += c.y();
-            sum_b[i] += c.z();
-            nearest[i] = std::min(nearest[i], z);
-            ++hits[i];
+            const int k = lane_pixel[i];
+            sum_r[k] += c.x();
+            sum_g[k] += c.y();
+            sum_b[k] += c.z();
+            nearest[k] = std::min(nearest[k], z);
+            ++hits[k];
           }
         }
         for (int i = 0; i < 16; ++i) {
