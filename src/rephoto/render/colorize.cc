@@ -152,13 +152,41 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
     const double focal = camera.MeanFocalLength();
     const double min_x = 0.5, max_x = photo.width() - 0.5;
     const double min_y = 0.5, max_y = photo.height() - 0.5;
+    const float org_x = static_cast<float>(center.x()), org_y = static_cast<float>(center.y()),
+                org_z = static_cast<float>(center.z());
+    const float tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
     ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
+      // Occlusion rays go 16 at a time (neighbouring vertices: a coherent packet from the
+      // camera centre); lanes keep vertex order.
+      alignas(64) RTCRay16 packet;
+      alignas(64) int valid[16];
+      struct Lane {
+        uint32_t vertex;
+        float weight;
+        double px, py;
+      };
+      Lane lanes[16];
+      int count = 0;
+      ViewObservations* found = nullptr;
+      auto trace = [&] {
+        for (int k = count; k < 16; ++k) valid[k] = 0;
+        rtcOccluded16(valid, rtc_scene, &context, &packet);
+        for (int k = 0; k < count; ++k) {
+          if (packet.tfar[k] < 0) continue;  // something lies between the camera and the vertex
+          found->vertices.push_back(lanes[k].vertex);
+          found->observations.push_back(
+              {lanes[k].weight, photo.is8
+                                    ? SampleBilinear(photo.bytes, lanes[k].px, lanes[k].py)
+                                    : SampleBilinear(photo.floats, lanes[k].px, lanes[k].py)});
+        }
+        count = 0;
+      };
       for (int64_t block = block_begin; block < block_end; ++block) {
-        ViewObservations& found = block_lists[block];
-        found.vertices.clear();
-        found.observations.clear();
+        found = &block_lists[block];
+        found->vertices.clear();
+        found->observations.clear();
         const int64_t begin = block * kBlock;
         const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
         for (int64_t i = begin; i < end; ++i) {
@@ -176,27 +204,25 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
                           pixel->y() <= max_y)) {
             continue;
           }
-          RTCRay ray;
-          ray.org_x = static_cast<float>(center.x());
-          ray.org_y = static_cast<float>(center.y());
-          ray.org_z = static_cast<float>(center.z());
-          ray.dir_x = static_cast<float>(-to_camera.x());
-          ray.dir_y = static_cast<float>(-to_camera.y());
-          ray.dir_z = static_cast<float>(-to_camera.z());
-          ray.tnear = 0.0f;
-          ray.tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
-          ray.mask = 0xFFFFFFFFu;
-          ray.time = 0.0f;
-          ray.flags = 0;
-          rtcOccluded1(rtc_scene, &context, &ray);
-          if (ray.tfar < 0) continue;  // something lies between the camera and the vertex
+          packet.org_x[count] = org_x;
+          packet.org_y[count] = org_y;
+          packet.org_z[count] = org_z;
+          packet.dir_x[count] = static_cast<float>(-to_camera.x());
+          packet.dir_y[count] = static_cast<float>(-to_camera.y());
+          packet.dir_z[count] = static_cast<float>(-to_camera.z());
+          packet.tnear[count] = 0.0f;
+          packet.tfar[count] = tfar;
+          packet.mask[count] = 0xFFFFFFFFu;
+          packet.time[count] = 0.0f;
+          packet.flags[count] = 0;
+          packet.id[count] = static_cast<unsigned>(count);
+          valid[count] = -1;
           const double density = focal / distance;
-          found.vertices.push_back(static_cast<uint32_t>(i));
-          found.observations.push_back(
-              {static_cast<float>(cosine * density * density),
-               photo.is8 ? SampleBilinear(photo.bytes, pixel->x(), pixel->y())
-                         : SampleBilinear(photo.floats, pixel->x(), pixel->y())});
+          lanes[count] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
+                          pixel->x(), pixel->y()};
+          if (++count == 16) trace();
         }
+        if (count > 0) trace();  // a block's list holds its own vertices only
       }
     });
     ViewObservations& list = seen[position];
