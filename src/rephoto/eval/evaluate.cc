@@ -1627,7 +1627,11 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
   const std::string metric_name(metrics::MetricName(metric));
   std::vector<project::ProjectView> views;
   Hasher key;
-  key.Add(kKeyVersion).Add("project").Add(model_key).Add(metric_name).Add(RenderSettingsKey());
+  key.Add(kKeyVersion)
+      .Add("project/rendering-depth")
+      .Add(model_key)
+      .Add(metric_name)
+      .Add(RenderSettingsKey());
   for (const FoldState* fold : folds) {
     for (size_t i = 0; i < fold->tests.size() && i < fold->views.size(); ++i) {
       if (!fold->views[i].ok) continue;
@@ -1636,8 +1640,14 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
       view.camera = test.camera;
       view.cam_from_world = test.pose;
       view.error_image = fold->dir / "errors" / (test.stem + "." + metric_name + ".exr");
+      const fs::path depth = fold->dir / "renders" / (test.stem + ".depth.exr");
+      std::error_code exists_ec;
+      if (o_.representation == "auto" && fs::is_regular_file(depth, exists_ec)) {
+        // The model's own rendering made these errors: its depth map needs no second render.
+        view.depth_image = depth;
+      }
       view.name = fold->name + "/" + test.stem;
-      key.Add(view.name).Add(fold->views[i].key);
+      key.Add(view.name).Add(fold->views[i].key).Add(view.depth_image.empty() ? "render" : "file");
       views.push_back(std::move(view));
     }
   }

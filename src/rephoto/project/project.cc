@@ -76,6 +76,15 @@ void CheckViews(const std::vector<ProjectView>& views, const ProjectOptions& opt
     view.cam_from_world.Validate(label);
     const io::ImageHeader header = io::ReadImageHeader(view.error_image);
     CameraForImage(view, header.width, header.height, header.channels, options);
+    if (!view.depth_image.empty()) {
+      const io::ImageHeader depth = io::ReadImageHeader(view.depth_image);
+      REPHOTO_CHECK(
+          depth.channels == 1 && depth.width == header.width && depth.height == header.height,
+          "{}: depth image is {}x{} with {} channels, expected {}x{} with 1 (the size "
+          "of {})",
+          view.depth_image.string(), depth.width, depth.height, depth.channels, header.width,
+          header.height, view.error_image.string());
+    }
   }
 }
 
@@ -291,7 +300,16 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
 
     start = std::chrono::steady_clock::now();
     const std::shared_ptr<const render::CameraRays> rays = model.RaysFor(camera);
-    render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
+    if (view.depth_image.empty()) {
+      render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
+    } else {
+      io::ReadImage(view.depth_image, &rephoto.depth);
+      REPHOTO_CHECK(rephoto.depth.channels() == 1 && rephoto.depth.width() == error.width() &&
+                        rephoto.depth.height() == error.height(),
+                    "{}: depth image is {}x{} with {} channels, expected {}x{} with 1",
+                    view.depth_image.string(), rephoto.depth.width(), rephoto.depth.height(),
+                    rephoto.depth.channels(), error.width(), error.height());
+    }
     result.render_seconds += Seconds(start);
 
     start = std::chrono::steady_clock::now();

@@ -11,7 +11,9 @@
 //      outside the usable field of view of a distorted camera, where ImgFromCam folds over);
 //   3. its depth agrees with the model's own depth map at the pixel containing p, P =
 //      (floor(p.x), floor(p.y)): the depth d(P) rendered by the built-in renderer
-//      (render/render.h, one sample per pixel at the pixel centre, camera-frame z) is finite and
+//      (render/render.h, one sample per pixel at the pixel centre, camera-frame z; or the
+//      ProjectView's depth_image, the nearest of the error rendering's samples, which lies
+//      within the same pixel and so within the same bound below) is finite and
 //      |z - d(P)| <= Tolerance(z), with
 //          Tolerance(z) = depth_tolerance * z + footprint_tolerance * z / f  (+ r for points)
 //      where f is the camera's mean focal length in pixels (so z / f is the size of one pixel on
@@ -102,6 +104,12 @@ struct ProjectView {
   std::filesystem::path
       error_image;   // 1-channel float EXR (any io::ReadImage format), NaN = not evaluated
   std::string name;  // for messages and progress ("fold_00/view_003"); may be empty
+  // Optional: the depth map of the very rendering the errors were computed from (1-channel
+  // camera-frame z per pixel, NaN = no surface; the same size as the error image), e.g.
+  // `rephoto evaluate`'s renders/<view>.depth.exr, which holds per pixel the nearest of the
+  // rendering's samples. Used instead of rendering the model, so it must be a rendering of this
+  // model at this view. Empty: the model is rendered (one sample at each pixel centre).
+  std::filesystem::path depth_image;
 };
 
 struct ProjectResult {

@@ -11,6 +11,7 @@
 #include "rephoto/core/parallel.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
+#include "rephoto/render/render.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::project {
@@ -169,6 +170,39 @@ TEST(ProjectErrors, PlaneWithOccluderGivesTheHandComputedMeansAndCounts) {
   // 2.5 % -> 0.825 (between two 0.2), 97.5 % -> 32.175 (between two 0.6).
   EXPECT_FLOAT_EQ(result.low, 0.2f);
   EXPECT_FLOAT_EQ(result.high, 0.6f);
+}
+
+TEST(ProjectErrors, DepthImagesOfTheErrorRenderingGiveTheSameAnswer) {
+  // evaluate passes its own renderings' depth (4 jittered samples per pixel, the nearest kept)
+  // instead of a second rendering: the hand-computed answer is the same.
+  const fs::path dir = testing::MakeTempDir();
+  std::vector<ProjectView> views = ConstantViews(dir);
+  const render::RenderModel model(MakeScene(false));
+  render::RenderOptions options;
+  options.samples_per_pixel = 4;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const render::Rephoto shot =
+        render::RenderRephoto(model, views[v].camera, views[v].cam_from_world, options);
+    views[v].depth_image = dir / ("depth" + std::to_string(v) + ".exr");
+    io::WriteExr(views[v].depth_image, shot.depth);
+  }
+  const ProjectResult result = ProjectErrors(MakeScene(false), views, {});
+  ExpectMatches(result, ExpectedConstant(35), 35);
+  EXPECT_THAT(result.view_seen_vertices, ::testing::ElementsAre(29u, 23u));
+
+  // The depth file is what decides: a depth map without surfaces hides everything.
+  io::WriteExr(dir / "empty.exr", Image(200, 200, 1, std::nanf("")));
+  views[0].depth_image = views[1].depth_image = dir / "empty.exr";
+  EXPECT_EQ(ProjectErrors(MakeScene(false), views, {}).seen_vertices, 0u);
+  // One that does not fit the error image is refused, naming it.
+  io::WriteExr(dir / "small_depth.exr", Image(100, 100, 1, 5.0f));
+  views[0].depth_image = dir / "small_depth.exr";
+  try {
+    ProjectErrors(MakeScene(false), views, {});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("small_depth.exr"));
+  }
 }
 
 TEST(ProjectErrors, PercentilesInterpolateBetweenOrderStatistics) {
