@@ -24,6 +24,7 @@
 #include "rephoto/core/parallel.h"
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/mesh/read_mesh.h"
+#include "rephoto/render/colorize.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/read_scene.h"
 
@@ -158,6 +159,64 @@ void BM_Render(benchmark::State& state) {
 }
 BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The model of REPHOTO_BENCH_MESH (empty without it), read once.
+const rephoto::mesh::Mesh* FileMesh() {
+  static const std::unique_ptr<rephoto::mesh::Mesh> mesh = []() {
+    const char* path = std::getenv("REPHOTO_BENCH_MESH");
+    return path == nullptr ? nullptr
+                           : std::make_unique<rephoto::mesh::Mesh>(rephoto::mesh::ReadMesh(path));
+  }();
+  return mesh.get();
+}
+
+void BM_BuildBvhFile(benchmark::State& state) {
+  const rephoto::mesh::Mesh* mesh = FileMesh();
+  if (mesh == nullptr) {
+    state.SkipWithError("set REPHOTO_BENCH_MESH");
+    for (auto _ : state) {
+    }
+    return;
+  }
+  double build = 0;
+  const double cpu_start = ProcessCpuSeconds();
+  for (auto _ : state) {
+    rephoto::render::RenderModel model(*mesh);
+    build = model.build_seconds();
+    benchmark::DoNotOptimize(model.scene());
+  }
+  state.counters["cpu_ms"] =
+      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
+  state.counters["triangles"] = static_cast<double>(mesh->faces.size());
+  state.counters["commit_ms"] = build * 1e3;
+}
+BENCHMARK(BM_BuildBvhFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+// Colouring REPHOTO_BENCH_MESH from the first 3 photos of REPHOTO_BENCH_SCENE on its BVH (as
+// `rephoto evaluate --colorize` does per fold; photo decoding included).
+void BM_ColorizeFile(benchmark::State& state) {
+  const rephoto::mesh::Mesh* mesh = FileMesh();
+  const char* scene_path = std::getenv("REPHOTO_BENCH_SCENE");
+  if (mesh == nullptr || scene_path == nullptr) {
+    state.SkipWithError("set REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE");
+    for (auto _ : state) {
+    }
+    return;
+  }
+  const rephoto::scene::Scene scene = rephoto::scene::ReadScene(scene_path);
+  const rephoto::render::RenderModel model(*mesh);
+  std::vector<size_t> views;
+  for (size_t v = 0; v < std::min<size_t>(3, scene.views.size()); ++v) views.push_back(v);
+  const double cpu_start = ProcessCpuSeconds();
+  for (auto _ : state) {
+    auto colors = rephoto::render::ColorizeVertices(model, scene, views);
+    benchmark::DoNotOptimize(colors.colors.data());
+  }
+  state.counters["cpu_ms"] =
+      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
+  state.counters["vertices"] = static_cast<double>(mesh->positions.size());
+}
+BENCHMARK(BM_ColorizeFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
 void BM_RenderFile(benchmark::State& state) {
   const char* mesh_path = std::getenv("REPHOTO_BENCH_MESH");
   const char* scene_path = std::getenv("REPHOTO_BENCH_SCENE");
@@ -167,8 +226,7 @@ void BM_RenderFile(benchmark::State& state) {
     }
     return;
   }
-  static const auto model =
-      std::make_unique<rephoto::render::RenderModel>(rephoto::mesh::ReadMesh(mesh_path));
+  static const auto model = std::make_unique<rephoto::render::RenderModel>(*FileMesh());
   const rephoto::scene::Scene scene = rephoto::scene::ReadScene(scene_path);
   const char* view_env = std::getenv("REPHOTO_BENCH_VIEW");
   const char* side_env = std::getenv("REPHOTO_BENCH_SHORT_SIDE");
