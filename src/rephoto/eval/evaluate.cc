@@ -686,7 +686,7 @@ void Evaluation::PrepareFold(FoldState& fold) {
                         photo.width(), photo.height(), camera.width, camera.height);
           Image scaled;
           compare::ResizeImage(photo, w, h, &scaled);
-          io::WritePng(cached, scaled);
+          io::WritePng(cached, scaled, io::PngDepth::k8, io::PngCompression::kNone);
           WriteTextFileAtomically(cached_key, key);
           ++counters_.photos_downscaled;
         }
@@ -1150,7 +1150,7 @@ const Image& Evaluation::EvalPhoto(const TestView& test, Image* scratch, fs::pat
                 "{}: photo is {}x{} but its camera is {}x{}", test.photo.string(), photo.width(),
                 photo.height(), full.width, full.height);
   compare::ResizeImage(photo, test.camera.width, test.camera.height, scratch);
-  io::WritePng(cached, *scratch, io::PngDepth::k16);
+  io::WritePng(cached, *scratch, io::PngDepth::k16, io::PngCompression::kNone);
   WriteTextFileAtomically(key_file, key);
   ++counters_.photos_downscaled;
   // The values compared are the cached file's (as if read back).
