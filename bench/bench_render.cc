@@ -21,6 +21,7 @@
 #include <memory>
 #include <vector>
 
+#include "rephoto/core/memory.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/mesh/read_mesh.h"
@@ -496,6 +497,7 @@ BENCHMARK(BM_OpenGlLlvmpipe)->Arg(0)->Arg(4)->Unit(benchmark::kMillisecond)->Ite
 }  // namespace
 
 int main(int argc, char** argv) {
+  rephoto::KeepFreedMemory();  // as the rephoto CLI runs
   const char* threads = std::getenv("REPHOTO_BENCH_THREADS");
   rephoto::ThreadLimit limit(threads != nullptr ? std::atoi(threads) : 0);
   benchmark::Initialize(&argc, argv);

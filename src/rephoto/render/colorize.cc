@@ -62,26 +62,36 @@ Eigen::Vector3f SampleBilinear(const ImageType& photo, double px, double py) {
   return out;
 }
 
+// Scratch space of RobustMean, reused from vertex to vertex.
+struct RobustScratch {
+  std::vector<std::pair<float, float>> pairs;
+  std::vector<float> residuals;
+};
+
 Eigen::Vector3f RobustMean(const Observation* obs, size_t n, int iterations,
-                           std::vector<std::pair<float, float>>& scratch) {
+                           RobustScratch& scratch) {
   if (n == 1) return obs[0].color;
+  std::vector<std::pair<float, float>>& pairs = scratch.pairs;
   Eigen::Vector3f estimate;
   for (int k = 0; k < 3; ++k) {
-    scratch.clear();
-    for (size_t i = 0; i < n; ++i) scratch.emplace_back(obs[i].color[k], obs[i].weight);
-    estimate[k] = WeightedMedian(scratch);
+    pairs.clear();
+    for (size_t i = 0; i < n; ++i) pairs.emplace_back(obs[i].color[k], obs[i].weight);
+    estimate[k] = WeightedMedian(pairs);
   }
+  std::vector<float>& residuals = scratch.residuals;
+  residuals.resize(n);
   for (int it = 0; it < iterations; ++it) {
-    scratch.clear();
+    pairs.clear();
     for (size_t i = 0; i < n; ++i) {
-      scratch.emplace_back((obs[i].color - estimate).norm(), obs[i].weight);
+      residuals[i] = (obs[i].color - estimate).norm();
+      pairs.emplace_back(residuals[i], obs[i].weight);
     }
-    const float scale = std::max(1.4826f * WeightedMedian(scratch), 1.0f / 255.0f);
+    const float scale = std::max(1.4826f * WeightedMedian(pairs), 1.0f / 255.0f);
     const float c = 2.385f * scale;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     double weight_sum = 0;
     for (size_t i = 0; i < n; ++i) {
-      const float r = (obs[i].color - estimate).norm() / c;
+      const float r = residuals[i] / c;
       const double w = obs[i].weight / (1.0 + r * r);
       sum += w * obs[i].color.cast<double>();
       weight_sum += w;
@@ -247,7 +257,7 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
   size_t total_observations = 0;
   for (const ViewObservations& list : seen) total_observations += list.vertices.size();
   ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
-    std::vector<std::pair<float, float>> scratch;
+    RobustScratch scratch;
     std::vector<Observation> gathered;
     std::vector<size_t> cursor(seen.size());
     for (size_t v = 0; v < seen.size(); ++v) {
