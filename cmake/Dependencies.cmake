@@ -8,6 +8,9 @@ find_package(fmt REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(TURBOJPEG REQUIRED IMPORTED_TARGET libturbojpeg)
 pkg_check_modules(SPNG REQUIRED IMPORTED_TARGET spng)
+# PNG compression (io::EncodePng): libdeflate is faster than zlib at the same size.
+pkg_check_modules(DEFLATE REQUIRED IMPORTED_TARGET libdeflate)
+find_package(ZLIB REQUIRED)  # tests: an independent PNG decoder
 find_package(tinyexr REQUIRED)
 # rephoto evaluate: config files (TOML) and input hashes (XXH3).
 find_package(tomlplusplus REQUIRED)

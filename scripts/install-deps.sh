@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   clang libclang-rt-14-dev
   libembree-dev libtbb-dev libeigen3-dev
-  libturbojpeg0-dev libspng-dev libtinyexr-dev zlib1g-dev
+  libturbojpeg0-dev libspng-dev libdeflate-dev libtinyexr-dev zlib1g-dev
   libmeshoptimizer-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev libxxhash-dev
   libgtest-dev libgmock-dev libbenchmark-dev

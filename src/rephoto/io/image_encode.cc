@@ -1,9 +1,11 @@
 #include "rephoto/io/image_encode.h"
 
-#include <spng.h>
+#include <libdeflate.h>
 #include <turbojpeg.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 
 #include "rephoto/core/error.h"
@@ -20,8 +22,8 @@ void CheckPixels(std::span<const uint8_t> pixels, int width, int height, int cha
                 channels);
 }
 
-struct SpngDeleter {
-  void operator()(spng_ctx* ctx) const { spng_ctx_free(ctx); }
+struct CompressorDeleter {
+  void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
 };
 
 struct TjDeleter {
@@ -35,30 +37,100 @@ std::vector<uint8_t> EncodePngToMemory(std::span<const uint8_t> pixels, int widt
   REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: cannot encode {} channels as PNG", name,
                 channels);
   CheckPixels(pixels, width, height, channels, name);
-  static constexpr uint8_t kColorType[5] = {
-      0, SPNG_COLOR_TYPE_GRAYSCALE, SPNG_COLOR_TYPE_GRAYSCALE_ALPHA, SPNG_COLOR_TYPE_TRUECOLOR,
-      SPNG_COLOR_TYPE_TRUECOLOR_ALPHA};
-  std::unique_ptr<spng_ctx, SpngDeleter> ctx(spng_ctx_new(SPNG_CTX_ENCODER));
-  REPHOTO_CHECK(ctx, "{}: out of memory", name);
-  spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1);
-  spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, 6);
-  spng_ihdr ihdr{};
-  ihdr.width = static_cast<uint32_t>(width);
-  ihdr.height = static_cast<uint32_t>(height);
-  ihdr.bit_depth = 8;
-  ihdr.color_type = kColorType[channels];
-  int r = spng_set_ihdr(ctx.get(), &ihdr);
-  if (r == 0) {
-    r = spng_encode_image(ctx.get(), pixels.data(), pixels.size(), SPNG_FMT_PNG,
-                          SPNG_ENCODE_FINALIZE);
+  return EncodePng(pixels.data(), pixels.size(), width, height, channels, 8, 6, name);
+}
+
+std::vector<uint8_t> EncodePng(const void* pixels, size_t bytes, int width, int height,
+                               int channels, int depth, int level, const std::string& name) {
+  REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: cannot write {} channels as PNG", name,
+                channels);
+  REPHOTO_CHECK(width > 0 && height > 0, "{}: cannot encode an empty image ({}x{})", name, width,
+                height);
+  REPHOTO_CHECK(depth == 8 || depth == 16, "{}: PNG bit depth {} (8 or 16)", name, depth);
+  REPHOTO_CHECK(level >= 0 && level <= 12, "{}: PNG compression level {} (0-12)", name, level);
+  const size_t sample_bytes = static_cast<size_t>(depth / 8);
+  const size_t stride = static_cast<size_t>(width) * channels * sample_bytes;
+  REPHOTO_CHECK(bytes == stride * height, "{}: {} bytes given for a {}x{}x{} {}-bit image", name,
+                bytes, width, height, channels, depth);
+
+  // Filtered rows: a filter-type byte, then the row's bytes (16-bit samples big-endian) minus
+  // the row above's ("up"), or as they are (none: stored data stays readable by a plain copy).
+  const uint8_t filter = level == 0 ? 0 : 2;
+  thread_local std::vector<uint8_t> filtered, previous_row, row;
+  filtered.resize((stride + 1) * height);
+  previous_row.assign(stride, 0);
+  row.resize(stride);
+  const auto* in = static_cast<const uint8_t*>(pixels);
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* source = in + stride * y;
+    if (depth == 16) {
+      for (size_t i = 0; i < stride; i += 2) {
+        uint16_t v;
+        std::memcpy(&v, source + i, 2);
+        row[i] = static_cast<uint8_t>(v >> 8);
+        row[i + 1] = static_cast<uint8_t>(v & 0xff);
+      }
+      source = row.data();
+    }
+    uint8_t* out = filtered.data() + (stride + 1) * y;
+    out[0] = filter;
+    if (filter == 0) {
+      std::memcpy(out + 1, source, stride);
+    } else {
+      for (size_t i = 0; i < stride; ++i)
+        out[1 + i] = static_cast<uint8_t>(source[i] - previous_row[i]);
+      std::memcpy(previous_row.data(), source, stride);
+    }
   }
-  REPHOTO_CHECK(r == 0, "{}: PNG encoding failed: {}", name, spng_strerror(r));
-  size_t size = 0;
-  void* buffer = spng_get_png_buffer(ctx.get(), &size, &r);
-  REPHOTO_CHECK(buffer && r == 0, "{}: PNG encoding failed: {}", name, spng_strerror(r));
-  const uint8_t* bytes = static_cast<const uint8_t*>(buffer);
-  std::vector<uint8_t> png(bytes, bytes + size);
-  std::free(buffer);  // spng_get_png_buffer hands over a malloc'ed buffer
+
+  // One compressor per thread and level (allocating one costs more than a small image).
+  thread_local std::unique_ptr<libdeflate_compressor, CompressorDeleter> compressors[13];
+  auto& compressor = compressors[level];
+  if (!compressor) compressor.reset(libdeflate_alloc_compressor(level));
+  REPHOTO_CHECK(compressor, "{}: out of memory", name);
+  thread_local std::vector<uint8_t> deflated;
+  deflated.resize(libdeflate_zlib_compress_bound(compressor.get(), filtered.size()));
+  const size_t deflated_size = libdeflate_zlib_compress(
+      compressor.get(), filtered.data(), filtered.size(), deflated.data(), deflated.size());
+  REPHOTO_CHECK(deflated_size > 0, "{}: PNG compression failed", name);
+
+  static constexpr uint8_t kColorType[5] = {0, 0, 4, 2, 6};  // grey, grey+alpha, RGB, RGBA
+  std::vector<uint8_t> png;
+  png.reserve(deflated_size + 128);
+  auto append = [&png](const void* data, size_t size) {
+    const size_t at = png.size();
+    png.resize(at + size);
+    if (size > 0) std::memcpy(png.data() + at, data, size);
+  };
+  auto put32 = [&append](uint32_t v) {
+    const uint8_t b[4] = {static_cast<uint8_t>(v >> 24), static_cast<uint8_t>(v >> 16),
+                          static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v)};
+    append(b, 4);
+  };
+  auto chunk = [&](const char* type, const uint8_t* data, size_t size) {
+    put32(static_cast<uint32_t>(size));
+    const size_t start = png.size();
+    append(type, 4);
+    append(data, size);
+    put32(libdeflate_crc32(0, png.data() + start, size + 4));
+  };
+  const uint8_t signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  append(signature, 8);
+  uint8_t ihdr[13];
+  const uint32_t w = static_cast<uint32_t>(width), h = static_cast<uint32_t>(height);
+  for (int i = 0; i < 4; ++i) {
+    ihdr[i] = static_cast<uint8_t>(w >> (24 - 8 * i));
+    ihdr[4 + i] = static_cast<uint8_t>(h >> (24 - 8 * i));
+  }
+  ihdr[8] = static_cast<uint8_t>(depth);
+  ihdr[9] = kColorType[channels];
+  ihdr[10] = ihdr[11] = ihdr[12] = 0;  // deflate, adaptive filtering, no interlace
+  chunk("IHDR", ihdr, sizeof(ihdr));
+  constexpr size_t kMaxChunk = size_t{1} << 30;
+  for (size_t offset = 0; offset < deflated_size; offset += kMaxChunk) {
+    chunk("IDAT", deflated.data() + offset, std::min(kMaxChunk, deflated_size - offset));
+  }
+  chunk("IEND", nullptr, 0);
   return png;
 }
 
