@@ -192,7 +192,8 @@ void BM_BuildBvhFile(benchmark::State& state) {
 }
 BENCHMARK(BM_BuildBvhFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
 
-// Colouring REPHOTO_BENCH_MESH from the first 3 photos of REPHOTO_BENCH_SCENE on its BVH (as
+// Colouring REPHOTO_BENCH_MESH from the first 3 (REPHOTO_BENCH_VIEWS) photos of
+// REPHOTO_BENCH_SCENE on its BVH (as
 // `rephoto evaluate --colorize` does per fold; photo decoding included).
 void BM_ColorizeFile(benchmark::State& state) {
   const rephoto::mesh::Mesh* mesh = FileMesh();
@@ -206,7 +207,9 @@ void BM_ColorizeFile(benchmark::State& state) {
   const rephoto::scene::Scene scene = rephoto::scene::ReadScene(scene_path);
   const rephoto::render::RenderModel model(*mesh);
   std::vector<size_t> views;
-  for (size_t v = 0; v < std::min<size_t>(3, scene.views.size()); ++v) views.push_back(v);
+  const char* count_env = std::getenv("REPHOTO_BENCH_VIEWS");
+  const size_t count = count_env != nullptr ? std::strtoul(count_env, nullptr, 10) : 3;
+  for (size_t v = 0; v < std::min(count, scene.views.size()); ++v) views.push_back(v);
   const double cpu_start = ProcessCpuSeconds();
   for (auto _ : state) {
     auto colors = rephoto::render::ColorizeVertices(model, scene, views);
