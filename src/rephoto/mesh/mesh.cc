@@ -6,6 +6,11 @@
 
 namespace rephoto::mesh {
 
+void Mesh::SetScalar(VertexScalar scalar) {
+  std::erase_if(scalars, [&](const VertexScalar& s) { return s.name == scalar.name; });
+  scalars.push_back(std::move(scalar));
+}
+
 bool Mesh::is_textured() const {
   if (!has_texcoords() || faces.empty()) return false;
   for (const Material& material : materials) {

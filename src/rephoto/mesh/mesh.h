@@ -65,6 +65,8 @@ struct Mesh {
   bool has_texcoords() const { return !wedge_texcoords.empty() || !vertex_texcoords.empty(); }
   // True when some material has a diffuse texture and the mesh has texture coordinates.
   bool is_textured() const;
+  // Appends `scalar`, replacing (dropping) a scalar of the same name.
+  void SetScalar(VertexScalar scalar);
 
   // Texture coordinate of corner `corner` (0..2) of face `face` (wedge, else per vertex).
   // Precondition: has_texcoords().

@@ -119,18 +119,17 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
       mesh.normals.empty() ? computed_normals : mesh.normals;
   RTCScene rtc_scene = model.scene();
 
-  // Per view, the vertices it sees in increasing order with their observations (compact: no
-  // reallocation growth, no global scatter; grouped per vertex range in parallel below).
+  // Vertices are tested and their colours fused in fixed blocks, in parallel. seen[v][b]: the
+  // vertices of block b that view v sees, in increasing order, with their observations
+  // (compact lists: no per-vertex scratch arrays, no global scatter).
   struct ViewObservations {
     std::vector<uint32_t> vertices;
     std::vector<Observation> observations;
   };
-  std::vector<ViewObservations> seen(views.size());
-  // Each view's vertices are tested in fixed blocks, in parallel, each block listing what it
-  // sees; the lists are joined in block order (deterministic, no per-vertex scratch arrays).
   constexpr int64_t kBlock = 8192;
   const int64_t blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
-  std::vector<ViewObservations> block_lists(static_cast<size_t>(blocks));
+  std::vector<std::vector<ViewObservations>> seen(
+      views.size(), std::vector<ViewObservations>(static_cast<size_t>(blocks)));
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("colorize", views.size());
   // Photos are decoded two at a time (decoding dominates; one core each) into two reused
@@ -194,9 +193,7 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
         count = 0;
       };
       for (int64_t block = block_begin; block < block_end; ++block) {
-        found = &block_lists[block];
-        found->vertices.clear();
-        found->observations.clear();
+        found = &seen[position][block];
         const int64_t begin = block * kBlock;
         const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
         for (int64_t i = begin; i < end; ++i) {
@@ -235,49 +232,43 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
         if (count > 0) trace();  // a block's list holds its own vertices only
       }
     });
-    ViewObservations& list = seen[position];
-    size_t count = 0;
-    for (const ViewObservations& found : block_lists) count += found.vertices.size();
-    list.vertices.reserve(count);
-    list.observations.reserve(count);
-    for (const ViewObservations& found : block_lists) {
-      list.vertices.insert(list.vertices.end(), found.vertices.begin(), found.vertices.end());
-      list.observations.insert(list.observations.end(), found.observations.begin(),
-                               found.observations.end());
-    }
     if (progress) progress->Advance(view.name);
   }
   if (progress) progress->Finish();
 
-  // Each vertex's observations in view order (deterministic), gathered per vertex range by
-  // walking every view's sorted list from where the range starts.
+  // Each vertex's observations in view order (deterministic), gathered per block by walking
+  // every view's list of that block.
   VertexColors out;
   out.colors.assign(n, Eigen::Vector3f::Zero());
   out.view_count = {"view_count", std::vector<float>(n, 0.0f)};
   size_t total_observations = 0;
-  for (const ViewObservations& list : seen) total_observations += list.vertices.size();
-  ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
+  for (const auto& view_blocks : seen) {
+    for (const ViewObservations& list : view_blocks) total_observations += list.vertices.size();
+  }
+  ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
     RobustScratch scratch;
     std::vector<Observation> gathered;
     std::vector<size_t> cursor(seen.size());
-    for (size_t v = 0; v < seen.size(); ++v) {
-      const auto& ids = seen[v].vertices;
-      cursor[v] = static_cast<size_t>(
-          std::lower_bound(ids.begin(), ids.end(), static_cast<uint32_t>(begin)) - ids.begin());
-    }
-    for (int64_t i = begin; i < end; ++i) {
-      gathered.clear();
-      for (size_t v = 0; v < seen.size(); ++v) {
-        const auto& ids = seen[v].vertices;
-        if (cursor[v] < ids.size() && ids[cursor[v]] == static_cast<uint32_t>(i)) {
-          gathered.push_back(seen[v].observations[cursor[v]++]);
+    for (int64_t block = block_begin; block < block_end; ++block) {
+      std::fill(cursor.begin(), cursor.end(), 0);
+      const int64_t begin = block * kBlock;
+      const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
+      for (int64_t i = begin; i < end; ++i) {
+        gathered.clear();
+        for (size_t v = 0; v < seen.size(); ++v) {
+          const ViewObservations& list = seen[v][block];
+          if (cursor[v] < list.vertices.size() &&
+              list.vertices[cursor[v]] == static_cast<uint32_t>(i)) {
+            gathered.push_back(list.observations[cursor[v]++]);
+          }
         }
+        out.view_count.values[i] = static_cast<float>(gathered.size());
+        if (gathered.empty()) continue;
+        out.colors[i] =
+            RobustMean(gathered.data(), gathered.size(), options.irls_iterations, scratch)
+                .cwiseMax(0.0f)
+                .cwiseMin(1.0f);
       }
-      out.view_count.values[i] = static_cast<float>(gathered.size());
-      if (gathered.empty()) continue;
-      out.colors[i] = RobustMean(gathered.data(), gathered.size(), options.irls_iterations, scratch)
-                          .cwiseMax(0.0f)
-                          .cwiseMin(1.0f);
     }
   });
   if (report != nullptr) {
@@ -304,11 +295,7 @@ mesh::Mesh ColorizeMesh(const mesh::Mesh& mesh, const scene::Scene& scene,
   VertexColors colors = ColorizeVertices(model, scene, views, options, report);
   mesh::Mesh out = mesh;
   out.colors = std::move(colors.colors);
-  out.scalars.erase(
-      std::remove_if(out.scalars.begin(), out.scalars.end(),
-                     [](const mesh::VertexScalar& s) { return s.name == "view_count"; }),
-      out.scalars.end());
-  out.scalars.push_back(std::move(colors.view_count));
+  out.SetScalar(std::move(colors.view_count));
   return out;
 }
 

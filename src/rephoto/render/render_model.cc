@@ -220,13 +220,7 @@ void RenderModel::SetVertexScalar(mesh::VertexScalar scalar) {
   REPHOTO_CHECK(scalar.values.size() == mesh_.positions.size(),
                 "vertex scalar '{}': {} values for {} vertices", scalar.name, scalar.values.size(),
                 mesh_.positions.size());
-  for (mesh::VertexScalar& existing : mesh_.scalars) {
-    if (existing.name == scalar.name) {
-      existing = std::move(scalar);
-      return;
-    }
-  }
-  mesh_.scalars.push_back(std::move(scalar));
+  mesh_.SetScalar(std::move(scalar));
 }
 
 std::shared_ptr<const CameraRays> RenderModel::RaysFor(const camera::Camera& camera) const {

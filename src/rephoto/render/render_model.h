@@ -78,8 +78,8 @@ class RenderModel {
   // Attributes that leave the geometry, and so the BVH, as it is: one BVH serves colouring a
   // mesh (ColorizeVertices), rendering it and projecting errors onto it. Not thread-safe: call
   // before the model is shared. SetVertexColors needs one colour per vertex of a mesh with faces;
-  // an untextured mesh then renders as kVertexColoredMesh. SetVertexScalar adds the scalar or
-  // replaces the one of the same name (one value per vertex).
+  // an untextured mesh then renders as kVertexColoredMesh. SetVertexScalar is Mesh::SetScalar
+  // (one value per vertex).
   void SetVertexColors(std::vector<Eigen::Vector3f> colors);
   void SetVertexScalar(mesh::VertexScalar scalar);
 
