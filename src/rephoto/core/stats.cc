@@ -8,22 +8,35 @@
 namespace rephoto {
 namespace {
 
-std::vector<double> SortedFinite(std::span<const double> values) {
-  std::vector<double> sorted;
-  sorted.reserve(values.size());
+std::vector<double> NotNan(std::span<const double> values) {
+  std::vector<double> kept;
+  kept.reserve(values.size());
   for (double v : values) {
-    if (!std::isnan(v)) sorted.push_back(v);
+    if (!std::isnan(v)) kept.push_back(v);
   }
+  return kept;
+}
+
+std::vector<double> SortedFinite(std::span<const double> values) {
+  std::vector<double> sorted = NotNan(values);
   std::sort(sorted.begin(), sorted.end());
   return sorted;
 }
 
+// Quantile p of n > 0 sorted values: between the values of ranks `below` and `above`, at t.
+struct QuantilePosition {
+  size_t below, above;
+  double t;
+};
+QuantilePosition PositionOf(size_t n, double p) {
+  const double position = p * static_cast<double>(n - 1);
+  const size_t below = static_cast<size_t>(std::floor(position));
+  return {below, std::min(below + 1, n - 1), position - static_cast<double>(below)};
+}
+
 double SortedQuantile(const std::vector<double>& sorted, double p) {
   if (sorted.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const double position = p * static_cast<double>(sorted.size() - 1);
-  const size_t below = static_cast<size_t>(std::floor(position));
-  const size_t above = std::min(below + 1, sorted.size() - 1);
-  const double t = position - static_cast<double>(below);
+  const auto [below, above, t] = PositionOf(sorted.size(), p);
   return sorted[below] + t * (sorted[above] - sorted[below]);
 }
 
@@ -32,16 +45,9 @@ double SortedQuantile(const std::vector<double>& sorted, double p) {
 double Quantile(std::span<const double> values, double p) {
   // The same value as SortedQuantile on the sorted values, by selection (O(n), no full sort):
   // the element of rank `below` and the smallest one after it.
-  std::vector<double> finite;
-  finite.reserve(values.size());
-  for (double v : values) {
-    if (!std::isnan(v)) finite.push_back(v);
-  }
+  std::vector<double> finite = NotNan(values);
   if (finite.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const double position = p * static_cast<double>(finite.size() - 1);
-  const size_t below = static_cast<size_t>(std::floor(position));
-  const size_t above = std::min(below + 1, finite.size() - 1);
-  const double t = position - static_cast<double>(below);
+  const auto [below, above, t] = PositionOf(finite.size(), p);
   const auto nth = finite.begin() + static_cast<std::ptrdiff_t>(below);
   std::nth_element(finite.begin(), nth, finite.end());
   const double low = *nth;

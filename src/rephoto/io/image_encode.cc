@@ -34,9 +34,6 @@ struct TjDeleter {
 
 std::vector<uint8_t> EncodePngToMemory(std::span<const uint8_t> pixels, int width, int height,
                                        int channels, const std::string& name) {
-  REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: cannot encode {} channels as PNG", name,
-                channels);
-  CheckPixels(pixels, width, height, channels, name);
   return EncodePng(pixels.data(), pixels.size(), width, height, channels, 8, 6, name);
 }
 
@@ -56,14 +53,15 @@ std::vector<uint8_t> EncodePng(const void* pixels, size_t bytes, int width, int 
   // Filtered rows: a filter-type byte, then the row's bytes (16-bit samples big-endian) minus
   // the row above's ("up"), or as they are (none: stored data stays readable by a plain copy).
   const uint8_t filter = level == 0 ? 0 : 2;
-  thread_local std::vector<uint8_t> filtered, previous_row, row;
+  thread_local std::vector<uint8_t> filtered, rows[2];  // rows: big-endian copies of 16-bit rows
   filtered.resize((stride + 1) * height);
-  previous_row.assign(stride, 0);
-  row.resize(stride);
   const auto* in = static_cast<const uint8_t*>(pixels);
+  const uint8_t* above = nullptr;  // the previous row's bytes (none above the first)
   for (int y = 0; y < height; ++y) {
     const uint8_t* source = in + stride * y;
     if (depth == 16) {
+      std::vector<uint8_t>& row = rows[y % 2];
+      row.resize(stride);
       for (size_t i = 0; i < stride; i += 2) {
         uint16_t v;
         std::memcpy(&v, source + i, 2);
@@ -74,13 +72,12 @@ std::vector<uint8_t> EncodePng(const void* pixels, size_t bytes, int width, int 
     }
     uint8_t* out = filtered.data() + (stride + 1) * y;
     out[0] = filter;
-    if (filter == 0) {
-      std::memcpy(out + 1, source, stride);
+    if (filter == 0 || above == nullptr) {
+      std::memcpy(out + 1, source, stride);  // "up" from a row of zeros is the row itself
     } else {
-      for (size_t i = 0; i < stride; ++i)
-        out[1 + i] = static_cast<uint8_t>(source[i] - previous_row[i]);
-      std::memcpy(previous_row.data(), source, stride);
+      for (size_t i = 0; i < stride; ++i) out[1 + i] = static_cast<uint8_t>(source[i] - above[i]);
     }
+    above = source;
   }
 
   // One compressor per thread and level (allocating one costs more than a small image).

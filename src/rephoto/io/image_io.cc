@@ -594,9 +594,6 @@ struct FileHandle {
 
 void EncodePng(const fs::path& path, const void* pixels, size_t size, int width, int height,
                int channels, int depth, PngCompression compression = PngCompression::kFast) {
-  REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: cannot write {} channels as PNG",
-                path.string(), channels);
-  REPHOTO_CHECK(width > 0 && height > 0, "{}: cannot write an empty image", path.string());
   // kFast: libdeflate level 1 (zlib level 6 had taken 4 s of CPU for a 12 MP RGBA error image;
   // level 1 with the "up" filter writes a 1152x768 RGBA rendering in about 15 ms). kNone: stored
   // blocks, unfiltered: a cached 1152x768 16-bit photo decodes in 8 ms instead of 30 ms, for a

@@ -67,9 +67,9 @@ Mask ReadMask(const std::filesystem::path& path);
 void ReadMask(const std::filesystem::path& path, Mask* mask);
 
 enum class PngDepth { k8 = 8, k16 = 16 };
-// kFast: zlib level 2, run-length matches, "up" filter (renderings, error images). kNone: stored
-// deflate blocks without filtering, for caches read back often (files ~15 % larger for noisy
-// photos, decoded several times faster).
+// kFast: deflate level 1 with the "up" filter (renderings, error images). kNone: stored deflate
+// blocks without filtering, for caches read back often (files ~15 % larger for noisy photos,
+// decoded several times faster). Both through io::EncodePng (image_encode.h).
 enum class PngCompression { kFast, kNone };
 // Any channel count 1-4 (grey, grey+alpha, RGB, RGBA).
 void WritePng(const std::filesystem::path& path, const Image& image, PngDepth depth = PngDepth::k8,

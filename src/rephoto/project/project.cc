@@ -303,12 +303,7 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
     if (view.depth_image.empty()) {
       render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
     } else {
-      io::ReadImage(view.depth_image, &rephoto.depth);
-      REPHOTO_CHECK(rephoto.depth.channels() == 1 && rephoto.depth.width() == error.width() &&
-                        rephoto.depth.height() == error.height(),
-                    "{}: depth image is {}x{} with {} channels, expected {}x{} with 1",
-                    view.depth_image.string(), rephoto.depth.width(), rephoto.depth.height(),
-                    rephoto.depth.channels(), error.width(), error.height());
+      io::ReadImage(view.depth_image, &rephoto.depth);  // its size was checked by CheckViews
     }
     result.render_seconds += Seconds(start);
 
