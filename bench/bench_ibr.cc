@@ -9,12 +9,12 @@
 // Run: build-*/bench/rephoto_bench_ibr --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <memory>
 
+#include "bench_cpu.h"
 #include "rephoto/ibr/depth_map_io.h"
 #include "rephoto/ibr/image_based_renderer.h"
 #include "rephoto/ibr/plane_sweep.h"
@@ -64,27 +64,7 @@ struct Fixture {
   }
 };
 
-double ProcessCpuSeconds() {
-  rusage usage;
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
-         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
-
-// Process CPU time (all threads) per iteration: with other work on the machine, the wall time
-// depends on the load; cpu_ms / 2 is the wall time on 2 idle cores for well-parallel code.
-class CpuCounter {
- public:
-  explicit CpuCounter(benchmark::State& state) : state_(state), start_(ProcessCpuSeconds()) {}
-  ~CpuCounter() {
-    state_.counters["cpu_ms"] =
-        (ProcessCpuSeconds() - start_) * 1e3 / static_cast<double>(state_.iterations());
-  }
-
- private:
-  benchmark::State& state_;
-  double start_;
-};
+using rephoto::bench::CpuCounter;
 
 Fixture& GetFixture() {
   static Fixture fixture;

@@ -11,7 +11,6 @@
 // Run: build-*/bench/rephoto_bench_project --benchmark_repetitions=3
 //        --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -20,6 +19,7 @@
 #include <random>
 #include <vector>
 
+#include "rephoto/core/process.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/project/project.h"
 #include "rephoto/render/render_model.h"
@@ -30,12 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 using rephoto::project::ProjectView;
 
-double ProcessCpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
-         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
+using rephoto::ProcessCpuSeconds;
 
 struct Fixture {
   rephoto::mesh::Mesh mesh;

@@ -11,7 +11,6 @@
 // the view, default 0, and REPHOTO_BENCH_SHORT_SIDE=S the evaluation resolution, default 768),
 // e.g. a reconstruction from examples/pipelines of ../shared/data/strecha_fountain_p11.
 #include <benchmark/benchmark.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -21,8 +20,9 @@
 #include <memory>
 #include <vector>
 
-#include "rephoto/core/memory.h"
+#include "bench_cpu.h"
 #include "rephoto/core/parallel.h"
+#include "rephoto/core/process.h"
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/colorize.h"
@@ -108,163 +108,129 @@ const rephoto::render::RenderModel& BenchModel() {
   return *model;
 }
 
-// Process CPU time (all threads, user + system) in seconds: with other tenants on the machine
-// the wall time is noisy, the CPU time per frame much less so.
-double ProcessCpuSeconds() {
-  rusage usage;
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
-         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
-
 double Coverage(const rephoto::Image& rgba) {
   double sum = 0;
   for (size_t i = 0; i < rgba.pixel_count(); ++i) sum += rgba.data()[4 * i + 3];
   return sum / static_cast<double>(rgba.pixel_count());
 }
 
-void BM_BuildBvh(benchmark::State& state) {
-  const Mesh& mesh = BenchMesh();
+// Building the BVH (and the rest of a RenderModel) of `mesh`.
+void BuildBvh(benchmark::State& state, const Mesh& mesh) {
   double build = 0;
-  const double cpu_start = ProcessCpuSeconds();
-  for (auto _ : state) {
-    rephoto::render::RenderModel model(mesh);
-    build = model.build_seconds();
-    benchmark::DoNotOptimize(model.scene());
+  {
+    rephoto::bench::CpuCounter cpu(state);
+    for (auto _ : state) {
+      rephoto::render::RenderModel model(mesh);
+      build = model.build_seconds();
+      benchmark::DoNotOptimize(model.scene());
+    }
   }
-  state.counters["cpu_ms"] =
-      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
   state.counters["triangles"] = static_cast<double>(mesh.faces.size());
   state.counters["commit_ms"] = build * 1e3;  // rtcCommitScene only (rest: buffer copies)
 }
-BENCHMARK(BM_BuildBvh)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
 
-void BM_Render(benchmark::State& state) {
-  const auto& model = BenchModel();
-  const auto rays = model.RaysFor(BenchCamera());
+// Rendering `model` at `camera` and `pose` with state.range(0) samples per pixel.
+void Render(benchmark::State& state, const rephoto::render::RenderModel& model,
+            const Camera& camera, const Pose& pose) {
+  const auto rays = model.RaysFor(camera);
   rephoto::render::RenderOptions options;
   options.samples_per_pixel = static_cast<int>(state.range(0));
   rephoto::render::Rephoto out;
-  rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);  // warm buffers
-  const double cpu_start = ProcessCpuSeconds();
-  for (auto _ : state) {
-    rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);
-    benchmark::DoNotOptimize(out.color.data());
+  rephoto::render::RenderRephoto(model, *rays, pose, options, &out);  // warm buffers
+  {
+    rephoto::bench::CpuCounter cpu(state, "cpu_ms_per_frame");
+    for (auto _ : state) {
+      rephoto::render::RenderRephoto(model, *rays, pose, options, &out);
+      benchmark::DoNotOptimize(out.color.data());
+    }
   }
-  state.counters["cpu_ms_per_frame"] =
-      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
   state.counters["coverage"] = Coverage(out.color);
-  state.counters["Mrays/s"] = benchmark::Counter(
-      static_cast<double>(kWidth) * kHeight * options.samples_per_pixel * state.iterations() / 1e6,
-      benchmark::Counter::kIsRate);
-}
-BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
-
-// The model of REPHOTO_BENCH_MESH (empty without it), read once.
-const rephoto::mesh::Mesh* FileMesh() {
-  static const std::unique_ptr<rephoto::mesh::Mesh> mesh = []() {
-    const char* path = std::getenv("REPHOTO_BENCH_MESH");
-    return path == nullptr ? nullptr
-                           : std::make_unique<rephoto::mesh::Mesh>(rephoto::mesh::ReadMesh(path));
-  }();
-  return mesh.get();
-}
-
-void BM_BuildBvhFile(benchmark::State& state) {
-  const rephoto::mesh::Mesh* mesh = FileMesh();
-  if (mesh == nullptr) {
-    state.SkipWithError("set REPHOTO_BENCH_MESH");
-    for (auto _ : state) {
-    }
-    return;
-  }
-  double build = 0;
-  const double cpu_start = ProcessCpuSeconds();
-  for (auto _ : state) {
-    rephoto::render::RenderModel model(*mesh);
-    build = model.build_seconds();
-    benchmark::DoNotOptimize(model.scene());
-  }
-  state.counters["cpu_ms"] =
-      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
-  state.counters["triangles"] = static_cast<double>(mesh->faces.size());
-  state.counters["commit_ms"] = build * 1e3;
-}
-BENCHMARK(BM_BuildBvhFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
-
-// Colouring REPHOTO_BENCH_MESH from the first 3 (REPHOTO_BENCH_VIEWS) photos of
-// REPHOTO_BENCH_SCENE on its BVH (as
-// `rephoto evaluate --colorize` does per fold; photo decoding included).
-void BM_ColorizeFile(benchmark::State& state) {
-  const rephoto::mesh::Mesh* mesh = FileMesh();
-  const char* scene_path = std::getenv("REPHOTO_BENCH_SCENE");
-  if (mesh == nullptr || scene_path == nullptr) {
-    state.SkipWithError("set REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE");
-    for (auto _ : state) {
-    }
-    return;
-  }
-  const rephoto::scene::Scene scene = rephoto::scene::ReadScene(scene_path);
-  const rephoto::render::RenderModel model(*mesh);
-  std::vector<size_t> views;
-  const char* count_env = std::getenv("REPHOTO_BENCH_VIEWS");
-  const size_t count = count_env != nullptr ? std::strtoul(count_env, nullptr, 10) : 3;
-  for (size_t v = 0; v < std::min(count, scene.views.size()); ++v) views.push_back(v);
-  const double cpu_start = ProcessCpuSeconds();
-  for (auto _ : state) {
-    auto colors = rephoto::render::ColorizeVertices(model, scene, views);
-    benchmark::DoNotOptimize(colors.colors.data());
-  }
-  state.counters["cpu_ms"] =
-      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
-  state.counters["vertices"] = static_cast<double>(mesh->positions.size());
-}
-BENCHMARK(BM_ColorizeFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
-
-void BM_RenderFile(benchmark::State& state) {
-  const char* mesh_path = std::getenv("REPHOTO_BENCH_MESH");
-  const char* scene_path = std::getenv("REPHOTO_BENCH_SCENE");
-  if (mesh_path == nullptr || scene_path == nullptr) {
-    state.SkipWithError("set REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE");
-    for (auto _ : state) {
-    }
-    return;
-  }
-  static const auto model = std::make_unique<rephoto::render::RenderModel>(*FileMesh());
-  const rephoto::scene::Scene scene = rephoto::scene::ReadScene(scene_path);
-  const char* view_env = std::getenv("REPHOTO_BENCH_VIEW");
-  const char* side_env = std::getenv("REPHOTO_BENCH_SHORT_SIDE");
-  const size_t view = view_env != nullptr ? std::strtoul(view_env, nullptr, 10) : 0;
-  const int side = side_env != nullptr ? std::atoi(side_env) : 768;
-  if (view >= scene.views.size() || side <= 0) {
-    state.SkipWithError("REPHOTO_BENCH_VIEW or REPHOTO_BENCH_SHORT_SIDE out of range");
-    for (auto _ : state) {
-    }
-    return;
-  }
-  Camera camera = scene.CameraOf(scene.views[view]);
-  const double scale = static_cast<double>(side) / std::min(camera.width, camera.height);
-  camera = camera.Scaled(static_cast<int>(std::lround(camera.width * scale)),
-                         static_cast<int>(std::lround(camera.height * scale)));
-  const auto rays = model->RaysFor(camera);
-  rephoto::render::RenderOptions options;
-  options.samples_per_pixel = static_cast<int>(state.range(0));
-  rephoto::render::Rephoto out;
-  const Pose& pose = scene.views[view].cam_from_world;
-  rephoto::render::RenderRephoto(*model, *rays, pose, options, &out);  // warm buffers
-  const double cpu_start = ProcessCpuSeconds();
-  for (auto _ : state) {
-    rephoto::render::RenderRephoto(*model, *rays, pose, options, &out);
-    benchmark::DoNotOptimize(out.color.data());
-  }
-  state.counters["cpu_ms_per_frame"] =
-      (ProcessCpuSeconds() - cpu_start) * 1e3 / static_cast<double>(state.iterations());
-  state.counters["coverage"] = Coverage(out.color);
-  state.counters["triangles"] = static_cast<double>(model->mesh().faces.size());
+  state.counters["triangles"] = static_cast<double>(model.mesh().faces.size());
   state.counters["Mrays/s"] =
       benchmark::Counter(static_cast<double>(camera.width) * camera.height *
                              options.samples_per_pixel * state.iterations() / 1e6,
                          benchmark::Counter::kIsRate);
+}
+
+void BM_BuildBvh(benchmark::State& state) { BuildBvh(state, BenchMesh()); }
+BENCHMARK(BM_BuildBvh)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+void BM_Render(benchmark::State& state) { Render(state, BenchModel(), BenchCamera(), BenchPose()); }
+BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Your own model and scene: REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE (read once). False, with
+// the benchmark skipped, unless they are set (the scene only when `scene` is asked for).
+bool FileInputs(benchmark::State& state, const Mesh** mesh,
+                const rephoto::scene::Scene** scene = nullptr) {
+  static const std::unique_ptr<Mesh> file_mesh = []() {
+    const char* path = std::getenv("REPHOTO_BENCH_MESH");
+    return path == nullptr ? nullptr : std::make_unique<Mesh>(rephoto::mesh::ReadMesh(path));
+  }();
+  static const std::unique_ptr<rephoto::scene::Scene> file_scene = []() {
+    const char* path = std::getenv("REPHOTO_BENCH_SCENE");
+    return path == nullptr
+               ? nullptr
+               : std::make_unique<rephoto::scene::Scene>(rephoto::scene::ReadScene(path));
+  }();
+  *mesh = file_mesh.get();
+  if (scene != nullptr) *scene = file_scene.get();
+  if (*mesh == nullptr || (scene != nullptr && *scene == nullptr)) {
+    state.SkipWithError(scene != nullptr ? "set REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE"
+                                         : "set REPHOTO_BENCH_MESH");
+    return false;
+  }
+  return true;
+}
+
+void BM_BuildBvhFile(benchmark::State& state) {
+  const Mesh* mesh = nullptr;
+  if (FileInputs(state, &mesh)) BuildBvh(state, *mesh);
+}
+BENCHMARK(BM_BuildBvhFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+// Colouring REPHOTO_BENCH_MESH from the first 3 (REPHOTO_BENCH_VIEWS) photos of
+// REPHOTO_BENCH_SCENE on its BVH (as `rephoto evaluate --colorize` does per fold; photo decoding
+// included).
+void BM_ColorizeFile(benchmark::State& state) {
+  const Mesh* mesh = nullptr;
+  const rephoto::scene::Scene* scene = nullptr;
+  if (!FileInputs(state, &mesh, &scene)) return;
+  const rephoto::render::RenderModel model(*mesh);
+  std::vector<size_t> views;
+  const char* count_env = std::getenv("REPHOTO_BENCH_VIEWS");
+  const size_t count = count_env != nullptr ? std::strtoul(count_env, nullptr, 10) : 3;
+  for (size_t v = 0; v < std::min(count, scene->views.size()); ++v) views.push_back(v);
+  {
+    rephoto::bench::CpuCounter cpu(state);
+    for (auto _ : state) {
+      auto colors = rephoto::render::ColorizeVertices(model, *scene, views);
+      benchmark::DoNotOptimize(colors.colors.data());
+    }
+  }
+  state.counters["vertices"] = static_cast<double>(mesh->positions.size());
+}
+BENCHMARK(BM_ColorizeFile)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+// Rendering REPHOTO_BENCH_MESH at view REPHOTO_BENCH_VIEW (default 0) of REPHOTO_BENCH_SCENE,
+// scaled to the shorter side REPHOTO_BENCH_SHORT_SIDE (default 768), as evaluate renders.
+void BM_RenderFile(benchmark::State& state) {
+  const Mesh* mesh = nullptr;
+  const rephoto::scene::Scene* scene = nullptr;
+  if (!FileInputs(state, &mesh, &scene)) return;
+  static const auto model = std::make_unique<rephoto::render::RenderModel>(*mesh);
+  const char* view_env = std::getenv("REPHOTO_BENCH_VIEW");
+  const char* side_env = std::getenv("REPHOTO_BENCH_SHORT_SIDE");
+  const size_t view = view_env != nullptr ? std::strtoul(view_env, nullptr, 10) : 0;
+  const int side = side_env != nullptr ? std::atoi(side_env) : 768;
+  if (view >= scene->views.size() || side <= 0) {
+    state.SkipWithError("REPHOTO_BENCH_VIEW or REPHOTO_BENCH_SHORT_SIDE out of range");
+    return;
+  }
+  Camera camera = scene->CameraOf(scene->views[view]);
+  const double scale = static_cast<double>(side) / std::min(camera.width, camera.height);
+  camera = camera.Scaled(static_cast<int>(std::lround(camera.width * scale)),
+                         static_cast<int>(std::lround(camera.height * scale)));
+  Render(state, *model, camera, scene->views[view].cam_from_world);
 }
 BENCHMARK(BM_RenderFile)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
 

@@ -10,7 +10,7 @@
 
 #include "command.h"
 #include "rephoto/core/error.h"
-#include "rephoto/core/memory.h"
+#include "rephoto/core/process.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
 
@@ -23,7 +23,7 @@ std::vector<CommandInfo>& CommandTable() {
 
 int main(int argc, char** argv) {
   using namespace rephoto;
-  KeepFreedMemory();  // large buffers are reused instead of page-faulted again (core/memory.h)
+  KeepFreedMemory();  // large buffers are reused instead of page-faulted again (core/process.h)
   CLI::App app{
       "rephoto: how good does a 3D reconstruction look? Virtual rephotography "
       "(Waechter et al. 2017): render held-out views and compare them with the photos."};

@@ -1,4 +1,4 @@
-#include "rephoto/core/memory.h"
+#include "rephoto/core/process.h"
 
 #include <climits>
 
@@ -13,6 +13,16 @@ void KeepFreedMemory() {
   mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);  // glibc's maximum (64-bit)
   mallopt(M_TRIM_THRESHOLD, INT_MAX);
 #endif
+}
+
+double CpuSeconds(const struct rusage& usage) {
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+double ProcessCpuSeconds() {
+  struct rusage usage {};
+  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? CpuSeconds(usage) : 0.0;
 }
 
 }  // namespace rephoto

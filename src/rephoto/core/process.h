@@ -1,5 +1,7 @@
-// Process-wide memory allocation settings for rephoto's programs.
+// Process-wide settings and accounting for rephoto's programs: memory allocation and CPU time.
 #pragma once
+
+#include <sys/resource.h>
 
 namespace rephoto {
 
@@ -12,5 +14,10 @@ namespace rephoto {
 // lets the heap keep up to 2 GB of freed memory for reuse: the process keeps close to its peak
 // memory until it exits. Call once, early (the rephoto CLI does). No effect without glibc.
 void KeepFreedMemory();
+
+// User + system CPU seconds in a resource usage record (getrusage, wait4).
+double CpuSeconds(const struct rusage& usage);
+// User + system CPU seconds used so far by this process (all threads; not its children).
+double ProcessCpuSeconds();
 
 }  // namespace rephoto

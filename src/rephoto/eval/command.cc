@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "rephoto/core/file.h"
+#include "rephoto/core/process.h"
 
 extern char** environ;
 
@@ -181,18 +182,6 @@ bool InterruptRequested() { return g_interrupted.load(); }
 void RequestInterrupt(bool value) { g_interrupted.store(value); }
 
 // ------------------------------------------------------------------------------- running
-
-namespace {
-double CpuSeconds(const struct rusage& usage) {
-  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
-}  // namespace
-
-double ProcessCpuSeconds() {
-  struct rusage usage {};
-  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? CpuSeconds(usage) : 0.0;
-}
 
 CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_file,
                                std::string_view header) {

@@ -52,9 +52,6 @@ struct CommandOutcome {
   bool ok() const { return exit_status == 0 && signal == 0 && !interrupted; }
 };
 
-// User + system CPU seconds used so far by this process (all threads; not its children).
-double ProcessCpuSeconds();
-
 // Runs `/bin/sh -c command` in its own process group, stdin from /dev/null, stdout and stderr
 // appended to `log_file` (created with a header line naming the command; an existing log is
 // replaced). Waits for it. When InterruptRequested() becomes true while it runs, the whole

@@ -21,6 +21,7 @@
 #include "rephoto/compare/resample.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/parallel.h"
+#include "rephoto/core/process.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/hash.h"
@@ -394,6 +395,8 @@ class Evaluation {
   // reason is logged once).
   std::optional<metrics::Metric> ProjectionMetric();
   void ProjectFold(const FoldState& fold);
+  // Runs `project`; a failure is a warning and run.json's projection_error, not the run's.
+  void GuardProjection(const std::function<void()>& project);
   // The rendered model is made from the fold's model: coloured and/or degraded (model.ply).
   bool DerivesModel() const { return o_.colorize || HasDefects(o_.degrade); }
   void ProjectOnto(const fs::path& model_path, const std::string& model_key,
@@ -1711,14 +1714,20 @@ void Evaluation::ProjectFold(const FoldState& fold) {
   const std::string name(metrics::MetricName(*metric));
   const fs::path out =
       run_ / "projected" / (folds_.size() == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
-  try {
+  GuardProjection([&] {
     ProjectOnto(HasDefects(o_.degrade) ? fold.dir / "model.ply" : fold.model_path, fold.model_key,
                 {&fold}, *metric, out);
+  });
+  timings_.project += Seconds(start);
+}
+
+void Evaluation::GuardProjection(const std::function<void()>& project) {
+  try {
+    project();
   } catch (const Error& e) {
     LogWarning(fmt::format("error projection failed: {}", e.what()));
     projection_message_ = e.what();
   }
-  timings_.project += Seconds(start);
 }
 
 void Evaluation::ProjectAndReport(EvaluateResult* result) {
@@ -1730,7 +1739,7 @@ void Evaluation::ProjectAndReport(EvaluateResult* result) {
       source_ == ModelSource::kModel ? ProjectionMetric() : std::nullopt;
   if (metric) {
     const std::string name(metrics::MetricName(*metric));
-    try {
+    GuardProjection([&] {
       std::vector<const FoldState*> folds;
       for (const FoldState& fold : folds_) {
         if (fold.ok) folds.push_back(&fold);
@@ -1744,10 +1753,7 @@ void Evaluation::ProjectAndReport(EvaluateResult* result) {
         model_key = folds.front()->model_key;
       }
       ProjectOnto(model, model_key, folds, *metric, run_ / "projected" / (name + ".ply"));
-    } catch (const Error& e) {
-      LogWarning(fmt::format("error projection failed: {}", e.what()));
-      projection_message_ = e.what();
-    }
+    });
   }
   timings_.project += Seconds(start);
   start = Clock::now();
@@ -1888,14 +1894,13 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
   split_json["folds"] = folds;
   j["split"] = split_json;
   const double total = Seconds(start_);
-  EvaluateTimings cpu = timings_;
-  cpu.rephoto_cpu = ProcessCpuSeconds() - start_cpu_;
+  const double rephoto_cpu = ProcessCpuSeconds() - start_cpu_;
   j["timings"] = {{"total", total},
                   {"external", timings_.external},
                   {"cpu",
-                   {{"external", cpu.external_cpu},
-                    {"rephoto", cpu.rephoto_cpu},
-                    {"rephoto_share", cpu.rephoto_cpu_share()}}},
+                   {{"external", timings_.external_cpu},
+                    {"rephoto", rephoto_cpu},
+                    {"rephoto_share", RephotoShare(rephoto_cpu, timings_.external_cpu)}}},
                   {"rephoto",
                    {{"total", timings_.rephoto()},
                     {"split", timings_.split},

@@ -235,6 +235,11 @@ struct EvaluateCounters {
   size_t projections = 0;  // projected PLYs written (not reused)
 };
 
+// rephoto's fraction of the seconds it and the external commands took together (0 if none).
+inline double RephotoShare(double rephoto, double external) {
+  return rephoto + external > 0 ? rephoto / (rephoto + external) : 0.0;
+}
+
 struct EvaluateTimings {
   double total = 0;
   double external = 0;  // sum over commands (may overlap rephoto's own work)
@@ -244,10 +249,7 @@ struct EvaluateTimings {
   // process trees, from wait4) and rephoto's own process. Unlike wall-clock sums these do not
   // depend on what overlapped what, nor much on other load on the machine.
   double external_cpu = 0, rephoto_cpu = 0;
-  double rephoto_cpu_share() const {
-    const double sum = external_cpu + rephoto_cpu;
-    return sum > 0 ? rephoto_cpu / sum : 0.0;
-  }
+  double rephoto_cpu_share() const { return RephotoShare(rephoto_cpu, external_cpu); }
   double rephoto() const {
     return split + prepare + colorize + render + compare + aggregate + project + report;
   }

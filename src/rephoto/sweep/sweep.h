@@ -78,10 +78,9 @@ struct SweepResult {
   double external_cpu_seconds = 0, rephoto_cpu_seconds = 0;
   ExitCode exit_code = ExitCode::kOk;
   // rephoto's fraction of the accounted wall-clock seconds and of the CPU seconds (0 if none).
-  double rephoto_share() const { return Share(rephoto_seconds, external_seconds); }
-  double rephoto_cpu_share() const { return Share(rephoto_cpu_seconds, external_cpu_seconds); }
-  static double Share(double own, double other) {
-    return own + other > 0 ? own / (own + other) : 0.0;
+  double rephoto_share() const { return eval::RephotoShare(rephoto_seconds, external_seconds); }
+  double rephoto_cpu_share() const {
+    return eval::RephotoShare(rephoto_cpu_seconds, external_cpu_seconds);
   }
 };
 
