@@ -1153,11 +1153,10 @@ const Image& Evaluation::EvalPhoto(const TestView& test, Image* scratch, fs::pat
                 "{}: photo is {}x{} but its camera is {}x{}", test.photo.string(), photo.width(),
                 photo.height(), full.width, full.height);
   compare::ResizeImage(photo, test.camera.width, test.camera.height, scratch);
-  io::WritePng(cached, *scratch, io::PngDepth::k16, io::PngCompression::kNone);
+  // The values compared are the cached file's (as if read back).
+  io::WritePngAndQuantize(cached, scratch, io::PngDepth::k16, io::PngCompression::kNone);
   WriteTextFileAtomically(key_file, key);
   ++counters_.photos_downscaled;
-  // The values compared are the cached file's (as if read back).
-  io::QuantizeAsPng(scratch, io::PngDepth::k16);
   *used_path = cached;
   return *scratch;
 }
@@ -1188,10 +1187,9 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
     render::Rephoto& rephoto = rephoto_scratch_;
     renderer->Render(test, &rephoto);
     render_path = renders_dir / (test.stem + ".png");
-    io::WritePng(render_path, rephoto.color);
+    io::WritePngAndQuantize(render_path, &rephoto.color);  // compared as the PNG written
     io::WriteExr(renders_dir / (test.stem + ".depth.exr"), rephoto.depth);
     std::swap(render, rephoto.color);  // the next view renders into the previous buffer
-    io::QuantizeAsPng(&render);        // the rendering compared is the PNG written
     ++counters_.views_rendered;
   } else {
     render_path = FindImageByStem(fold.out_dir, test.stem);

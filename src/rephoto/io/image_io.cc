@@ -621,13 +621,19 @@ T QuantizeSample(float v) {
   return static_cast<T>(clamped * kMax + 0.5f);
 }
 
+// The PNG samples of `image` into `out`; with `back` (may be image's own values), also the
+// values ReadImage returns for them, in the same pass.
 template <typename T>
-void QuantizeTo(const Image& image, std::vector<T>* out) {
+void QuantizeTo(const Image& image, std::vector<T>* out, float* back = nullptr) {
+  constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
   out->resize(image.size());
   const float* in = image.data();
   T* dst = out->data();
   ParallelFor(0, static_cast<int64_t>(image.size()), 1 << 16, [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) dst[i] = QuantizeSample<T>(in[i]);
+    for (int64_t i = b; i < e; ++i) {
+      dst[i] = QuantizeSample<T>(in[i]);
+      if (back != nullptr) back[i] = static_cast<float>(dst[i]) / kMax;
+    }
   });
 }
 
@@ -753,19 +759,31 @@ void QuantizeAsPng(Image* image, PngDepth depth) {
   }
 }
 
-void WritePng(const fs::path& path, const Image& image, PngDepth depth,
-              PngCompression compression) {
+namespace {
+void WritePngOf(const fs::path& path, const Image& image, PngDepth depth,
+                PngCompression compression, float* back) {
   if (depth == PngDepth::k8) {
     thread_local std::vector<uint8_t> bytes;
-    QuantizeTo(image, &bytes);
+    QuantizeTo(image, &bytes, back);
     EncodePng(path, bytes.data(), bytes.size(), image.width(), image.height(), image.channels(), 8,
               compression);
   } else {
     thread_local std::vector<uint16_t> words;
-    QuantizeTo(image, &words);
+    QuantizeTo(image, &words, back);
     EncodePng(path, words.data(), words.size() * 2, image.width(), image.height(), image.channels(),
               16, compression);
   }
+}
+}  // namespace
+
+void WritePng(const fs::path& path, const Image& image, PngDepth depth,
+              PngCompression compression) {
+  WritePngOf(path, image, depth, compression, nullptr);
+}
+
+void WritePngAndQuantize(const fs::path& path, Image* image, PngDepth depth,
+                         PngCompression compression) {
+  WritePngOf(path, *image, depth, compression, image->data());
 }
 
 void WritePng(const fs::path& path, const Mask& mask) {

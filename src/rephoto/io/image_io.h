@@ -78,6 +78,10 @@ void WritePng(const std::filesystem::path& path, const Mask& mask);  // 0 -> 0, 
 // Replaces the values by those ReadImage returns for the PNG that WritePng(path, image, depth)
 // writes (clamped to [0,1], NaN -> 0, rounded to 8 or 16 bits), without the file round trip.
 void QuantizeAsPng(Image* image, PngDepth depth = PngDepth::k8);
+// WritePng, then QuantizeAsPng, in one pass over the values.
+void WritePngAndQuantize(const std::filesystem::path& path, Image* image,
+                         PngDepth depth = PngDepth::k8,
+                         PngCompression compression = PngCompression::kFast);
 // 8-bit pixels already converted by the caller: width*height*channels bytes, interleaved, top
 // row first, channels 1-4. Avoids a float copy for large colour-mapped images.
 void WritePng8(const std::filesystem::path& path, std::span<const uint8_t> pixels, int width,

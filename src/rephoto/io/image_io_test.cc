@@ -289,6 +289,13 @@ TEST(ImageIo, QuantizeAsPngEqualsTheFileRoundTrip) {
       const Image back = ReadImage(path);
       Image quantized = image;
       QuantizeAsPng(&quantized, depth);
+      Image written = image;  // WritePngAndQuantize: the same file and the same values
+      const fs::path other = path.parent_path() / "q2.png";
+      WritePngAndQuantize(other, &written, depth, compression);
+      EXPECT_EQ(ReadFileToString(other), ReadFileToString(path));
+      for (size_t i = 0; i < written.size(); ++i) {
+        ASSERT_EQ(written.data()[i], quantized.data()[i]) << i;
+      }
       ASSERT_EQ(quantized.size(), back.size());
       for (size_t i = 0; i < back.size(); ++i) {
         ASSERT_EQ(quantized.data()[i], back.data()[i])
