@@ -11,6 +11,7 @@
 #include <condition_variable>
 #include <cstring>
 #include <deque>
+#include <exception>
 #include <functional>
 #include <future>
 #include <limits>
@@ -28,6 +29,7 @@
 #include "rephoto/core/progress.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
+#include "rephoto/run/run_folder.h"
 
 #ifndef REPHOTO_VERSION
 #define REPHOTO_VERSION "unknown"
@@ -588,6 +590,21 @@ void RemoveStaleStaging(const fs::path& out) {
   }
 }
 
+// A compare output folder written before run folders were marked: nothing but compare's files.
+bool IsLegacyCompareRun(const fs::path& dir) {
+  std::error_code ec;
+  bool has_summary = false;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    has_summary |= name == "summary.json";
+    if (name != "summary.json" && name != "per_image.csv" && name != "errors" &&
+        name.rfind(kStagingPrefix, 0) != 0) {
+      return false;
+    }
+  }
+  return has_summary;
+}
+
 void Rename(const fs::path& from, const fs::path& to) {
   std::error_code ec;
   fs::rename(from, to, ec);
@@ -633,9 +650,18 @@ CompareResult RunCompare(const CompareOptions& options) {
   const std::vector<PlannedPair> plan = PlanPairs(options, pairing);
 
   std::error_code ec;
-  fs::create_directories(options.out, ec);
-  REPHOTO_CHECK(!ec && fs::is_directory(options.out), "{}: cannot create the output folder{}",
-                options.out.string(), ec ? ": " + ec.message() : "");
+  // One writer, and only into a folder compare made (run/run_folder.h). A folder that compare
+  // creates and that a failure leaves holding nothing of value is removed again.
+  const bool created = !fs::exists(options.out, ec);
+  run::RunFolder run_folder = run::OpenRunFolder(options.out, "compare", IsLegacyCompareRun);
+  struct RemoveIfFailed {
+    fs::path path;
+    bool armed;
+    ~RemoveIfFailed() {
+      std::error_code ignored;
+      if (armed && std::uncaught_exceptions() > 0) fs::remove_all(path, ignored);
+    }
+  } remove_if_failed{options.out, created};
   RemoveStaleStaging(options.out);
   const fs::path staging = options.out / (kStagingPrefix + std::to_string(::getpid()));
   fs::remove_all(staging, ec);

@@ -13,6 +13,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
+#include "rephoto/run/run_folder.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::compare {
@@ -134,7 +135,7 @@ TEST(Compare, IdenticalFoldersGiveZeroErrorAndFullCompleteness) {
   }
   // Outputs: no staging folder left, an EXR and a PNG per image and metric.
   EXPECT_EQ(FolderEntries(f.out),
-            (std::vector<std::string>{"errors", "per_image.csv", "summary.json"}));
+            (std::vector<std::string>{".rephoto-run", "errors", "per_image.csv", "summary.json"}));
   EXPECT_EQ(FolderEntries(f.out / "errors").size(), 3 * metrics::AllMetrics().size() * 2);
   const Image error = io::ReadImage(f.out / "errors" / "b.1-ncc.exr");
   ASSERT_EQ(error.channels(), 1);
@@ -279,7 +280,7 @@ TEST(Compare, CorruptFileIsNamedAndLeavesPreviousResultsIntact) {
   EXPECT_EQ(ReadFileToString(f.out / "summary.json"), summary);
   EXPECT_EQ(ReadFileToString(f.out / "per_image.csv"), csv);
   EXPECT_EQ(FolderEntries(f.out),
-            (std::vector<std::string>{"errors", "per_image.csv", "summary.json"}));
+            (std::vector<std::string>{".rephoto-run", "errors", "per_image.csv", "summary.json"}));
   EXPECT_FALSE(fs::exists(f.out / "errors" / "a.census.exr"));
 
   // A file that is not an image at all is named too, before any pair is compared.
@@ -507,7 +508,51 @@ TEST(Compare, PrefetchDoesNotChangeResultsAndRerunReplacesErrorImages) {
   EXPECT_TRUE(fs::exists(f.out / "errors" / "v3.cb+cr.png"));
   options.write_error_images = false;
   RunCompare(options);
-  EXPECT_EQ(FolderEntries(f.out), (std::vector<std::string>{"per_image.csv", "summary.json"}));
+  EXPECT_EQ(FolderEntries(f.out),
+            (std::vector<std::string>{".rephoto-run", "per_image.csv", "summary.json"}));
+}
+
+// issue 14: compare --out never destroys a folder it did not make, has one writer, and a
+// failure leaves no empty folder behind.
+TEST(Compare, RefusesAFolderItDidNotMakeAndLeavesItUntouched) {
+  auto rng = testing::MakeRng();
+  const Folders f = MakeFolders();
+  const Image image = RandomImage(rng);
+  io::WritePng(f.photos / "a.png", image);
+  io::WritePng(f.renders / "a.png", image);
+  fs::create_directories(f.out / "errors");
+  WriteTextFileAtomically(f.out / "errors" / "notes.txt", "mine");
+  WriteTextFileAtomically(f.out / "per_image.csv", "my table");
+  CompareOptions options = Options(f);
+  EXPECT_EQ(ErrorMessage([&] { RunCompare(options); }),
+            f.out.string() +
+                ": the folder is not empty and holds no rephoto compare run; use an empty or "
+                "new --out");
+  EXPECT_EQ(ReadFileToString(f.out / "errors" / "notes.txt"), "mine");
+  EXPECT_EQ(ReadFileToString(f.out / "per_image.csv"), "my table");
+  EXPECT_EQ(FolderEntries(f.out), (std::vector<std::string>{"errors", "per_image.csv"}));
+
+  // Its own folder is replaced as a whole on a rerun.
+  options.out = f.root / "own";
+  RunCompare(options);
+  const std::string csv = ReadFileToString(options.out / "per_image.csv");
+  RunCompare(options);
+  EXPECT_EQ(ReadFileToString(options.out / "per_image.csv"), csv);
+
+  // A second writer at the same time is refused at once.
+  run::RunFolder writer = run::OpenRunFolder(options.out, "compare");
+  EXPECT_THAT(ErrorMessage([&] { RunCompare(options); }),
+              HasSubstr("another rephoto compare (pid "));
+}
+
+TEST(Compare, ADecodeErrorLeavesNoOutputFolder) {
+  const Folders f = MakeFolders();
+  WriteTextFileAtomically(f.photos / "a.png", "not a png");
+  WriteTextFileAtomically(f.renders / "a.png", "not a png either");
+  CompareOptions options = Options(f);
+  EXPECT_THAT(ErrorMessage([&] { RunCompare(options); }),
+              ::testing::StartsWith((f.photos / "a.png").string() + ": "));
+  EXPECT_FALSE(fs::exists(f.out));
 }
 
 TEST(Compare, InvalidOptionsAreRejected) {

@@ -37,6 +37,7 @@
 #include "rephoto/render/render.h"
 #include "rephoto/report/report.h"
 #include "rephoto/scene/colmap.h"
+#include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/scene/transforms_json.h"
 #include "rephoto/split/random.h"
@@ -118,27 +119,21 @@ std::pair<int, int> ScaledSize(int width, int height, int short_side) {
   return {w, h};
 }
 
-// The name without its extension, kept relative ("dir/a.jpg" -> "dir/a").
-std::string WithoutExtension(const std::string& name) {
-  return fs::path(name).replace_extension("").generic_string();
-}
-
-// The output stems of the views: the file name without extension ("images/a.jpg" -> "a"), or,
-// when two views would share one, the relative path without extension for every view (the
-// convention project::FindErrorImages follows).
-std::map<std::string, std::string> ViewStems(const scene::Scene& scene) {
-  std::map<std::string, std::string> stems;
+// The name of each view's downscaled training photo: "dir/a.jpg" -> "dir/a.png", or, when two
+// views of the scene would share one ("a.jpg" and "a.png"), "a.jpg.png" for every view.
+std::map<std::string, std::string> PngNames(const scene::Scene& scene) {
+  std::map<std::string, std::string> png_names;
   std::set<std::string> seen;
-  bool unique = true;
+  bool distinct = true;
   for (const scene::View& view : scene.views) {
-    const std::string stem = fs::path(view.name).stem().string();
-    unique &= seen.insert(stem).second;
-    stems[view.name] = stem;
+    const std::string png = fs::path(view.name).replace_extension(".png").generic_string();
+    distinct &= seen.insert(png).second;
+    png_names[view.name] = png;
   }
-  if (!unique) {
-    for (const scene::View& view : scene.views) stems[view.name] = WithoutExtension(view.name);
+  if (!distinct) {
+    for (const scene::View& view : scene.views) png_names[view.name] = view.name + ".png";
   }
-  return stems;
+  return png_names;
 }
 
 std::string JoinLines(const std::vector<std::string>& names) {
@@ -185,6 +180,9 @@ void SyncLinkedFolder(const fs::path& dir, const std::map<std::string, fs::path>
   std::set<fs::path> expected;
   std::error_code ec;
   for (const auto& [name, source] : files) {
+    // Names passed the scene boundary's rule; checked again because this removes files.
+    REPHOTO_CHECK(scene::CheckedImageName(name, dir.string()) == name,
+                  "{}: image name '{}' is not in normal form", dir.string(), name);
     const fs::path target = (dir / name).lexically_normal();
     expected.insert(target);
     if (fs::exists(target, ec) && fs::equivalent(target, source, ec)) continue;
@@ -514,7 +512,8 @@ void Evaluation::ReadInputs() {
   }
   REPHOTO_CHECK(!photo_names_.empty(), "{}: none of the {} photos exists (image root {})",
                 o_.scene.string(), scene_.views.size(), scene_.image_root.string());
-  stems_ = ViewStems(scene_);
+  const std::vector<std::string> stems = scene::OutputStems(scene_);
+  for (size_t v = 0; v < scene_.views.size(); ++v) stems_[scene_.views[v].name] = stems[v];
 }
 
 void Evaluation::PrepareRunDirectory() {
@@ -662,6 +661,7 @@ void Evaluation::PrepareFold(FoldState& fold) {
         new_sizes[id] = ScaledSize(camera.width, camera.height, o_.train_short_side);
       }
       std::map<std::string, fs::path> links;
+      const std::map<std::string, std::string> png_names = PngNames(scene_);
       for (size_t v = 0; v < train.views.size(); ++v) {
         scene::View& view = train.views[v];
         const camera::Camera& camera = train.CameraOf(view);
@@ -672,7 +672,7 @@ void Evaluation::PrepareFold(FoldState& fold) {
           view.image_path = fold.images_dir / view.name;
           continue;
         }
-        const std::string png_name = WithoutExtension(view.name) + ".png";
+        const std::string png_name = png_names.at(view.name);
         const fs::path cached = cache_dir / png_name;
         const fs::path cached_key = cache_dir / (png_name + ".key");
         const fs::path target = fold.images_dir / png_name;

@@ -21,6 +21,7 @@
 #include "rephoto/core/stats.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/render/render.h"
+#include "rephoto/scene/image_name.h"
 
 namespace rephoto::project {
 namespace {
@@ -163,25 +164,6 @@ Sample SampleVertex(const ViewContext& view, const Eigen::Vector3d& world, doubl
 
 double Seconds(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// The output stem of every view, as `rephoto evaluate` names its files: the file name without
-// extension when these are unique in the scene, else the relative path without extension for
-// every view.
-std::vector<std::string> ViewStems(const scene::Scene& scene) {
-  std::vector<std::string> stems;
-  std::set<std::string> seen;
-  bool unique = true;
-  for (const scene::View& view : scene.views) {
-    stems.push_back(fs::path(view.name).stem().generic_string());
-    unique &= seen.insert(stems.back()).second;
-  }
-  if (!unique) {
-    for (size_t v = 0; v < scene.views.size(); ++v) {
-      stems[v] = fs::path(scene.views[v].name).replace_extension("").generic_string();
-    }
-  }
-  return stems;
 }
 
 struct ErrorsFolder {
@@ -445,7 +427,7 @@ std::vector<ProjectView> FindErrorImages(const scene::Scene& scene,
                 "{}: invalid metric name '{}'", run_dir.string(), metric);
   const std::vector<ErrorsFolder> folders = ErrorsFolders(run_dir, /*required=*/true);
   const std::string suffix = fmt::format(".{}.exr", metric);
-  const std::vector<std::string> stems = ViewStems(scene);
+  const std::vector<std::string> stems = scene::OutputStems(scene);
   const std::set<std::string> known(stems.begin(), stems.end());
   std::vector<ProjectView> views;
   std::vector<uint8_t> found(scene.views.size(), 0);

@@ -4,6 +4,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/progress.h"
+#include "rephoto/scene/image_name.h"
 
 namespace rephoto::scene {
 
@@ -13,11 +14,6 @@ namespace {
 
 // Counts larger than this are certainly corrupt (and would only make us allocate).
 constexpr long long kMaxCount = 100'000'000;
-
-std::string StripDotSlash(std::string_view name) {
-  while (name.size() > 2 && name.substr(0, 2) == "./") name.remove_prefix(2);
-  return std::string(name);
-}
 
 }  // namespace
 
@@ -34,7 +30,7 @@ std::vector<std::string> ReadBundlerImageList(std::istream& list, std::string_vi
       ParseFiniteDouble(tokens[1], reader.Where(), "list field 2");
       ParseFiniteDouble(tokens[2], reader.Where(), "focal length");
     }
-    names.push_back(StripDotSlash(tokens[0]));
+    names.push_back(CheckedImageName(tokens[0], reader.Where()));
   }
   return names;
 }

@@ -13,6 +13,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/scene/image_name.h"
 #include "rephoto/scene/reader_util.h"
 
 namespace rephoto::scene {
@@ -595,17 +596,18 @@ Scene SceneFromColmap(const ColmapModel& model, const fs::path& image_root) {
         view_of_image.emplace(image.image_id, static_cast<int>(scene.views.size()));
     REPHOTO_CHECK(inserted, "{}: image id {} is used twice (first at {})", image.where,
                   image.image_id, model.images[it->second].where);
-    const auto [name_it, name_inserted] = image_of_name.emplace(image.name, &image);
-    REPHOTO_CHECK(name_inserted, "{}: image name '{}' is used twice (first at {})", image.where,
-                  image.name, name_it->second->where);
     REPHOTO_CHECK(!image.name.empty(), "{}: image {} has an empty name", image.where,
                   image.image_id);
+    std::string name = CheckedImageName(image.name, image.where);
+    const auto [name_it, name_inserted] = image_of_name.emplace(name, &image);
+    REPHOTO_CHECK(name_inserted, "{}: image name '{}' is used twice (first at {})", image.where,
+                  name, name_it->second->where);
     REPHOTO_CHECK(model.cameras.contains(image.camera_id),
                   "{}: image {} refers to camera id {}, which the cameras file does not define",
                   image.where, image.image_id, image.camera_id);
     View view;
-    view.name = image.name;
-    view.image_path = image_root / image.name;
+    view.name = std::move(name);
+    view.image_path = image_root / view.name;
     view.camera_id = static_cast<int>(image.camera_id);
     view.cam_from_world = PoseFromQuaternion(image.quaternion, image.translation, image.where);
     scene.views.push_back(std::move(view));

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "rephoto/core/error.h"
+#include "rephoto/scene/image_name.h"
 
 namespace rephoto::scene {
 
@@ -26,7 +27,7 @@ Scene ReadMiddlebury(std::istream& in, std::string_view name, const ImageSizeLoo
     const std::string where = reader.Where();
     RequireTokenCount(tokens, 22, where, "name, K (9), R (9), t (3)");
     View view;
-    view.name = std::string(tokens[0]);
+    view.name = CheckedImageName(tokens[0], where);
     REPHOTO_CHECK(names.insert(view.name).second, "{}: image '{}' is listed twice", where,
                   view.name);
     const auto k = ParseVector<9>(tokens, 1, where, "K");

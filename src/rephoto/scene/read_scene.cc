@@ -6,6 +6,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/scene/bundler.h"
+#include "rephoto/scene/image_name.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/middlebury.h"
 #include "rephoto/scene/mve.h"
@@ -276,6 +277,8 @@ void ValidateScene(const Scene& scene, std::string_view context) {
     const View& view = scene.views[i];
     const std::string where = fmt::format("{}: view {} ({})", context, i, view.name);
     REPHOTO_CHECK(!view.name.empty(), "{}: empty image name", where);
+    REPHOTO_CHECK(CheckedImageName(view.name, where) == view.name,
+                  "{}: image name is not in normal form", where);
     REPHOTO_CHECK(names.insert(view.name).second, "{}: image name used by two views", where);
     REPHOTO_CHECK(scene.cameras.count(view.camera_id) == 1, "{}: camera id {} does not exist",
                   where, view.camera_id);
@@ -330,7 +333,7 @@ Scene ReadScene(const fs::path& path, const ReadSceneOptions& options, SceneSour
       break;
     }
     case SceneFormat::kTransforms:
-      scene = ReadTransformsJson(source.path);
+      scene = ReadTransformsJson(source.path, options.image_root.value_or(fs::path()));
       break;
     case SceneFormat::kBundler:
       scene = ReadBundlerScene(source.path);
@@ -348,7 +351,8 @@ Scene ReadScene(const fs::path& path, const ReadSceneOptions& options, SceneSour
       scene = ReadMvsTexturingScene(source.path);
       break;
   }
-  if (options.image_root && source.format != SceneFormat::kColmap) {
+  if (options.image_root && source.format != SceneFormat::kColmap &&
+      source.format != SceneFormat::kTransforms) {
     scene.image_root = *options.image_root;
     for (View& view : scene.views) view.image_path = scene.image_root / view.name;
   }

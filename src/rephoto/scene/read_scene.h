@@ -67,6 +67,9 @@ struct ReadSceneOptions {
   // Folder the image names are relative to, instead of the format's default (COLMAP: the
   // project's images/ folder). For formats whose reader needs the images (to learn their
   // size) the images are still read at the default place; only the paths are re-rooted.
+  // transforms.json is the exception: its file paths stay relative to its own folder, as the
+  // format defines, and the image root is the folder they must stay inside (see
+  // ReadTransformsJson). Every format's names follow scene/image_name.h.
   std::optional<std::filesystem::path> image_root;
   // Check that every image that exists on disk has its camera's size (CheckImageSizes).
   bool check_image_sizes = true;

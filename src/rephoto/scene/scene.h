@@ -28,8 +28,8 @@ struct View {
 };
 
 struct Observation {
-  int view_index = 0;        // index into Scene::views
-  Eigen::Vector2d pixel;     // pixel position (pixel-corner convention)
+  int view_index = 0;     // index into Scene::views
+  Eigen::Vector2d pixel;  // pixel position (pixel-corner convention)
 };
 
 struct Point3D {

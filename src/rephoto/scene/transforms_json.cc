@@ -10,6 +10,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/scene/image_name.h"
 
 namespace rephoto::scene {
 namespace {
@@ -146,16 +147,30 @@ camera::Camera MakeCamera(const Intrinsics& in, int width, int height, std::stri
   return camera;
 }
 
-// Strips "./" and resolves a missing extension against the files under base_dir.
-std::string ResolveImageName(const std::string& file_path, const fs::path& base_dir) {
-  fs::path path = fs::path(file_path).lexically_normal();
+// The name relative to the image root (base_dir unless `image_root` is given), checked by the
+// rule of scene/image_name.h before any file is looked at; a missing extension is resolved
+// against the files under the root.
+std::string ResolveImageName(const std::string& file_path, const fs::path& base_dir,
+                             const fs::path& image_root, std::string_view where) {
+  std::string raw = file_path;
+  if (!image_root.empty() && !file_path.starts_with('/')) {
+    // Relative to base_dir as the format says, then named relative to the image root that
+    // confines them (the check below refuses what lands outside it).
+    const fs::path root = fs::absolute(image_root).lexically_normal();
+    raw = (fs::absolute(base_dir) / file_path)
+              .lexically_normal()
+              .lexically_relative(root)
+              .generic_string();
+    if (raw.empty()) raw = file_path;
+  }
+  fs::path path(CheckedImageName(raw, where));
   if (!path.has_extension() && path.has_filename()) {
     fs::path chosen = path;
     chosen += kExtensionsToTry[0];
     for (const char* extension : kExtensionsToTry) {
       fs::path candidate = path;
       candidate += extension;
-      if (fs::exists(base_dir / candidate)) {
+      if (fs::exists((image_root.empty() ? base_dir : image_root) / candidate)) {
         chosen = candidate;
         break;
       }
@@ -283,7 +298,8 @@ std::string PathRelativeTo(const fs::path& path, const fs::path& base_dir) {
 }  // namespace
 
 Scene ReadTransformsJson(std::istream& in, std::string_view name, const fs::path& base_dir,
-                         const ImageSizeLookup& image_size) {
+                         const ImageSizeLookup& image_size, const fs::path& image_root) {
+  const fs::path root_dir = image_root.empty() ? base_dir : image_root;
   json root;
   try {
     root = json::parse(in);
@@ -299,7 +315,7 @@ Scene ReadTransformsJson(std::istream& in, std::string_view name, const fs::path
   ReadIntrinsics(root, name, shared);
 
   Scene scene;
-  scene.image_root = base_dir;
+  scene.image_root = root_dir;
   std::set<std::string> names;
   std::vector<std::string> image_names;
   image_names.reserve(frames.size());
@@ -307,7 +323,8 @@ Scene ReadTransformsJson(std::istream& in, std::string_view name, const fs::path
     const std::string where = fmt::format("{}: frames[{}]", name, i);
     REPHOTO_CHECK(frames[i].is_object(), "{}: expected an object", where);
     REPHOTO_CHECK(frames[i].contains("file_path"), "{}: no file_path", where);
-    image_names.push_back(ResolveImageName(GetPathString(frames[i], "file_path", where), base_dir));
+    image_names.push_back(ResolveImageName(GetPathString(frames[i], "file_path", where), base_dir,
+                                           image_root, where + ".file_path"));
   }
 
   // Size of the first frame's image that exists, for files without w/h (NeRF-synthetic).
@@ -317,7 +334,7 @@ Scene ReadTransformsJson(std::istream& in, std::string_view name, const fs::path
       REPHOTO_CHECK(!image_names.empty(), "{}: no frames to take the image size from", name);
       std::string chosen = image_names.front();
       for (const std::string& image_name : image_names) {
-        if (fs::exists(base_dir / image_name)) {
+        if (fs::exists(root_dir / image_name)) {
           chosen = image_name;
           break;
         }
@@ -350,10 +367,10 @@ Scene ReadTransformsJson(std::istream& in, std::string_view name, const fs::path
         PoseFromTransformMatrix(frame.at("transform_matrix"), where + ".transform_matrix");
     view.name = image_names[i];
     REPHOTO_CHECK(names.insert(view.name).second, "{}: image '{}' appears twice", where, view.name);
-    view.image_path = base_dir / view.name;
+    view.image_path = root_dir / view.name;
     if (frame.contains("mask_path") && !frame.at("mask_path").is_null()) {
-      view.mask_path =
-          base_dir / ResolveImageName(GetPathString(frame, "mask_path", where), base_dir);
+      view.mask_path = root_dir / ResolveImageName(GetPathString(frame, "mask_path", where),
+                                                   base_dir, image_root, where + ".mask_path");
     }
     view.camera_id = AddOrReuseCamera(scene, camera);
     scene.views.push_back(std::move(view));
@@ -361,11 +378,13 @@ Scene ReadTransformsJson(std::istream& in, std::string_view name, const fs::path
   return scene;
 }
 
-Scene ReadTransformsJson(const fs::path& path) {
+Scene ReadTransformsJson(const fs::path& path, const fs::path& image_root) {
   std::ifstream in(path, std::ios::binary);
   REPHOTO_CHECK(in.is_open(), "{}: cannot open file", path.string());
   const fs::path base_dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
-  return ReadTransformsJson(in, path.string(), base_dir, ImageSizesFromDisk(base_dir));
+  return ReadTransformsJson(in, path.string(), base_dir,
+                            ImageSizesFromDisk(image_root.empty() ? base_dir : image_root),
+                            image_root);
 }
 
 std::string TransformsJsonFromScene(const Scene& scene, const fs::path& base_dir) {

@@ -59,14 +59,22 @@
 namespace rephoto::scene {
 
 // Reads `path`; image sizes (when w/h are absent) from the image files next to it.
-Scene ReadTransformsJson(const std::filesystem::path& path);
+//
+// Image names (scene/image_name.h): file_path and mask_path are relative to the folder of
+// transforms.json, as the format defines, and must stay inside the image root: that folder
+// itself, or `image_root` when given (--image-root), which lets a transforms.json in a subfolder
+// name photos beside it ("../images/a.png", as `rephoto split` writes). View names are then
+// relative to `image_root`. Absolute paths are refused either way.
+Scene ReadTransformsJson(const std::filesystem::path& path,
+                         const std::filesystem::path& image_root = {});
 
 // Reads from a stream. `name` is used in messages; file_path entries are relative to
 // `base_dir`; `image_size` is asked for the size of the first frame's image (by its resolved
 // name) when w/h are absent; extensionless file_path entries are resolved against files under
 // `base_dir` as described above.
 Scene ReadTransformsJson(std::istream& in, std::string_view name,
-                         const std::filesystem::path& base_dir, const ImageSizeLookup& image_size);
+                         const std::filesystem::path& base_dir, const ImageSizeLookup& image_size,
+                         const std::filesystem::path& image_root = {});
 
 // The JSON text for `scene` with file paths relative to `base_dir` (see above).
 std::string TransformsJsonFromScene(const Scene& scene, const std::filesystem::path& base_dir);

@@ -1,6 +1,7 @@
 #include "rephoto/scene/transforms_json.h"
 
 #include <fmt/format.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -273,16 +274,35 @@ TEST(TransformsJson, RoundTripPerFrameCameras) {
                         800,
                         600,
                         {700, 700, 400, 300, 0.1, -0.05, 0.001, 0.002, 0.01, 0, 0, 0}}});
-  // Written with file paths relative to a subfolder: "../images/...".
-  WriteTransformsJson(scene, dir / "split" / "transforms.json");
-  const Scene back = ReadTransformsJson(dir / "split" / "transforms.json");
+  WriteTransformsJson(scene, dir / "transforms.json");
+  const Scene back = ReadTransformsJson(dir / "transforms.json");
   ASSERT_EQ(back.views.size(), scene.views.size());
-  EXPECT_EQ(back.views[0].name, "../images/frame_0000.jpg");
+  EXPECT_EQ(back.views[0].name, "images/frame_0000.jpg");
   for (size_t i = 0; i < back.views.size(); ++i) {
     EXPECT_EQ(fs::weakly_canonical(back.views[i].image_path),
               fs::weakly_canonical(scene.views[i].image_path));
   }
   EXPECT_EQ(back.cameras, scene.cameras);
+  // Written into a subfolder, the file paths climb out of it ("../images/...", for other
+  // tools); rephoto reads image names only inside the image root (scene/image_name.h).
+  WriteTransformsJson(scene, dir / "split" / "transforms.json");
+  try {
+    ReadTransformsJson(dir / "split" / "transforms.json");
+    ADD_FAILURE() << "a file_path with '..' was read";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("frames[0].file_path: image name "
+                                               "'../images/frame_0000.jpg' contains '..'"));
+  }
+  // ... unless the user names the folder they may reach (--image-root): names relative to it.
+  const Scene rooted = ReadTransformsJson(dir / "split" / "transforms.json", dir);
+  EXPECT_EQ(rooted.views[0].name, "images/frame_0000.jpg");
+  EXPECT_EQ(rooted.views[0].image_path, dir / "images/frame_0000.jpg");
+  try {
+    ReadTransformsJson(dir / "split" / "transforms.json", dir / "split");
+    ADD_FAILURE() << "a file_path outside --image-root was read";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("contains '..'"));
+  }
 }
 
 TEST(TransformsJson, EquivalentModelsAreWrittenWithIdenticalProjections) {

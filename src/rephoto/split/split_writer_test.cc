@@ -106,7 +106,8 @@ TEST(SplitWriterTest, WritesFoldsThatExternalToolsRead) {
     EXPECT_EQ(json["folds"][f]["train_points"], train.points.size());
 
     // transforms.json: file_path resolves to the original photos.
-    const scene::Scene test = scene::ReadTransformsJson(folder / "test" / "transforms.json");
+    const scene::Scene test =
+        scene::ReadTransformsJson(folder / "test" / "transforms.json", scene.image_root);
     ASSERT_EQ(test.views.size(), split.folds[f].test.size());
     for (const auto& view : test.views) {
       EXPECT_EQ(fs::weakly_canonical(view.image_path),
