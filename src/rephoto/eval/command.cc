@@ -184,7 +184,7 @@ void RequestInterrupt(bool value) { g_interrupted.store(value); }
 // ------------------------------------------------------------------------------- running
 
 CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_file,
-                               std::string_view header) {
+                               std::string_view header, double timeout_seconds) {
   std::error_code ec;
   if (!log_file.parent_path().empty()) fs::create_directories(log_file.parent_path(), ec);
   {
@@ -233,12 +233,23 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
   struct rusage usage {};
   bool terminated = false;
   auto kill_time = std::chrono::steady_clock::time_point::max();
+  const auto deadline =
+      timeout_seconds > 0 ? start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                        std::chrono::duration<double>(timeout_seconds))
+                          : std::chrono::steady_clock::time_point::max();
   for (;;) {
     const pid_t done = ::wait4(pid, &status, WNOHANG, &usage);
     if (done == pid) break;
     if (done == -1 && errno != EINTR) break;
-    if (InterruptRequested()) {
-      outcome.interrupted = true;
+    if (!outcome.timed_out && std::chrono::steady_clock::now() >= deadline) {
+      outcome.timed_out = true;
+      std::ofstream(log_file, std::ios::binary | std::ios::app) << fmt::format(
+          "\n# rephoto: timed out after {:g} s (--command-timeout); stopping the "
+          "command's process group\n",
+          timeout_seconds);
+    }
+    if (InterruptRequested() || outcome.timed_out) {
+      outcome.interrupted = InterruptRequested();
       const auto now = std::chrono::steady_clock::now();
       if (!terminated) {
         ::kill(-pid, SIGTERM);
@@ -251,6 +262,9 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+  // Whatever the command left in its group (a pipeline's stage that ignored SIGTERM) ends
+  // with it when it was stopped.
+  if (terminated) ::kill(-pid, SIGKILL);
   if (slot >= 0) g_children[slot].store(0);
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   outcome.cpu_seconds = CpuSeconds(usage);

@@ -45,20 +45,24 @@ struct CommandOutcome {
   int exit_status = 0;       // the shell's exit status (127: command not found)
   int signal = 0;            // terminating signal, 0 if it exited
   bool interrupted = false;  // stopped because the run was interrupted (SIGINT/SIGTERM)
+  bool timed_out = false;    // stopped because it ran longer than the timeout
   double seconds = 0;        // wall-clock time
   // CPU time (user + system) of the shell and every descendant it waited for (wait4's rusage):
   // what the command cost, independent of what else the machine ran meanwhile.
   double cpu_seconds = 0;
-  bool ok() const { return exit_status == 0 && signal == 0 && !interrupted; }
+  bool ok() const { return exit_status == 0 && signal == 0 && !interrupted && !timed_out; }
 };
 
 // Runs `/bin/sh -c command` in its own process group, stdin from /dev/null, stdout and stderr
 // appended to `log_file` (created with a header line naming the command; an existing log is
 // replaced). Waits for it. When InterruptRequested() becomes true while it runs, the whole
-// process group gets SIGTERM (SIGKILL 5 s later) and the outcome is `interrupted`. Throws Error
-// naming the log file when it cannot be created or the shell cannot be started.
+// process group gets SIGTERM (SIGKILL 5 s later) and the outcome is `interrupted`. Likewise when
+// it runs longer than `timeout_seconds` (> 0; 0 = no limit): the outcome is `timed_out` and the
+// log ends with a line saying so. A stopped command's group gets SIGKILL once the shell is
+// gone, so no stage of a pipeline outlives it. Throws Error naming the log file when it cannot
+// be created or the shell cannot be started.
 CommandOutcome RunShellCommand(const std::string& command, const std::filesystem::path& log_file,
-                               std::string_view header);
+                               std::string_view header, double timeout_seconds = 0);
 
 // The last non-empty line of a log file (at most `max_chars`), "" if none; for messages.
 std::string LastLogLine(const std::filesystem::path& log_file, size_t max_chars = 200);

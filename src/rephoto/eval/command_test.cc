@@ -1,6 +1,7 @@
 #include "rephoto/eval/command.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <thread>
 
@@ -76,6 +77,41 @@ TEST(CommandTest, InterruptStopsTheCommandGroup) {
   EXPECT_TRUE(outcome.interrupted);
   EXPECT_LT(outcome.seconds, 10.0);
   EXPECT_EQ(LastLogLine(dir / "log"), "");
+}
+
+TEST(CommandTest, TimeoutEndsTheWholeProcessGroup) {
+  const fs::path dir = testing::MakeTempDir();
+  RequestInterrupt(false);
+  // The shell starts a stage that ignores SIGTERM and records its pid: the timeout must end it
+  // too (SIGKILL to the group once the shell is gone), not leave it running.
+  const std::string pid_file = (dir / "pid").string();
+  const CommandOutcome outcome = RunShellCommand(
+      "(trap '' TERM; exec sleep 1000) & echo $! > " + ShellQuote(pid_file) + "; wait", dir / "log",
+      "t", 0.3);
+  EXPECT_TRUE(outcome.timed_out);
+  EXPECT_FALSE(outcome.interrupted);
+  EXPECT_FALSE(outcome.ok());
+  EXPECT_LT(outcome.seconds, 8.0);
+  EXPECT_EQ(LastLogLine(dir / "log"),
+            "# rephoto: timed out after 0.3 s (--command-timeout); stopping the command's "
+            "process group");
+  const pid_t stage = std::stoi(ReadFileToString(pid_file));
+  // Reaped by init once killed; give the kernel a moment.
+  bool gone = false;
+  for (int i = 0; i < 100 && !gone; ++i) {
+    gone = ::kill(stage, 0) != 0 ||
+           ReadFileToString("/proc/" + std::to_string(stage) + "/stat").find(") Z") !=
+               std::string::npos;
+    if (!gone) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_TRUE(gone) << "the stage that ignored SIGTERM still runs";
+}
+
+TEST(CommandTest, NoTimeoutByDefault) {
+  const fs::path dir = testing::MakeTempDir();
+  const CommandOutcome outcome = RunShellCommand("sleep 0.3", dir / "log", "t");
+  EXPECT_TRUE(outcome.ok());
+  EXPECT_FALSE(outcome.timed_out);
 }
 
 }  // namespace

@@ -36,6 +36,7 @@
 #include "rephoto/render/colorize.h"
 #include "rephoto/render/render.h"
 #include "rephoto/report/report.h"
+#include "rephoto/run/run_folder.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
@@ -401,6 +402,21 @@ class Evaluation {
                    const std::vector<const FoldState*>& folds, metrics::Metric metric,
                    const fs::path& out);
   void WriteRunJson(const EvaluateResult* result, const std::string& status);
+
+ public:
+  // After a failure that ends the run: run.json's status becomes "failed" with the message
+  // (an interrupted run keeps "interrupted"). Does nothing before the run folder is ours.
+  void RecordFailure(const std::string& message) {
+    if (!run_json_ours_ || InterruptRequested()) return;
+    failure_ = message;
+    try {
+      WriteRunJson(nullptr, "failed");
+    } catch (const std::exception&) {
+      // The original error is the one to report.
+    }
+  }
+
+ private:
   void WriteManifest();
   compare::CompareOptions CompareSettings() const;
   std::string CompareSettingsKey() const;
@@ -418,6 +434,9 @@ class Evaluation {
   scene::SceneSource scene_source_;
   std::vector<std::string> missing_photos_;
   std::map<std::string, std::string> stems_;
+  run::RunFolder run_folder_;   // locked from PrepareRunDirectory on
+  std::string failure_;         // run.json's "error" of a failed run
+  bool run_json_ours_ = false;  // run.json is this scene's run (set once the identity matched)
   std::map<std::string, size_t> view_index_;
   std::vector<std::string> photo_names_;  // views with a photo, scene order
   split::Split split_;
@@ -518,9 +537,12 @@ void Evaluation::ReadInputs() {
 
 void Evaluation::PrepareRunDirectory() {
   std::error_code ec;
-  fs::create_directories(run_, ec);
-  REPHOTO_CHECK(!ec && fs::is_directory(run_), "{}: cannot create the run directory{}",
-                run_.string(), ec ? ": " + ec.message() : "");
+  // One writer, and only a folder that holds an evaluate run or nothing (run/run_folder.h);
+  // folders from before the mark are recognised by their run.json.
+  run_folder_ = run::OpenRunFolder(run_, "evaluate", [](const fs::path& dir) {
+    std::error_code exists_ec;
+    return fs::exists(dir / "run.json", exists_ec);
+  });
   // Identity of the scene: the set of its image names.
   std::vector<std::string> names;
   for (const scene::View& view : scene_.views) names.push_back(view.name);
@@ -540,13 +562,6 @@ void Evaluation::PrepareRunDirectory() {
                   "images with other names); use another --out or delete it",
                   run_.string(), old.value("scene", "?"), old.value("images", 0), o_.scene.string(),
                   names.size());
-  } else {
-    for (fs::directory_iterator it(run_, ec), end; !ec && it != end; it.increment(ec)) {
-      ThrowError(
-          "{}: the folder is not empty and holds no run.json of a rephoto evaluate run; use "
-          "an empty or new --out",
-          run_.string());
-    }
   }
   scene_identity_ = {{"scene", fs::absolute(o_.scene).lexically_normal().string()},
                      {"format", std::string(scene::SceneFormatName(scene_source_.format))},
@@ -554,6 +569,7 @@ void Evaluation::PrepareRunDirectory() {
                      {"names_hash", identity}};
   hashes_ = std::make_unique<FileHashCache>(CacheDir() / "file_hashes.json");
   WriteRunJson(nullptr, "running");  // marks the folder as this scene's run from now on
+  run_json_ours_ = true;
 }
 
 void Evaluation::MakeSplit() {
@@ -944,7 +960,8 @@ void Evaluation::CommandStage(FoldState& fold) {
   LogInfo(fmt::format("{}: running the {} command (log: {})", fold.name, CommandKind(),
                       fold.log_file.string()));
   const CommandOutcome outcome = RunShellCommand(
-      fold.command, fold.log_file, fmt::format("rephoto evaluate {} {}", fold.name, CommandKind()));
+      fold.command, fold.log_file, fmt::format("rephoto evaluate {} {}", fold.name, CommandKind()),
+      o_.command_timeout);
   {
     std::lock_guard<std::mutex> lock(timings_mutex_);
     ++counters_.commands_run;
@@ -965,9 +982,12 @@ void Evaluation::CommandStage(FoldState& fold) {
   if (!outcome.ok()) {
     const std::string last = LastLogLine(fold.log_file);
     const std::string why =
-        outcome.signal != 0 ? fmt::format("killed by signal {}", outcome.signal)
-                            : fmt::format("exit status {}{}", outcome.exit_status,
-                                          outcome.exit_status == 127 ? ", command not found" : "");
+        outcome.timed_out
+            ? fmt::format("timed out after {:g} s, --command-timeout", o_.command_timeout)
+        : outcome.signal != 0
+            ? fmt::format("killed by signal {}", outcome.signal)
+            : fmt::format("exit status {}{}", outcome.exit_status,
+                          outcome.exit_status == 127 ? ", command not found" : "");
     FailFold(fold, fmt::format("{}: {} command '{}' failed ({}); see {}{}", fold.name,
                                CommandKind(), Shorten(CommandTemplate()), why, log,
                                last.empty() ? "" : " (last line: " + last + ")"));
@@ -1842,6 +1862,7 @@ void Evaluation::WriteRunJson(const EvaluateResult* result, const std::string& s
   j["schema"] = kSchema;
   j["tool"] = {{"name", "rephoto"}, {"version", compare::ToolVersion()}};
   j["status"] = status;
+  if (!failure_.empty()) j["error"] = failure_;
   Json command_line = Json::array();
   for (const std::string& arg : o_.command_line) command_line.push_back(arg);
   j["command_line"] = command_line;
@@ -2192,7 +2213,12 @@ void EvaluateOptions::Check() const {
 
 EvaluateResult RunEvaluate(const EvaluateOptions& options) {
   Evaluation evaluation(options);
-  return evaluation.Run();
+  try {
+    return evaluation.Run();
+  } catch (const Error& e) {
+    evaluation.RecordFailure(e.what());
+    throw;
+  }
 }
 
 }  // namespace rephoto::eval

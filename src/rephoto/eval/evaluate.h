@@ -189,6 +189,10 @@ struct EvaluateOptions {
   // the photo's content hash and size, so runs of one scene can share a folder (sweeps do).
   std::filesystem::path cache_dir;
   int jobs = 1;  // folds whose external commands run at once
+  // Seconds a fold's --reconstruct/--render command may run (0 = no limit). A command that runs
+  // longer is stopped with its whole process group (SIGTERM, SIGKILL 5 s later) and its fold
+  // fails with "timed out after N s"; the other folds go on.
+  double command_timeout = 0;
   // Metric projected onto the model after the folds ("none" = no projection).
   std::string projection_metric = "1-ncc";
   bool report = true;              // write report.html

@@ -2,6 +2,7 @@
 // 160x120 photos of the demo object, a ground-truth mesh of about 5000 triangles.
 #include "rephoto/eval/evaluate.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -25,6 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using metrics::Metric;
+using ::testing::HasSubstr;
 
 constexpr int kViews = 6;
 
@@ -431,6 +433,37 @@ TEST(EvaluateTest, FailingCommandsFailOnlyTheirFoldNamingTheLog) {
   const EvaluateResult again = RunEvaluate(o);
   EXPECT_EQ(again.counters.commands_run, 4u);
   EXPECT_EQ(again.counters.folds_reused, 1u);
+}
+
+TEST(EvaluateTest, HungCommandTimesOutFailingOnlyItsFold) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.scheme = "kfold:2";
+  o.model = "mesh.ply";
+  o.reconstruct = "case {fold} in 0) sleep 1000;; *) cp " + ShellQuote(Files().truth.string()) +
+                  " {out}/mesh.ply;; esac";
+  o.command_timeout = 0.5;
+  const auto start = std::chrono::steady_clock::now();
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 60);
+  EXPECT_EQ(result.exit_code, ExitCode::kIncomplete);
+  ASSERT_EQ(result.folds.size(), 2u);
+  EXPECT_FALSE(result.folds[0].ok);
+  EXPECT_THAT(result.folds[0].message, HasSubstr("timed out after 0.5 s, --command-timeout"));
+  EXPECT_TRUE(result.folds[1].ok);
+  EXPECT_EQ(ReadJson(run / "run.json")["settings"]["command-timeout"], 0.5);
+}
+
+TEST(EvaluateTest, AFailedRunSaysSoInRunJson) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  // More folds than photos: found once the scene is read and the run folder is this run's.
+  o.scheme = "kfold:50";
+  EXPECT_THROW(RunEvaluate(o), Error);
+  const nlohmann::json record = ReadJson(run / "run.json");
+  EXPECT_EQ(record["status"], "failed");
+  EXPECT_THAT(record["error"].get<std::string>(), HasSubstr("kfold:50"));
 }
 
 TEST(EvaluateTest, ExternalRendererImagesAreComparedAsTheyAre) {

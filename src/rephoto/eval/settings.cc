@@ -72,6 +72,9 @@ const std::vector<SettingInfo>& Settings() {
       {"point-neighbors", SettingType::kInt, "k of the k-th nearest neighbour splat radius"},
       {"out", SettingType::kPath, "Run directory"},
       {"jobs", SettingType::kInt, "Folds whose external commands run at once"},
+      {"command-timeout", SettingType::kDouble,
+       "Seconds a fold's --reconstruct/--render command may run; then it is stopped and the "
+       "fold fails (0 = no limit)"},
       {"projection-metric", SettingType::kString,
        "Metric projected onto the model (none = no projection)"},
       {"report", SettingType::kBool, "Write report.html"},
@@ -294,6 +297,12 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->out = AsPath(value, source, base_dir);
   } else if (n == "jobs") {
     o->jobs = CheckedInt(value, source, 1, 256);
+  } else if (n == "command-timeout") {
+    const double seconds = AsDouble(value, source);
+    if (!(seconds >= 0) || !std::isfinite(seconds)) {
+      throw UsageError(fmt::format("{}: the timeout must be >= 0 seconds", source));
+    }
+    o->command_timeout = seconds;
   } else if (n == "projection-metric") {
     const std::string metric = AsString(value, source);
     if (metric != "none" && !metrics::ParseMetric(metric)) {
@@ -457,6 +466,7 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["point-neighbors"] = o.point_neighbors;
   j["out"] = o.out.string();
   j["jobs"] = o.jobs;
+  j["command-timeout"] = o.command_timeout;
   j["projection-metric"] = o.projection_metric;
   j["report"] = o.report;
   return j;

@@ -12,6 +12,7 @@
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/report/report.h"
+#include "rephoto/run/run_folder.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/split/split.h"
 
@@ -155,6 +156,13 @@ SweepResult RunSweep(const SweepOptions& options) {
                 "sweep: model defects need a model rendered by rephoto, not an external renderer");
 
   const std::vector<SweepSetting> settings = ExpandGrid(result.axes);
+  // One writer; only a folder that holds a sweep (or nothing). Each setting's evaluate run
+  // locks its own folder below it.
+  const run::RunFolder run_folder =
+      run::OpenRunFolder(options.out, "sweep", [](const fs::path& dir) {
+        std::error_code ec;
+        return fs::exists(dir / "sweep.json", ec) || fs::is_directory(dir / "settings", ec);
+      });
   fs::create_directories(options.out / "settings");
   std::vector<fs::path> run_dirs;
   for (size_t s = 0; s < settings.size(); ++s) {
