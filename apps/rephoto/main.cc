@@ -10,8 +10,8 @@
 
 #include "command.h"
 #include "rephoto/core/error.h"
-#include "rephoto/core/process.h"
 #include "rephoto/core/parallel.h"
+#include "rephoto/core/process.h"
 #include "rephoto/core/progress.h"
 
 namespace rephoto::cli {
@@ -56,6 +56,14 @@ int main(int argc, char** argv) {
     for (auto& [sub, run] : commands) {
       if (sub->parsed()) return run();
     }
+  } catch (const UsageError& e) {
+    std::fflush(stdout);
+    fmt::print(stderr, "rephoto: error: {}\n", e.what());
+    return static_cast<int>(ExitCode::kUsage);
+  } catch (const Interrupted& e) {
+    std::fflush(stdout);
+    fmt::print(stderr, "rephoto: {}\n", e.what());
+    return static_cast<int>(ExitCode::kInterrupted);
   } catch (const Error& e) {
     std::fflush(stdout);
     fmt::print(stderr, "rephoto: error: {}\n", e.what());

@@ -20,11 +20,8 @@
 
 namespace rephoto::eval {
 
-// A bad command line setting (the CLI exits with ExitCode::kUsage).
-class UsageError : public Error {
- public:
-  using Error::Error;
-};
+// A bad setting (core/error.h; the CLI exits with ExitCode::kUsage).
+using ::rephoto::UsageError;
 
 // `value` as one POSIX shell word: 'value' with ' written as '\''.
 std::string ShellQuote(std::string_view value);

@@ -574,12 +574,7 @@ void Evaluation::PrepareRunDirectory() {
 
 void Evaluation::MakeSplit() {
   scheme_text_ = ResolvedScheme(o_, photo_names_.size());
-  split::Scheme scheme;
-  try {
-    scheme = split::ParseScheme(scheme_text_);
-  } catch (const Error& e) {
-    throw UsageError(e.what());
-  }
+  const split::Scheme scheme = split::ParseScheme(scheme_text_);  // UsageError when bad
   if (scheme.kind == split::SchemeKind::kLeaveOneOut || scheme.kind == split::SchemeKind::kKFold) {
     REPHOTO_CHECK(photo_names_.size() >= 2, "{}: {} needs at least 2 photos, found {}",
                   o_.scene.string(), scheme_text_, photo_names_.size());
@@ -1490,8 +1485,8 @@ void Evaluation::Aggregate(EvaluateResult* result) {
   std::vector<std::vector<double>> fold_metric(metric_count);
   io::CsvWriter per_fold;
   {
-    std::vector<std::string> fold_header = {
-        "fold", "status", "test_images", "evaluated_images", "seconds", "completeness"};
+    std::vector<std::string> fold_header = {"fold", "status", "test_images", "evaluated_images",
+                                            "completeness"};
     for (metrics::Metric m : o_.metrics) fold_header.emplace_back(metrics::MetricName(m));
     fold_header.push_back("message");
     per_fold.AddRow(fold_header);
@@ -1514,6 +1509,9 @@ void Evaluation::Aggregate(EvaluateResult* result) {
       std::vector<std::string> row = {fold.name};
       if (fold.ok && outcome && outcome->ok) {
         for (std::string& field : compare::PerImageCsvRow(outcome->image)) row.push_back(field);
+        // The photo by its scene name (relative to the scene's image root), not by a path into
+        // this run's cache: two runs of the same inputs give byte-identical tables.
+        row[3] = test.name;
         completeness.push_back(outcome->image.completeness.value);
         for (size_t k = 0; k < metric_count; ++k) {
           means[k].push_back(outcome->image.metrics[k].mean);
@@ -1524,7 +1522,7 @@ void Evaluation::Aggregate(EvaluateResult* result) {
       } else {
         row.push_back(test.stem);
         row.push_back("failed");
-        row.push_back(test.photo.string());
+        row.push_back(test.name);
         row.push_back("");
         ++failed_views;
       }
@@ -1555,12 +1553,9 @@ void Evaluation::Aggregate(EvaluateResult* result) {
       fold_metric[k].push_back(fr.metric_means.back());
     }
     fold_completeness.push_back(fr.completeness);
-    std::vector<std::string> fold_row = {fold.name,
-                                         fr.ok ? "ok" : "failed",
-                                         std::to_string(fr.test_images),
-                                         std::to_string(fr.evaluated_images),
-                                         io::CsvNumber(fr.seconds),
-                                         io::CsvNumber(fr.completeness)};
+    std::vector<std::string> fold_row = {
+        fold.name, fr.ok ? "ok" : "failed", std::to_string(fr.test_images),
+        std::to_string(fr.evaluated_images), io::CsvNumber(fr.completeness)};
     for (double v : fr.metric_means) fold_row.push_back(io::CsvNumber(v));
     fold_row.push_back(fr.message);
     per_fold.AddRow(fold_row);
@@ -2087,9 +2082,9 @@ EvaluateResult Evaluation::Run() {
   hashes_->Save();
   if (InterruptRequested()) {
     WriteRunJson(nullptr, "interrupted");
-    ThrowError(
+    throw Interrupted(fmt::format(
         "{}: interrupted; finished folds and views are kept: rerun the same command to resume",
-        run_.string());
+        run_.string()));
   }
 
   EvaluateResult result;
@@ -2141,6 +2136,7 @@ ModelSource EvaluateOptions::source() const {
 void EvaluateOptions::Check() const {
   if (scene.empty()) throw UsageError("evaluate: no scene given (--scene)");
   if (out.empty()) throw UsageError("evaluate: no run directory given (--out)");
+  if (!scheme.empty()) split::ParseScheme(scheme);  // syntax now, before anything is written
   const int sources = (!render.empty()) + (!reconstruct.empty());
   if (sources > 1) throw UsageError("evaluate: give either --reconstruct or --render, not both");
   if (!reconstruct.empty() && model.empty()) {

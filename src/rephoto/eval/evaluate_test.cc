@@ -4,6 +4,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -333,6 +334,44 @@ std::vector<std::string> Lines(const fs::path& path) {
   return lines;
 }
 
+// issue 14: an image name that climbs out of the image root never reaches a stage that links,
+// renders or writes: the scene is refused with file and line, and no file outside the run
+// folder changes (inode, size, mtime).
+TEST(EvaluateTest, TraversingImageNamesTouchNothingOutsideTheRun) {
+  const fs::path root = testing::MakeTempDir();
+  const fs::path victim = root / "X" / "secret.png";
+  fs::create_directories(victim.parent_path());
+  WriteTextFileAtomically(victim, "precious");
+  struct stat before {};
+  ASSERT_EQ(::stat(victim.c_str(), &before), 0);
+  const fs::path images = root / "a" / "b" / "images";
+  fs::create_directories(images);
+  scene::Scene hostile = Files().scene;
+  for (scene::View& view : hostile.views) fs::copy_file(view.image_path, images / view.name);
+  hostile.views[1].name = "../../../X/secret.png";
+  scene::WriteColmap(hostile, root / "sparse", scene::ColmapFormat::kText);
+  EvaluateOptions o = BaseOptions(root / "run");
+  o.scene = root / "sparse";
+  o.image_root = images;
+  o.model = "mesh.ply";
+  o.reconstruct = "cp " + ShellQuote(Files().truth.string()) + " {out}/mesh.ply";
+  try {
+    RunEvaluate(o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("images.txt:"));
+    EXPECT_THAT(e.what(), HasSubstr("image name '../../../X/secret.png' contains '..'"));
+  }
+  struct stat after {};
+  ASSERT_EQ(::stat(victim.c_str(), &after), 0);
+  EXPECT_EQ(after.st_ino, before.st_ino);
+  EXPECT_EQ(after.st_size, before.st_size);
+  EXPECT_EQ(after.st_mtim.tv_sec, before.st_mtim.tv_sec);
+  EXPECT_EQ(after.st_mtim.tv_nsec, before.st_mtim.tv_nsec);
+  EXPECT_EQ(after.st_nlink, 1u);
+  EXPECT_EQ(ReadFileToString(victim), "precious");
+}
+
 TEST(EvaluateTest, ReconstructCommandGetsQuotedPlaceholdersAndIsResumed) {
   const fs::path run = testing::MakeTempDir() / "run with 'quotes' and spaces";
   EvaluateOptions o = BaseOptions(run);
@@ -660,7 +699,16 @@ TEST(EvaluateTest, EvalShortSideRendersAndComparesSmaller) {
   const auto rows = ReadCsv(run / "per_image.csv");
   EXPECT_EQ(rows[1][5], "80");
   EXPECT_EQ(rows[1][6], "60");
-  EXPECT_EQ(rows[1][3].find((run / "cache/eval_photos").string()), 0u) << rows[1][3];
+  // The photo by its scene name, not by the path of its downscaled copy in this run's cache:
+  // the same inputs evaluated in another folder give byte-identical tables.
+  EXPECT_EQ(rows[1][3], Files().scene.views[0].name);
+  EvaluateOptions elsewhere = o;
+  elsewhere.out = testing::MakeTempDir() / "elsewhere";
+  RunEvaluate(elsewhere);
+  EXPECT_EQ(ReadFileToString(elsewhere.out / "per_image.csv"),
+            ReadFileToString(run / "per_image.csv"));
+  EXPECT_EQ(ReadFileToString(elsewhere.out / "per_fold.csv"),
+            ReadFileToString(run / "per_fold.csv"));
   const io::ImageHeader header =
       io::ReadImageHeader(run / "folds/fold_00/renders" / (rows[1][1] + ".png"));
   EXPECT_EQ(header.width, 80);

@@ -234,6 +234,19 @@ RunData LoadRun(const fs::path& dir) {
       }
       run.folds.push_back(std::move(row));
     }
+    // Seconds live in run.json only (tables are reproducible); older runs had the column.
+    if (f_seconds < 0 && run.run.is_object() && run.run.contains("folds") &&
+        run.run["folds"].is_array()) {
+      for (const auto& entry : run.run["folds"]) {
+        if (!entry.is_object() || !entry.contains("fold") || !entry.contains("seconds") ||
+            !entry["seconds"].is_number()) {
+          continue;
+        }
+        for (FoldRow& row : run.folds) {
+          if (row.fold == JsonText(entry["fold"])) row.seconds = entry["seconds"].get<double>();
+        }
+      }
+    }
   }
 
   // Failed folds: summary.json's list (with messages), else the per_fold.csv status.

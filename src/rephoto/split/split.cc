@@ -121,7 +121,23 @@ std::string Scheme::ToString() const {
   return "none";
 }
 
+namespace {
+Scheme ParseSchemeText(std::string_view text);
+}  // namespace
+
 Scheme ParseScheme(std::string_view text) {
+  // A scheme is a setting: whatever is wrong with its text is a usage error (exit 2).
+  try {
+    return ParseSchemeText(text);
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    throw UsageError(e.what());
+  }
+}
+
+namespace {
+Scheme ParseSchemeText(std::string_view text) {
   const size_t colon = text.find(':');
   const std::string_view name = text.substr(0, colon);
   const std::string_view rest = colon == std::string_view::npos ? "" : text.substr(colon + 1);
@@ -173,6 +189,7 @@ Scheme ParseScheme(std::string_view text) {
   }
   return scheme;
 }
+}  // namespace
 
 std::vector<std::string> ReadImageList(const fs::path& path) {
   std::vector<std::string> names;

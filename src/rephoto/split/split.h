@@ -53,7 +53,7 @@ struct Scheme {
   bool Seeded() const { return kind == SchemeKind::kKFold || kind == SchemeKind::kFraction; }
 };
 
-// Parses the text form above. Throws rephoto::Error "--scheme '<text>': ..." on bad syntax or
+// Parses the text form above. Throws rephoto::UsageError "--scheme '<text>': ..." on bad syntax or
 // out-of-range parameters.
 Scheme ParseScheme(std::string_view text);
 

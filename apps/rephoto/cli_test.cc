@@ -1,0 +1,120 @@
+// The rephoto program as a user runs it (issue 14): usage mistakes exit 2 with one line, a run
+// folder has one writer and `kill -9` releases it at once, a hung pipeline times out.
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "rephoto/core/file.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct Outcome {
+  int exit_code = -1;
+  std::string err;
+};
+
+// Runs `rephoto ARGS` through the shell, stderr captured.
+Outcome RunCli(const std::string& args) {
+  const fs::path err = testing::MakeTempDir() / "stderr";
+  const std::string command =
+      std::string(REPHOTO_CLI) + " -q " + args + " >/dev/null 2>'" + err.string() + "'";
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFileToString(err)};
+}
+
+size_t Lines(const std::string& text) {
+  size_t lines = 0;
+  for (char c : text) lines += c == '\n';
+  return lines;
+}
+
+const fs::path kSceaux = "openmvs_sceaux";
+
+std::string SceauxArgs() {
+  const fs::path data = testing::SharedDataDir() / kSceaux;
+  return fmt::format("--scene '{}' --image-root '{}'", (data / "colmap_text_derived").string(),
+                     (data / "images").string());
+}
+
+std::string Mesh() { return (testing::SharedDataDir() / kSceaux / "scene_mesh.ply").string(); }
+
+// The last line of a program's stderr (warnings about the data may come before it).
+std::string LastLine(const std::string& text) {
+  const size_t end = text.size() > 0 && text.back() == '\n' ? text.size() - 1 : text.size();
+  const size_t begin = text.rfind('\n', end == 0 ? 0 : end - 1);
+  return text.substr(begin == std::string::npos ? 0 : begin + 1);
+}
+
+TEST(Cli, UsageMistakesAnywhereExitTwoWithOneLine) {
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const fs::path dir = testing::MakeTempDir();
+  for (const std::string& args : {"split " + SceauxArgs().substr(8) + " --scheme bogus:3 --out '" +
+                                      (dir / "s").string() + "'",
+                                  "evaluate " + SceauxArgs() + " --scheme kfold:x --model '" +
+                                      Mesh() + "' --out '" + (dir / "e").string() + "'",
+                                  "evaluate " + SceauxArgs() + " --command-timeout -1 --model '" +
+                                      Mesh() + "' --out '" + (dir / "t").string() + "'"}) {
+    SCOPED_TRACE(args);
+    const Outcome outcome = RunCli(args);
+    EXPECT_EQ(outcome.exit_code, 2) << outcome.err;
+    // One line saying what is wrong (evaluate adds where to find the options).
+    const std::string message = outcome.err.find("Run 'rephoto") != std::string::npos
+                                    ? outcome.err.substr(0, outcome.err.find("Run 'rephoto"))
+                                    : outcome.err;
+    EXPECT_EQ(Lines(message), 1u) << outcome.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "e"));
+}
+
+TEST(Cli, OneWriterPerRunFolderAndKillNineReleasesIt) {
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const fs::path run = testing::MakeTempDir() / "run";
+  const std::string args = "evaluate " + SceauxArgs() +
+                           " --scheme kfold:2 --model mesh.ply --reconstruct 'sleep 30' --out '" +
+                           run.string() + "'";
+  // The first writer: started in the background, it holds the folder while its command runs.
+  const pid_t first = ::fork();
+  ASSERT_GE(first, 0);
+  if (first == 0) {
+    const std::string command = std::string(REPHOTO_CLI) + " -q " + args;
+    ::execl("/bin/sh", "sh", "-c", ("exec " + command + " >/dev/null 2>&1").c_str(), nullptr);
+    ::_exit(127);
+  }
+  // Wait until it owns the folder (its log of fold_00's command exists).
+  for (int i = 0; i < 600 && !fs::exists(run / "logs"); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(run / "logs"));
+  const Outcome second = RunCli(args);
+  EXPECT_EQ(second.exit_code, 1);
+  EXPECT_EQ(LastLine(second.err),
+            fmt::format("rephoto: error: {}: another rephoto evaluate (pid {}) is "
+                        "writing this run folder; wait for it or use another --out\n",
+                        run.string(), first));
+  ::kill(first, SIGKILL);
+  int status = 0;
+  ::waitpid(first, &status, 0);
+  // Released at once: the next run takes the folder; its hung commands time out.
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome third = RunCli(args + " --command-timeout 0.2");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30);
+  EXPECT_EQ(third.exit_code, 3) << third.err;  // finished, both folds failed (timed out)
+  EXPECT_THAT(ReadFileToString(run / "per_fold.csv"), HasSubstr("timed out after 0.2 s"));
+}
+
+}  // namespace
+}  // namespace rephoto
