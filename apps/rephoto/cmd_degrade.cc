@@ -39,7 +39,7 @@ CommandRunner SetupDegrade(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--simplify", args->options.simplify,
-                 "Fraction of vertices removed by edge collapse, in [0,1)")
+                 "Fraction of the faces removed by edge collapse, in [0,1)")
       ->check(CLI::Range(0.0, 0.9999))
       ->capture_default_str();
   app.add_option("--frequency", args->options.noise_frequency,
@@ -57,8 +57,8 @@ CommandRunner SetupDegrade(CLI::App& app) {
     // Texture paths relative to the PLY's folder where possible, so the files move together.
     for (auto& material : degraded.materials) {
       if (material.diffuse_texture.empty()) continue;
-      const auto relative = std::filesystem::absolute(material.diffuse_texture)
-                                .lexically_relative(out.parent_path());
+      const auto relative =
+          std::filesystem::absolute(material.diffuse_texture).lexically_relative(out.parent_path());
       if (!relative.empty() && *relative.begin() != "..") material.diffuse_texture = relative;
     }
     mesh::WritePly(out, degraded);

@@ -131,8 +131,15 @@ CommandRunner SetupEvaluate(CLI::App& app) {
                                       "= {:.1f} %",
                                       t.external_cpu, t.rephoto_cpu, 100 * t.rephoto_cpu_share())
                                 : "";
-    fmt::print("Time {:.1f} s (external commands {:.1f} s, rephoto {:.1f} s{}). Results in {}\n",
-               t.total, t.external, t.rephoto(), cpu, options.out.string());
+    // The commands of several folds run at once and beside rephoto's own work, so their
+    // summed times can exceed the wall-clock total; the line says so when they do.
+    const bool overlapped = t.external + t.rephoto() > t.total + 0.05;
+    fmt::print(
+        "Time {:.1f} s wall clock (external commands {:.1f} s, rephoto {:.1f} s{}{}). "
+        "Results in {}\n",
+        t.total, t.external, t.rephoto(),
+        overlapped ? ", summed over work that ran at the same time" : "", cpu,
+        options.out.string());
     return static_cast<int>(result.exit_code);
   };
 }

@@ -25,6 +25,8 @@ struct ReportArguments {
   int examples = -1;         // -1: the default of the report type
   int thumbnail_width = -1;  // -1: the default of the report type
   bool keep_order = false;
+  std::string csv;
+  double completeness_margin = report::CollectionOptions{}.completeness_margin;
 };
 
 CommandRunner SetupReport(CLI::App& app) {
@@ -49,13 +51,20 @@ CommandRunner SetupReport(CLI::App& app) {
   app.add_option("--thumbnail-width", args->thumbnail_width,
                  "Maximum width of the embedded images in pixels (default 480 / 320)")
       ->check(CLI::Range(16, 4096));
+  app.add_option("--csv", args->csv,
+                 "Several runs: also write the ranking table as CSV (medians, notes)");
+  app.add_option("--completeness-margin", args->completeness_margin,
+                 "Several runs: mark runs whose median completeness is more than this below the "
+                 "most complete run's (accuracy alone does not compare them)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_flag("--keep-order", args->keep_order,
                "Several runs: keep the given order instead of ranking by the primary metric");
 
   return [args] {
     if (!args->labels.empty() && args->labels.size() != args->runs.size()) {
-      ThrowError("--labels: {} labels for {} run directories", args->labels.size(),
-                 args->runs.size());
+      throw UsageError(fmt::format("--labels: {} labels for {} run directories",
+                                   args->labels.size(), args->runs.size()));
     }
     if (args->runs.size() == 1) {
       report::ReportOptions options;
@@ -77,6 +86,8 @@ CommandRunner SetupReport(CLI::App& app) {
       options.title = args->title;
       options.primary_metric = args->metric;
       options.rank = !args->keep_order;
+      options.ranking_csv = args->csv;
+      options.completeness_margin = args->completeness_margin;
       if (args->examples >= 0) options.example_images = args->examples;
       if (args->thumbnail_width > 0) options.thumbnail_width = args->thumbnail_width;
       report::WriteCollectionReport(entries, args->out, options);

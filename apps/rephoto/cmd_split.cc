@@ -29,7 +29,9 @@ CommandRunner SetupSplit(CLI::App& app) {
   auto args = std::make_shared<SplitArguments>();
   app.add_option("scene", args->scene, "Scene file or folder (format detected)")->required();
   app.add_option("--scheme", args->scheme,
-                 "kfold:K[:SEED] | loo | every:N (test iff index % N == 0, sorted by name) | "
+                 "kfold:K[:SEED] (seeded shuffle; a fold may hold out neighbours) | interleaved:K "
+                 "(image i by name tested in fold i mod K) | loo | every:N (test iff index % N == "
+                 "0, sorted by name) | "
                  "fraction:F[:SEED] | lists:TRAIN,TEST | none")
       ->required();
   app.add_option("--out", args->out, "Output folder (fold_XX/..., split.json)")->required();

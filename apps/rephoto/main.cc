@@ -15,6 +15,22 @@
 #include "rephoto/core/progress.h"
 
 namespace rephoto::cli {
+
+// CLI11's help prints a switch with a "--no-" form as "--x,--no-x{false}"; the braces are
+// CLI11's syntax, not the default (which the help text states), so they are left out.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  std::string make_option_name(const CLI::Option* option, bool positional) const override {
+    std::string name = CLI::Formatter::make_option_name(option, positional);
+    for (const char* braces : {"{false}", "{true}"}) {
+      for (size_t at; (at = name.find(braces)) != std::string::npos;) {
+        name.erase(at, std::string_view(braces).size());
+      }
+    }
+    return name;
+  }
+};
+
 std::vector<CommandInfo>& CommandTable() {
   static std::vector<CommandInfo> table;
   return table;
@@ -28,6 +44,7 @@ int main(int argc, char** argv) {
       "rephoto: how good does a 3D reconstruction look? Virtual rephotography "
       "(Waechter et al. 2017): render held-out views and compare them with the photos."};
   app.set_version_flag("--version", std::string(REPHOTO_VERSION));
+  app.formatter(std::make_shared<cli::HelpFormatter>());
   app.require_subcommand(1);
   int threads = 0;
   bool quiet = false;

@@ -6,13 +6,15 @@
 #   vertex_colour  MESH coloured from each fold's training photos (evaluate --colorize)
 #   vdt            MESH as the proxy of view-dependent texturing from each fold's training photos
 #   ibr            image-based rendering: each fold's training photos warped by per-view depth
-#                  maps (--depth-maps DIR, else plane-sweep stereo over the training photos)
+#                  maps (--depth-maps DIR, else plane-sweep stereo over the training photos;
+#                  the plane sweep takes about 20x the time of vdt per fold: pass --depth-maps
+#                  from your MVS, or lower --train-short-side, to trade its quality for time)
 #   point_cloud    --points PLY rendered as splats (skipped without --points)
 #   textured       --textured MESH (a textured OBJ/PLY; skipped without it)
 #
 # The first three never see a fold's test photos. --points and --textured are taken as given:
 # if they were made from all photos (a global method) their rows are not cross-validated
-# (paper Section 4.4), which the note column says.
+# (paper Section 4.4), which table1.csv's note column says.
 #
 # Usage: table1.sh --scene S --mesh MESH --out DIR [options]
 #   --scene S             scene (any format rephoto reads)
@@ -102,31 +104,9 @@ fi
 
 "$rephoto" report "${runs[@]}" --labels "$(IFS=,; echo "${labels[*]}")" \
   --title "Representations of $(basename "$(cd "$(dirname "$mesh")" && pwd)")/$(basename "$mesh") (Table I)" \
-  --out "$out/report.html"
-
-# table1.csv from each run's summary.json: medians across folds of the fold means.
-{
-  echo "representation,completeness_median,1-ncc_median,cb+cr_median,folds,evaluated_images"
-  for i in "${!runs[@]}"; do
-    summary="${runs[$i]}/summary.json"
-    [ -f "$summary" ] || die "$summary missing"
-    awk -v name="${labels[$i]}" '
-      # summary.json is written with one key per line (nlohmann dump(2)).
-      /"completeness": \{/ { section = "completeness" }
-      /"1-ncc": \{/ { section = "1-ncc" }
-      /"cb\+cr": \{/ { section = "cb+cr" }
-      /"across_folds": \{/ { across = 1 }
-      /"over_images": \{/ { across = 0 }
-      /"median":/ && across && section != "" && !(section in value) {
-        v = $2; sub(/,$/, "", v); value[section] = v
-      }
-      /^  "folds":/ { f = $2; sub(/,$/, "", f) }
-      /^  "images":/ { n = $2; sub(/,$/, "", n) }
-      /^  "evaluated_images":/ { e = $2; sub(/,$/, "", e) }
-      END { printf "%s,%.4f,%.4f,%.4f,%s,%s/%s\n", name, value["completeness"], value["1-ncc"],
-            value["cb+cr"], f, e, n }' "$summary"
-  done
-} >"$out/table1.csv.tmp"
-mv "$out/table1.csv.tmp" "$out/table1.csv"
+  --csv "$out/table1.csv" --out "$out/report.html"
+# table1.csv: rank, representation, medians of every metric and of completeness, and a note for
+# rows that do not compare by accuracy alone (completeness more than 0.05 below the most complete
+# row's, or not cross-validated).
 column -s, -t "$out/table1.csv" 2>/dev/null || cat "$out/table1.csv"
 echo "$prog: $out/report.html" >&2

@@ -575,7 +575,8 @@ void Evaluation::PrepareRunDirectory() {
 void Evaluation::MakeSplit() {
   scheme_text_ = ResolvedScheme(o_, photo_names_.size());
   const split::Scheme scheme = split::ParseScheme(scheme_text_);  // UsageError when bad
-  if (scheme.kind == split::SchemeKind::kLeaveOneOut || scheme.kind == split::SchemeKind::kKFold) {
+  if (scheme.kind == split::SchemeKind::kLeaveOneOut || scheme.kind == split::SchemeKind::kKFold ||
+      scheme.kind == split::SchemeKind::kInterleaved) {
     REPHOTO_CHECK(photo_names_.size() >= 2, "{}: {} needs at least 2 photos, found {}",
                   o_.scene.string(), scheme_text_, photo_names_.size());
   }
@@ -1594,7 +1595,8 @@ void Evaluation::Aggregate(EvaluateResult* result) {
   summary["tool_version"] = compare::ToolVersion();
   summary["scene"] = fs::absolute(o_.scene).lexically_normal().string();
   summary["scheme"] = split_.scheme.ToString();
-  summary["cross_validated"] = split_.cross_validated;
+  // A fixed --model saw every photo, the test photos among them, whatever the split.
+  summary["cross_validated"] = split_.cross_validated && source_ != ModelSource::kModel;
   summary["source"] = source_ == ModelSource::kModel         ? "model"
                       : source_ == ModelSource::kReconstruct ? "reconstruct"
                                                              : "render";

@@ -20,8 +20,10 @@ const std::vector<SettingInfo>& Settings() {
       {"format", SettingType::kString, "Scene format instead of detection"},
       {"image-root", SettingType::kPath, "Folder the image names are relative to"},
       {"scheme", SettingType::kString,
-       "Split: kfold:K[:SEED], loo, every:N, fraction:F[:SEED], lists:TRAIN,TEST, none "
-       "(default: none for a model alone, else kfold:5)"},
+       "Split: kfold:K[:SEED] (seeded shuffle: a fold may hold out neighbouring photos), "
+       "interleaved:K (photo i, by name, tested in fold i mod K: neighbours in different "
+       "folds), loo, every:N, fraction:F[:SEED], lists:TRAIN,TEST, none (default: none for a "
+       "model alone, else kfold:5)"},
       {"model", SettingType::kPath,
        "Model file (mesh/point cloud) for all folds; with --reconstruct the model's path "
        "inside {out}"},
@@ -35,7 +37,8 @@ const std::vector<SettingInfo>& Settings() {
       {"representation", SettingType::kString,
        "Built-in renderer: auto (the model: mesh or point cloud), vdt (view-dependent "
        "texturing of the fold's training photos on the model), ibr (training photos warped by "
-       "depth maps; no model needed)"},
+       "depth maps; no model needed; its plane sweep takes about 20x vdt's time per fold: "
+       "give --depth-maps or a lower --train-short-side to trade quality for time)"},
       {"depth-maps", SettingType::kPath,
        "ibr: folder of depth maps per training view (COLMAP .bin, PFM, EXR); default: plane "
        "sweep"},
@@ -193,7 +196,10 @@ std::vector<metrics::Metric> AsMetrics(const SettingValue& value, std::string_vi
   } catch (const UsageError&) {
     throw;
   } catch (const Error& e) {
-    throw UsageError(fmt::format("{}: {}", source, e.what()));
+    // metrics::ParseMetricList names the flag itself; the source (a flag or a file) replaces it.
+    std::string_view why = e.what();
+    if (why.starts_with("--metrics: ")) why.remove_prefix(11);
+    throw UsageError(fmt::format("{}: {}", source, why));
   }
 }
 

@@ -10,6 +10,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/core/stats.h"
+#include "rephoto/io/csv.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/report/boxplot.h"
 #include "rephoto/report/html.h"
@@ -119,6 +120,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     double primary_median = NAN;
     double completeness_median = NAN;
     size_t count = 0;
+    std::string note;  // why the accuracy does not compare (empty: it does)
   };
   std::vector<Loaded> runs;
   std::vector<std::string> metric_names;  // union, first-seen order
@@ -152,6 +154,31 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     });
   }
 
+  REPHOTO_CHECK(options.completeness_margin >= 0 && options.completeness_margin <= 1,
+                "{}: completeness margin {} is not in [0, 1]", out_html.string(),
+                options.completeness_margin);
+  double best_completeness = NAN;
+  for (const Loaded& l : runs) {
+    if (!std::isnan(l.completeness_median) && !(l.completeness_median <= best_completeness)) {
+      best_completeness = l.completeness_median;
+    }
+  }
+  for (Loaded& l : runs) {
+    std::vector<std::string> notes;
+    if (!std::isnan(l.completeness_median) &&
+        l.completeness_median < best_completeness - options.completeness_margin) {
+      notes.push_back(fmt::format(
+          "completeness {:.3f} is more than {:g} below the most complete run's {:.3f}: its "
+          "accuracy covers fewer pixels and does not compare",
+          l.completeness_median, options.completeness_margin, best_completeness));
+    }
+    if (l.run.summary.is_object() && l.run.summary.contains("cross_validated") &&
+        l.run.summary["cross_validated"].is_boolean() && !l.run.summary["cross_validated"]) {
+      notes.push_back("not cross-validated: the model saw the test photos");
+    }
+    for (const std::string& n : notes) l.note += (l.note.empty() ? "" : "; ") + n;
+  }
+
   const std::string title = options.title.empty()
                                 ? fmt::format("rephoto comparison of {} runs", runs.size())
                                 : options.title;
@@ -172,11 +199,15 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
   const std::string setting_name = options.setting_name.empty() ? "setting" : options.setting_name;
   html += fmt::format(
       "<section id=\"ranking\"><h2>{}</h2><p class=\"muted\">Medians {}; completeness next to "
-      "the primary metric. Click a column header to sort.</p>\n<div class=\"scroll\"><table "
+      "the primary metric: accuracy compares only between runs of similar completeness "
+      "(\u26a0 marks runs whose completeness is more than {} below the most complete run's, or "
+      "that are not cross-validated). Click a column header to sort.</p>\n<div "
+      "class=\"scroll\"><table "
       "class=\"sortable ranking\" id=\"ranking-table\"><thead><tr><th data-col=\"rank\">#</th>"
       "<th class=\"text\" data-col=\"label\">run</th>",
       options.rank ? "Ranking" : "Runs",
-      "across folds (evaluate runs with several folds) or over images");
+      "across folds (evaluate runs with several folds) or over images",
+      fmt::format("{:g}", options.completeness_margin));
   if (any_series) html += "<th class=\"text\" data-col=\"series\">series</th>";
   if (sweep) {
     html += fmt::format("<th data-col=\"setting\">{}</th>", HtmlEscape(setting_name));
@@ -192,14 +223,20 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
   bool any_description = false;
   for (const Loaded& l : runs) any_description = any_description || !l.entry.description.empty();
   html += "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>";
+  bool any_note = false;
+  for (const Loaded& l : runs) any_note = any_note || !l.note.empty();
+  if (any_note) html += "<th class=\"text\" data-col=\"note\">note</th>";
   if (any_description) html += "<th class=\"text\" data-col=\"description\">description</th>";
   html += "</tr></thead><tbody>\n";
   for (size_t i = 0; i < runs.size(); ++i) {
     const Loaded& l = runs[i];
     html += fmt::format(
         "<tr data-label=\"{}\"><td data-v=\"{}\">{}</td><td class=\"text\"><a "
-        "href=\"#entry-{}\">{}</a></td>",
-        HtmlEscape(l.entry.label), i + 1, i + 1, i, HtmlEscape(l.entry.label));
+        "href=\"#entry-{}\">{}</a>{}</td>",
+        HtmlEscape(l.entry.label), i + 1, i + 1, i, HtmlEscape(l.entry.label),
+        l.note.empty()
+            ? ""
+            : " <span class=\"warn\" title=\"" + HtmlEscape(l.note) + "\">\u26a0</span>");
     if (any_series) html += fmt::format("<td class=\"text\">{}</td>", HtmlEscape(l.entry.series));
     if (sweep) {
       html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(*l.entry.setting),
@@ -218,6 +255,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     }
     html += fmt::format("<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>",
                         l.run.failed_folds.size(), l.run.missing.size());
+    if (any_note) html += fmt::format("<td class=\"text note\">{}</td>", HtmlEscape(l.note));
     if (any_description) {
       html +=
           fmt::format("<td class=\"text description\">{}</td>", HtmlEscape(l.entry.description));
@@ -225,6 +263,39 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     html += "</tr>\n";
   }
   html += "</tbody></table></div></section>\n";
+
+  if (!options.ranking_csv.empty()) {
+    io::CsvWriter csv;
+    std::vector<std::string> header = {"rank", "label", "n", options.primary_metric + "_median",
+                                       "completeness_median"};
+    for (const std::string& m : metric_names) {
+      if (m != options.primary_metric) header.push_back(m + "_median");
+    }
+    for (const char* column : {"failed_folds", "missing", "cross_validated", "note"}) {
+      header.emplace_back(column);
+    }
+    csv.AddRow(header);
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const Loaded& l = runs[i];
+      std::vector<std::string> row = {std::to_string(i + 1), l.entry.label, std::to_string(l.count),
+                                      io::CsvNumber(l.primary_median),
+                                      io::CsvNumber(l.completeness_median)};
+      for (const std::string& m : metric_names) {
+        if (m == options.primary_metric) continue;
+        const int index = l.run.MetricIndex(m);
+        row.push_back(io::CsvNumber(index >= 0 ? Summarize(l.run.Values(index)).median : NAN));
+      }
+      const bool cross_validated =
+          !(l.run.summary.is_object() && l.run.summary.contains("cross_validated") &&
+            l.run.summary["cross_validated"].is_boolean() && !l.run.summary["cross_validated"]);
+      row.push_back(std::to_string(l.run.failed_folds.size()));
+      row.push_back(std::to_string(l.run.missing.size()));
+      row.push_back(cross_validated ? "true" : "false");
+      row.push_back(l.note);
+      csv.AddRow(row);
+    }
+    WriteTextFileAtomically(options.ranking_csv, csv.text());
+  }
 
   // Boxplots: per entry, or per setting and series.
   std::vector<std::string> categories, series;

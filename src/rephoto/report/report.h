@@ -29,7 +29,9 @@
 //     folds/images, the median of the primary metric with the median completeness next to it,
 //     the median of each other metric, failed folds, missing images and the description (when
 //     any entry has one); sorted by the median primary metric, best first (entries without a
-//     value last) when `rank`;
+//     value last) when `rank`; a note marks runs that are not comparable by accuracy alone
+//     (completeness more than `completeness_margin` below the most complete run's, or not
+//     cross-validated), and `ranking_csv` receives the same table;
 //   - boxplots per metric and completeness: one box per entry, or for sweeps (entries with a
 //     `setting`) one box per setting along x and per series, medians connected, like the
 //     paper's Fig. 7; values are across folds for evaluate runs with several folds, else over
@@ -83,6 +85,16 @@ struct CollectionOptions {
   bool rank = true;
   int example_images = 1;
   int thumbnail_width = 320;
+  // Accuracy is meaningless without completeness (paper Section 4.2): a run whose median
+  // completeness is more than this below the most complete run's is marked in the ranking
+  // ("note" column and a warning sign) as not comparable by accuracy alone. Runs that are not
+  // cross-validated (summary.json "cross_validated": false: a fixed model that saw the test
+  // photos) are marked too. In [0, 1].
+  double completeness_margin = 0.05;
+  // When set, the ranking table is also written as CSV (rank, label, n, primary median,
+  // completeness median, the other metrics' medians, failed folds, missing, cross_validated,
+  // note), for spreadsheets and scripts such as examples/experiments/table1.sh.
+  std::filesystem::path ranking_csv;
 };
 
 // Several runs (the demo's reconstructions; a sweep's settings) -> one HTML: ranking table,

@@ -44,6 +44,8 @@ table.sortable th[aria-sort="descending"]::after { content: " \2193"; color: var
 tr.bad td { color: var(--bad); }
 td.status-bad { color: var(--bad); font-weight: 600; }
 td.best { font-weight: 700; }
+.warn { color: #b45309; cursor: help; }
+td.note { max-width: 28em; white-space: normal; color: #6b4e16; }
 .scroll { overflow-x: auto; max-width: 100%; }
 .plots { display: flex; flex-wrap: wrap; gap: 12px; }
 .plots svg { background: #fff; border: 1px solid var(--line); max-width: 100%; height: auto; }

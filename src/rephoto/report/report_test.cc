@@ -11,6 +11,8 @@
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/stats.h"
+#include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_fixture.h"
@@ -343,6 +345,55 @@ TEST(CollectionReport, RanksEntriesAndBoxesPerEntry) {
   ASSERT_EQ(unranked.size(), 3u);
   EXPECT_EQ(unranked[0].at("data-label"), "noisy &lt;n&gt;");
   EXPECT_EQ(unranked[2].at("data-label"), "eval");
+}
+
+// issue 14: accuracy is meaningless without completeness. Runs that are much less complete
+// than the most complete one, or not cross-validated, are marked in the ranking and its CSV.
+TEST(CollectionReport, MarksRunsThatDoNotCompareByAccuracyAlone) {
+  const fs::path root = rephoto::testing::MakeTempDir();
+  testing::MakeCompareRun(root / "clean", 4, 0.01, 2, false);
+  testing::WriteEvaluateRun(root / "eval");  // completeness across folds: median 0.85
+  fs::copy(root / "eval", root / "fixed", fs::copy_options::recursive);
+  std::string summary = ReadFileToString(root / "fixed" / "summary.json");
+  summary.replace(summary.find("\"folds\": 5,"), 11, "\"folds\": 5, \"cross_validated\": false,");
+  WriteTextFileAtomically(root / "fixed" / "summary.json", summary);
+  const double clean_completeness = Summarize(LoadRun(root / "clean" / "run").Values(-1)).median;
+  ASSERT_GT(clean_completeness, 0.9);
+  const std::vector<CollectionEntry> entries = {
+      {.label = "clean", .run_dir = root / "clean" / "run"},
+      {.label = "eval", .run_dir = root / "eval"},
+      {.label = "fixed", .run_dir = root / "fixed"}};
+  CollectionOptions options;
+  options.ranking_csv = root / "ranking.csv";
+  WriteCollectionReport(entries, root / "report.html", options);
+  const auto rows = io::ParseCsv(ReadFileToString(root / "ranking.csv"), "ranking.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0][0], "rank");
+  EXPECT_EQ(rows[0][3], "1-ncc_median");
+  EXPECT_EQ(rows[0][4], "completeness_median");
+  EXPECT_EQ(rows[0].back(), "note");
+  std::map<std::string, std::vector<std::string>> by_label;
+  for (size_t r = 1; r < rows.size(); ++r) by_label[rows[r][1]] = rows[r];
+  EXPECT_EQ(by_label["clean"].back(), "");
+  EXPECT_EQ(by_label["clean"][rows[0].size() - 2], "true");
+  const std::string low = fmt::format(
+      "completeness 0.850 is more than 0.05 below the most complete run's {:.3f}: its accuracy "
+      "covers fewer pixels and does not compare",
+      clean_completeness);
+  EXPECT_EQ(by_label["eval"].back(), low);
+  EXPECT_EQ(by_label["fixed"].back(), low + "; not cross-validated: the model saw the test photos");
+  EXPECT_EQ(by_label["fixed"][rows[0].size() - 2], "false");
+  const std::string html = ReadFileToString(root / "report.html");
+  EXPECT_NE(html.find("<th class=\"text\" data-col=\"note\">note</th>"), std::string::npos);
+  EXPECT_NE(html.find("\u26a0"), std::string::npos);
+  // A wider margin accepts the evaluate runs' completeness; the fixed model stays marked.
+  options.completeness_margin = 0.2;
+  WriteCollectionReport(entries, root / "report.html", options);
+  const auto wide = io::ParseCsv(ReadFileToString(root / "ranking.csv"), "ranking.csv");
+  for (size_t r = 1; r < wide.size(); ++r) {
+    EXPECT_EQ(wide[r].back(),
+              wide[r][1] == "fixed" ? "not cross-validated: the model saw the test photos" : "");
+  }
 }
 
 TEST(CollectionReport, SweepBoxesPerSettingAndSeries) {

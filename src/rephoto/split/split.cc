@@ -89,6 +89,8 @@ std::string_view Scheme::Name() const {
   switch (kind) {
     case SchemeKind::kKFold:
       return "kfold";
+    case SchemeKind::kInterleaved:
+      return "interleaved";
     case SchemeKind::kLeaveOneOut:
       return "loo";
     case SchemeKind::kEveryNth:
@@ -107,6 +109,8 @@ std::string Scheme::ToString() const {
   switch (kind) {
     case SchemeKind::kKFold:
       return fmt::format("kfold:{}:{}", folds, seed);
+    case SchemeKind::kInterleaved:
+      return fmt::format("interleaved:{}", folds);
     case SchemeKind::kLeaveOneOut:
       return "loo";
     case SchemeKind::kEveryNth:
@@ -150,6 +154,10 @@ Scheme ParseSchemeText(std::string_view text) {
     scheme.kind = SchemeKind::kKFold;
     scheme.folds = static_cast<int>(ParseCount(params[0], text, "K", 2));
     if (params.size() == 2) scheme.seed = ParseSeed(params[1], text);
+  } else if (name == "interleaved") {
+    REPHOTO_CHECK(params.size() == 1, "--scheme '{}': expected interleaved:K", text);
+    scheme.kind = SchemeKind::kInterleaved;
+    scheme.folds = static_cast<int>(ParseCount(params[0], text, "K", 2));
   } else if (name == "loo") {
     REPHOTO_CHECK(params.empty(), "--scheme '{}': loo takes no parameters", text);
     scheme.kind = SchemeKind::kLeaveOneOut;
@@ -183,8 +191,8 @@ Scheme ParseSchemeText(std::string_view text) {
     scheme.kind = SchemeKind::kNone;
   } else {
     ThrowError(
-        "--scheme '{}': unknown scheme '{}' (supported: kfold:K[:SEED], loo, every:N, "
-        "fraction:F[:SEED], lists:TRAIN,TEST, none)",
+        "--scheme '{}': unknown scheme '{}' (supported: kfold:K[:SEED], loo, interleaved:K, "
+        "every:N, fraction:F[:SEED], lists:TRAIN,TEST, none)",
         text, name);
   }
   return scheme;
@@ -209,6 +217,7 @@ Split MakeSplit(const std::vector<std::string>& image_names, const Scheme& schem
 
   switch (scheme.kind) {
     case SchemeKind::kKFold:
+    case SchemeKind::kInterleaved:
     case SchemeKind::kLeaveOneOut: {
       const size_t k =
           scheme.kind == SchemeKind::kLeaveOneOut ? n : static_cast<size_t>(scheme.folds);

@@ -6,7 +6,14 @@
 //                     (default 0; SeededShuffle, identical on every machine) and the i-th
 //                     shuffled name goes to the test set of fold i mod K. Folds are disjoint,
 //                     every image is tested exactly once, test sizes differ by at most 1.
-//                     2 <= K <= number of images.
+//                     2 <= K <= number of images. The shuffle may put neighbouring photos
+//                     of a capture path into one fold (with 8 photos, fold 0 may hold out
+//                     3 neighbours, leaving a hole in its training set); interleaved:K avoids
+//                     that.
+//   interleaved:K     K folds without a shuffle: sorted by name (the capture order of most
+//                     cameras' file names), image i goes to the test set of fold i mod K, so
+//                     neighbours are tested in different folds and every training set keeps
+//                     photos on both sides of each test photo. 2 <= K <= number of images.
 //   loo               leave-one-out: one fold per image (sorted by name), testing that image.
 //   every:N           one fold; sorted by name, image i is a test image iff i % N == 0 (index
 //                     0 is a test image). This is the "llffhold" convention of mip-NeRF 360 /
@@ -34,7 +41,7 @@
 
 namespace rephoto::split {
 
-enum class SchemeKind { kKFold, kLeaveOneOut, kEveryNth, kFraction, kLists, kNone };
+enum class SchemeKind { kKFold, kInterleaved, kLeaveOneOut, kEveryNth, kFraction, kLists, kNone };
 
 struct Scheme {
   SchemeKind kind = SchemeKind::kNone;

@@ -133,6 +133,22 @@ TEST(SplitTest, LeaveOneOut) {
   EXPECT_THAT(split.folds[2].train, ElementsAre("img00.png", "img01.png", "img03.png"));
 }
 
+TEST(SplitTest, InterleavedKeepsNeighboursInDifferentFolds) {
+  // 8 photos along a path, 3 folds: photo i (by name) is tested in fold i mod 3.
+  const Split split = MakeSplit(Names(8), ParseScheme("interleaved:3"));
+  ASSERT_EQ(split.folds.size(), 3u);
+  EXPECT_THAT(split.folds[0].test, ElementsAre("img00.png", "img03.png", "img06.png"));
+  EXPECT_THAT(split.folds[1].test, ElementsAre("img01.png", "img04.png", "img07.png"));
+  EXPECT_THAT(split.folds[2].test, ElementsAre("img02.png", "img05.png"));
+  EXPECT_THAT(split.folds[2].train, ElementsAre("img00.png", "img01.png", "img03.png", "img04.png",
+                                                "img06.png", "img07.png"));
+  EXPECT_TRUE(split.cross_validated);
+  EXPECT_EQ(split.scheme.ToString(), "interleaved:3");
+  EXPECT_THROW(ParseScheme("interleaved:3:1"), UsageError);
+  EXPECT_THROW(ParseScheme("interleaved:1"), UsageError);
+  EXPECT_THROW(MakeSplit(Names(2), ParseScheme("interleaved:3")), Error);
+}
+
 TEST(SplitTest, EveryNthStartsAtIndexZero) {
   // NeRF/3DGS "llffhold": sorted by name, test iff index % 8 == 0.
   const Split split = MakeSplit(Names(20), ParseScheme("every:8"));
