@@ -6,6 +6,8 @@
 #include <cstring>
 #include <limits>
 
+#include <Eigen/Core>
+
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 
@@ -197,9 +199,90 @@ void RadixSort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values) {
   }
 }
 
+constexpr int kLanes = 4;  // one SSE register of floats
+constexpr int kGroups = kTile / kLanes;
+using Lanes = Eigen::Array<float, kLanes, 1>;
+
+// Per-pixel blending state of one tile: kTile rows of kGroups groups of kLanes pixels.
+struct TileState {
+  Lanes transmittance[kTile][kGroups], acc_r[kTile][kGroups], acc_g[kTile][kGroups],
+      acc_b[kTile][kGroups], acc_z[kTile][kGroups];
+  Lanes done[kTile][kGroups];         // 1 = the pixel has stopped (or lies outside the image)
+  Lanes error[kTile][kGroups];        // per-pixel error, 0 where invalid
+  Lanes error_valid[kTile][kGroups];  // 1 where the error is finite
+  Lanes pixel_x[kGroups];
+  int done_count = 0;
+
+  float& At(Lanes (&v)[kTile][kGroups], int row, int i) { return v[row][i / kLanes][i % kLanes]; }
+
+  void Reset(int x_begin, int width, int height) {
+    done_count = 0;
+    for (int r = 0; r < kTile; ++r) {
+      for (int g = 0; g < kGroups; ++g) {
+        transmittance[r][g].setOnes();
+        acc_r[r][g].setZero();
+        acc_g[r][g].setZero();
+        acc_b[r][g].setZero();
+        acc_z[r][g].setZero();
+      }
+      for (int i = 0; i < kTile; ++i) {
+        const bool outside = r >= height || i >= width;
+        At(done, r, i) = outside ? 1.0f : 0.0f;
+        done_count += outside;
+      }
+    }
+    for (int i = 0; i < kTile; ++i) pixel_x[i / kLanes][i % kLanes] = static_cast<float>(x_begin + i);
+  }
+
+  void SetError(const float* image, int image_width, int x_begin, int y_begin) {
+    for (int r = 0; r < kTile; ++r) {
+      for (int i = 0; i < kTile; ++i) {
+        float e = 0;
+        if (At(done, r, i) == 0.0f) {
+          e = image[static_cast<size_t>(y_begin + r) * image_width + x_begin + i];
+        }
+        At(error_valid, r, i) = std::isfinite(e) ? 1.0f : 0.0f;
+        At(error, r, i) = std::isfinite(e) ? e : 0.0f;
+      }
+    }
+  }
+
+  // The reference's per-pixel step for one Gaussian over lane groups [g0, g1] of row `row`.
+  void BlendRow(const Splat& s, int row, float pixel_y, int g0, int g1, bool with_error,
+                float* sum_we, float* sum_w) {
+    const float dy = s.py - pixel_y;
+    for (int g = g0; g <= g1; ++g) {
+      const Lanes dx = s.px - pixel_x[g];
+      const Lanes power =
+          -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - s.conic_b * dx * dy;
+      const Lanes alpha = (s.opacity * power.exp()).min(kMaxAlpha);
+      const Lanes valid = (done[row][g] == 0.0f && power <= 0.0f && alpha >= kMinAlpha)
+                              .select(Lanes::Ones(), Lanes::Zero());
+      if (valid.maxCoeff() == 0.0f) continue;
+      const Lanes t = transmittance[row][g];
+      const Lanes test_t = t * (1.0f - alpha);
+      const Lanes stop =
+          (valid > 0.0f && test_t < kMinTransmittance).select(Lanes::Ones(), Lanes::Zero());
+      const Lanes update = valid - stop;
+      done[row][g] += stop;
+      done_count += static_cast<int>(stop.sum());
+      const Lanes w = update * alpha * t;
+      acc_r[row][g] += s.r * w;
+      acc_g[row][g] += s.g * w;
+      acc_b[row][g] += s.b * w;
+      acc_z[row][g] += s.depth * w;
+      transmittance[row][g] = (update > 0.0f).select(test_t, t);
+      if (with_error) {
+        *sum_we += (w * error[row][g]).sum();
+        *sum_w += (w * error_valid[row][g]).sum();
+      }
+    }
+  }
+};
+
 struct Band {
   std::vector<uint32_t> offsets;  // per tile of the band, +1
-  std::vector<uint32_t> entries;  // Gaussian indices, front to back per tile
+  std::vector<uint32_t> entries;  // indices into the depth order, front to back per tile
 };
 
 // Rasterizes on a pinhole grid. `error` (optional, width x height floats, NaN = skip) with
@@ -241,6 +324,18 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   }
   RadixSort(keys, order);
   std::vector<uint32_t>().swap(keys);
+  // Gaussians in depth order: each tile's list then walks memory forwards.
+  const size_t visible_count = order.size();
+  std::vector<Splat> sorted(visible_count);
+  std::vector<TileRect> sorted_rects(visible_count);
+  ParallelFor(0, static_cast<int64_t>(visible_count), 65536, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      sorted[i] = splats[order[i]];
+      sorted_rects[i] = rects[order[i]];
+    }
+  });
+  std::vector<Splat>().swap(splats);
+  std::vector<TileRect>().swap(rects);
 
   // Per-tile lists, built per band of tile rows (each band scans the sorted Gaussians once).
   const int band_rows = std::max(1, (grid_y + 15) / 16);
@@ -253,8 +348,8 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       const int ty1 = std::min(grid_y, ty0 + band_rows);
       const int tiles = (ty1 - ty0) * grid_x;
       band.offsets.assign(tiles + 1, 0);
-      for (uint32_t g : order) {
-        const TileRect& r = rects[g];
+      for (uint32_t i = 0; i < visible_count; ++i) {
+        const TileRect& r = sorted_rects[i];
         const int y0 = std::max(r.y0, ty0), y1 = std::min(r.y1, ty1);
         for (int ty = y0; ty < y1; ++ty) {
           for (int tx = r.x0; tx < r.x1; ++tx) ++band.offsets[(ty - ty0) * grid_x + tx + 1];
@@ -263,18 +358,18 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       for (int t = 0; t < tiles; ++t) band.offsets[t + 1] += band.offsets[t];
       band.entries.resize(band.offsets[tiles]);
       std::vector<uint32_t> cursor(band.offsets.begin(), band.offsets.end() - 1);
-      for (uint32_t g : order) {
-        const TileRect& r = rects[g];
+      for (uint32_t i = 0; i < visible_count; ++i) {
+        const TileRect& r = sorted_rects[i];
         const int y0 = std::max(r.y0, ty0), y1 = std::min(r.y1, ty1);
         for (int ty = y0; ty < y1; ++ty) {
           for (int tx = r.x0; tx < r.x1; ++tx) {
-            band.entries[cursor[(ty - ty0) * grid_x + tx]++] = g;
+            band.entries[cursor[(ty - ty0) * grid_x + tx]++] = i;
           }
         }
       }
     }
   });
-  std::vector<TileRect>().swap(rects);
+  std::vector<TileRect>().swap(sorted_rects);
   const auto blend_start = Clock::now();
   if (stats) {
     stats->sort_ms = std::chrono::duration<double, std::milli>(blend_start - sort_start).count();
@@ -294,9 +389,9 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   depth->Resize(cam.width, cam.height, 1);
   const Eigen::Vector3f background = options.background;
   ParallelFor(0, static_cast<int64_t>(grid_x) * grid_y, 1, [&](int64_t tb, int64_t te) {
-    float transmittance[kTile * kTile], acc_r[kTile * kTile], acc_g[kTile * kTile],
-        acc_b[kTile * kTile], acc_z[kTile * kTile];
-    uint8_t done[kTile * kTile];
+    // One tile row of 16 pixels at a time (SIMD lanes): every pixel of a row is evaluated, as in
+    // the reference, where the row intersects the Gaussian's alpha >= 1/255 box.
+    TileState state;
     for (int64_t tile = tb; tile < te; ++tile) {
       const int tx = static_cast<int>(tile % grid_x), ty = static_cast<int>(tile / grid_x);
       const int band_index = ty / band_rows;
@@ -305,55 +400,21 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       const int x_begin = tx * kTile, y_begin = ty * kTile;
       const int x_end = std::min(cam.width, x_begin + kTile);
       const int y_end = std::min(cam.height, y_begin + kTile);
-      const int tile_pixels = (x_end - x_begin) * (y_end - y_begin);
-      std::fill_n(transmittance, kTile * kTile, 1.0f);
-      std::fill_n(acc_r, kTile * kTile, 0.0f);
-      std::fill_n(acc_g, kTile * kTile, 0.0f);
-      std::fill_n(acc_b, kTile * kTile, 0.0f);
-      std::fill_n(acc_z, kTile * kTile, 0.0f);
-      std::fill_n(done, kTile * kTile, uint8_t{0});
-      int done_count = 0;
-      for (uint32_t e = band.offsets[local]; e < band.offsets[local + 1] && done_count < tile_pixels;
-           ++e) {
-        const Splat& s = splats[band.entries[e]];
-        const int x0 = ClampToInt(std::ceil(s.px - s.ext_x), x_begin, x_end - 1);
-        const int x1 = ClampToInt(std::floor(s.px + s.ext_x), x_begin - 1, x_end - 1);
+      state.Reset(x_begin, x_end - x_begin, y_end - y_begin);
+      if (error != nullptr) state.SetError(error, cam.width, x_begin, y_begin);
+      for (uint32_t e = band.offsets[local];
+           e < band.offsets[local + 1] && state.done_count < kTile * kTile; ++e) {
+        const Splat& s = sorted[band.entries[e]];
         const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
         const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
+        const int x0 = ClampToInt(std::ceil(s.px - s.ext_x), x_begin, x_end - 1);
+        const int x1 = ClampToInt(std::floor(s.px + s.ext_x), x_begin - 1, x_end - 1);
+        if (x1 < x0) continue;
+        const int g0 = (x0 - x_begin) / kLanes, g1 = (x1 - x_begin) / kLanes;
         float sum_we = 0, sum_w = 0;
         for (int y = y0; y <= y1; ++y) {
-          const float dy = s.py - static_cast<float>(y);
-          const int row = (y - y_begin) * kTile - x_begin;
-          for (int x = x0; x <= x1; ++x) {
-            const int i = row + x;
-            if (done[i]) continue;
-            const float dx = s.px - static_cast<float>(x);
-            const float power =
-                -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - s.conic_b * dx * dy;
-            if (power > 0.0f) continue;
-            const float alpha = std::min(kMaxAlpha, s.opacity * std::exp(power));
-            if (alpha < kMinAlpha) continue;
-            const float t = transmittance[i];
-            const float test_t = t * (1.0f - alpha);
-            if (test_t < kMinTransmittance) {
-              done[i] = 1;
-              ++done_count;
-              continue;
-            }
-            const float w = alpha * t;
-            acc_r[i] += s.r * w;
-            acc_g[i] += s.g * w;
-            acc_b[i] += s.b * w;
-            acc_z[i] += s.depth * w;
-            transmittance[i] = test_t;
-            if (error != nullptr) {
-              const float err = error[static_cast<size_t>(y) * cam.width + x];
-              if (std::isfinite(err)) {
-                sum_we += w * err;
-                sum_w += w;
-              }
-            }
-          }
+          state.BlendRow(s, y - y_begin, static_cast<float>(y), g0, g1, error != nullptr,
+                         &sum_we, &sum_w);
         }
         if (error != nullptr) {
           entry_weighted_error[band_index][e] = sum_we;
@@ -363,14 +424,16 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       for (int y = y_begin; y < y_end; ++y) {
         float* out = color->row(y) + static_cast<size_t>(x_begin) * 4;
         float* out_depth = depth->row(y) + x_begin;
+        const int row = y - y_begin;
         for (int x = x_begin; x < x_end; ++x, out += 4, ++out_depth) {
-          const int i = (y - y_begin) * kTile + (x - x_begin);
-          const float t = transmittance[i];
-          out[0] = acc_r[i] + t * background[0];
-          out[1] = acc_g[i] + t * background[1];
-          out[2] = acc_b[i] + t * background[2];
+          const int i = x - x_begin;
+          const float t = state.At(state.transmittance, row, i);
+          out[0] = state.At(state.acc_r, row, i) + t * background[0];
+          out[1] = state.At(state.acc_g, row, i) + t * background[1];
+          out[2] = state.At(state.acc_b, row, i) + t * background[2];
           out[3] = 1.0f - t;
-          *out_depth = t < 1.0f ? acc_z[i] / (1.0f - t) : std::numeric_limits<float>::quiet_NaN();
+          *out_depth = t < 1.0f ? state.At(state.acc_z, row, i) / (1.0f - t)
+                                : std::numeric_limits<float>::quiet_NaN();
         }
       }
     }
@@ -379,7 +442,7 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
     // In (band, tile, depth) order: the same sums for any thread count.
     for (int b = 0; b < band_count; ++b) {
       for (size_t e = 0; e < bands[b].entries.size(); ++e) {
-        const uint32_t g = bands[b].entries[e];
+        const uint32_t g = order[bands[b].entries[e]];
         accumulator->weighted_error[g] += entry_weighted_error[b][e];
         accumulator->weight[g] += entry_weight[b][e];
       }
