@@ -6,8 +6,6 @@
 #include <cstring>
 #include <limits>
 
-#include <Eigen/Core>
-
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 
@@ -48,7 +46,9 @@ struct Splat {
   float opacity;
   float r, g, b;
   float depth;     // view z
-  float ext_x, ext_y;  // half extents of the region where opacity * exp(power) >= 1/255
+  // Where opacity * exp(power) >= 1/255 can hold: q = d^T conic d <= level (inflated by the
+  // rounding margin), and |dy| <= ext_y.
+  float level, ext_y;
 };
 
 struct TileRect {
@@ -150,17 +150,24 @@ bool Project(const GaussianModel& model, size_t g, const Pinhole& cam, const Eig
   rect->y1 = TileBound((py + radius + kTile - 1) / kTile, grid_y);
   if ((rect->x1 - rect->x0) * (rect->y1 - rect->y0) == 0) return false;
 
-  // Work saving, not a change of result: beyond the ellipse d^T conic d <= 2 ln(255 opacity)
-  // alpha < 1/255. Its bounding box has half extents sqrt(2 ln(255 o) cov_xx) (cov = conic^-1);
-  // the margin covers float rounding of the per-pixel test.
+  // Work saving, not a change of result: beyond the ellipse q = d^T conic d <= 2 ln(255 o),
+  // alpha < 1/255 and the reference skips the pixel. The ellipse's bounding box has half extents
+  // sqrt(level cov_xx), sqrt(level cov_yy) (cov = conic^-1). The level is inflated by a margin
+  // that covers the float rounding of the per-pixel q (relative 1e-6 of its largest terms inside
+  // the box, where thin rotated ellipses cancel), so no pixel the reference blends is missed.
   const float level = 2.0f * std::log(opacity * 255.0f);
   if (!(level >= 0.0f)) return false;
-  splat->ext_x = std::sqrt(level * cov_a) * 1.001f + 0.01f;
-  splat->ext_y = std::sqrt(level * cov_c) * 1.001f + 0.01f;
+  const float ext_x0 = std::sqrt(level * cov_a), ext_y0 = std::sqrt(level * cov_c);
+  const float conic_a = cov_c * det_inv, conic_b = -cov_b * det_inv, conic_c = cov_a * det_inv;
+  const float term_scale = conic_a * ext_x0 * ext_x0 + conic_c * ext_y0 * ext_y0 +
+                           2.0f * std::abs(conic_b) * ext_x0 * ext_y0;
+  splat->level = level * 1.002f + 0.002f + 1e-6f * term_scale;
+  const float ext_x = std::sqrt(splat->level * cov_a) + 0.01f;
+  splat->ext_y = std::sqrt(splat->level * cov_c) + 0.01f;
   // Shrink the tile range to the tiles that ellipse box touches (others would skip it).
-  rect->x0 = std::max(rect->x0, TileBound((px - splat->ext_x) / kTile, grid_x));
+  rect->x0 = std::max(rect->x0, TileBound((px - ext_x) / kTile, grid_x));
   rect->y0 = std::max(rect->y0, TileBound((py - splat->ext_y) / kTile, grid_y));
-  rect->x1 = std::min(rect->x1, TileBound((px + splat->ext_x) / kTile + 1.0f, grid_x));
+  rect->x1 = std::min(rect->x1, TileBound((px + ext_x) / kTile + 1.0f, grid_x));
   rect->y1 = std::min(rect->y1, TileBound((py + splat->ext_y) / kTile + 1.0f, grid_y));
   if (rect->x1 <= rect->x0 || rect->y1 <= rect->y0) return false;
 
@@ -169,9 +176,9 @@ bool Project(const GaussianModel& model, size_t g, const Pinhole& cam, const Eig
       ShColor(model.sh.data() + g * model.ShCoefficients() * 3, model.sh_degree, dir);
   splat->px = px;
   splat->py = py;
-  splat->conic_a = cov_c * det_inv;
-  splat->conic_b = -cov_b * det_inv;
-  splat->conic_c = cov_a * det_inv;
+  splat->conic_a = conic_a;
+  splat->conic_b = conic_b;
+  splat->conic_c = conic_c;
   splat->opacity = opacity;
   splat->r = color[0];
   splat->g = color[1];
@@ -199,86 +206,155 @@ void RadixSort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values) {
   }
 }
 
-constexpr int kLanes = 4;  // one SSE register of floats
-constexpr int kGroups = kTile / kLanes;
-using Lanes = Eigen::Array<float, kLanes, 1>;
+constexpr int kTilePixels = kTile * kTile;
 
-// Per-pixel blending state of one tile: kTile rows of kGroups groups of kLanes pixels.
+// Passing V8f by value to an inlined helper is not an ABI boundary.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+// Eight floats (one AVX register; two SSE registers where AVX is missing), GCC/Clang vector
+// extensions: the blend kernel is written once for both instruction sets.
+typedef float V8f __attribute__((vector_size(32), may_alias));
+typedef int32_t V8i __attribute__((vector_size(32), may_alias));
+
+// exp(x) for x <= 0 (larger x are clamped to 0; callers mask them anyway), relative error
+// below 2e-7: Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a degree-6 Taylor polynomial
+// for exp(r) and 2^n from the exponent bits (std::exp is a scalar libm call).
+__attribute__((always_inline)) inline V8f ExpNonPositive(V8f x) {
+  x = x < -87.0f ? V8f{} - 87.0f : x;
+  x = x > 0.0f ? V8f{} : x;
+  // round(x / ln2) for x <= 0 by truncation (SSE2 has no vector rounding instruction).
+  const V8i ni = __builtin_convertvector(x * 1.44269504088896341f - 0.5f, V8i);
+  const V8f n = __builtin_convertvector(ni, V8f);
+  const V8f r = (x - n * 0.693359375f) + n * 2.12194440e-4f;
+  V8f p = V8f{} + 1.3888889e-3f;
+  p = p * r + 8.3333333e-3f;
+  p = p * r + 4.1666667e-2f;
+  p = p * r + 1.6666667e-1f;
+  p = p * r + 0.5f;
+  p = p * r + 1.0f;
+  p = p * r + 1.0f;
+  const V8i bits = (ni + 127) << 23;
+  return p * reinterpret_cast<const V8f&>(bits);
+}
+
+// Per-pixel blending state of one tile (row-major, kTile x kTile).
 struct TileState {
-  Lanes transmittance[kTile][kGroups], acc_r[kTile][kGroups], acc_g[kTile][kGroups],
-      acc_b[kTile][kGroups], acc_z[kTile][kGroups];
-  Lanes done[kTile][kGroups];         // 1 = the pixel has stopped (or lies outside the image)
-  Lanes error[kTile][kGroups];        // per-pixel error, 0 where invalid
-  Lanes error_valid[kTile][kGroups];  // 1 where the error is finite
-  Lanes pixel_x[kGroups];
+  alignas(64) float transmittance[kTilePixels];
+  alignas(64) float acc_r[kTilePixels];
+  alignas(64) float acc_g[kTilePixels];
+  alignas(64) float acc_b[kTilePixels];
+  alignas(64) float acc_z[kTilePixels];
+  alignas(64) float done[kTilePixels];         // 1 = stopped (or outside the image)
+  alignas(64) float error[kTilePixels];        // per-pixel error, 0 where invalid
+  alignas(64) float error_valid[kTilePixels];  // 1 where the error is finite
+  alignas(64) float pixel_x[kTile];
   int done_count = 0;
-
-  float& At(Lanes (&v)[kTile][kGroups], int row, int i) { return v[row][i / kLanes][i % kLanes]; }
 
   void Reset(int x_begin, int width, int height) {
     done_count = 0;
-    for (int r = 0; r < kTile; ++r) {
-      for (int g = 0; g < kGroups; ++g) {
-        transmittance[r][g].setOnes();
-        acc_r[r][g].setZero();
-        acc_g[r][g].setZero();
-        acc_b[r][g].setZero();
-        acc_z[r][g].setZero();
-      }
-      for (int i = 0; i < kTile; ++i) {
-        const bool outside = r >= height || i >= width;
-        At(done, r, i) = outside ? 1.0f : 0.0f;
-        done_count += outside;
-      }
+    for (int i = 0; i < kTilePixels; ++i) {
+      transmittance[i] = 1.0f;
+      acc_r[i] = acc_g[i] = acc_b[i] = acc_z[i] = 0.0f;
+      const bool outside = i / kTile >= height || i % kTile >= width;
+      done[i] = outside ? 1.0f : 0.0f;
+      done_count += outside;
     }
-    for (int i = 0; i < kTile; ++i) pixel_x[i / kLanes][i % kLanes] = static_cast<float>(x_begin + i);
+    for (int i = 0; i < kTile; ++i) pixel_x[i] = static_cast<float>(x_begin + i);
   }
 
   void SetError(const float* image, int image_width, int x_begin, int y_begin) {
-    for (int r = 0; r < kTile; ++r) {
-      for (int i = 0; i < kTile; ++i) {
-        float e = 0;
-        if (At(done, r, i) == 0.0f) {
-          e = image[static_cast<size_t>(y_begin + r) * image_width + x_begin + i];
-        }
-        At(error_valid, r, i) = std::isfinite(e) ? 1.0f : 0.0f;
-        At(error, r, i) = std::isfinite(e) ? e : 0.0f;
+    for (int i = 0; i < kTilePixels; ++i) {
+      float e = 0;
+      if (done[i] == 0.0f) {
+        e = image[static_cast<size_t>(y_begin + i / kTile) * image_width + x_begin + i % kTile];
       }
-    }
-  }
-
-  // The reference's per-pixel step for one Gaussian over lane groups [g0, g1] of row `row`.
-  void BlendRow(const Splat& s, int row, float pixel_y, int g0, int g1, bool with_error,
-                float* sum_we, float* sum_w) {
-    const float dy = s.py - pixel_y;
-    for (int g = g0; g <= g1; ++g) {
-      const Lanes dx = s.px - pixel_x[g];
-      const Lanes power =
-          -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - s.conic_b * dx * dy;
-      const Lanes alpha = (s.opacity * power.exp()).min(kMaxAlpha);
-      const Lanes valid = (done[row][g] == 0.0f && power <= 0.0f && alpha >= kMinAlpha)
-                              .select(Lanes::Ones(), Lanes::Zero());
-      if (valid.maxCoeff() == 0.0f) continue;
-      const Lanes t = transmittance[row][g];
-      const Lanes test_t = t * (1.0f - alpha);
-      const Lanes stop =
-          (valid > 0.0f && test_t < kMinTransmittance).select(Lanes::Ones(), Lanes::Zero());
-      const Lanes update = valid - stop;
-      done[row][g] += stop;
-      done_count += static_cast<int>(stop.sum());
-      const Lanes w = update * alpha * t;
-      acc_r[row][g] += s.r * w;
-      acc_g[row][g] += s.g * w;
-      acc_b[row][g] += s.b * w;
-      acc_z[row][g] += s.depth * w;
-      transmittance[row][g] = (update > 0.0f).select(test_t, t);
-      if (with_error) {
-        *sum_we += (w * error[row][g]).sum();
-        *sum_w += (w * error_valid[row][g]).sum();
-      }
+      error_valid[i] = std::isfinite(e) ? 1.0f : 0.0f;
+      error[i] = std::isfinite(e) ? e : 0.0f;
     }
   }
 };
+
+// Blends the Gaussians entries[begin, end) (front to back) into one tile, the reference's
+// per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse and then
+// evaluated over whole kTile-pixel rows without branches, so that the compiler vectorizes them
+// (target_clones: an AVX2 + FMA version where the CPU has it, SSE2 otherwise; the arithmetic is
+// the same IEEE float operations in both). `sums` (optional) receives per entry the sums of
+// w * error and of w over valid error pixels.
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void BlendTile(
+    const Splat* splats, const uint32_t* entries, uint32_t begin, uint32_t end, int x_begin,
+    int y_begin, int x_end, int y_end, bool with_error, TileState* state, float* sums_we,
+    float* sums_w) {
+  for (uint32_t e = begin; e < end && state->done_count < kTilePixels; ++e) {
+    if (e + 8 < end) __builtin_prefetch(&splats[entries[e + 8]]);
+    const Splat& s = splats[entries[e]];
+    const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
+    const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
+    float sum_we = 0, sum_w = 0;
+    for (int y = y0; y <= y1; ++y) {
+      // The row's chord of the ellipse q <= level: a dx^2 + 2 b dy dx + c dy^2 - level <= 0
+      // with dx = px - x (a > 0: the conic is positive definite).
+      const float dy = s.py - static_cast<float>(y);
+      const float bdy = s.conic_b * dy;
+      const float disc = bdy * bdy - s.conic_a * (s.conic_c * dy * dy - s.level);
+      if (!(disc >= 0.0f)) continue;
+      const float root = std::sqrt(disc);
+      const float dx_low = (-bdy - root) / s.conic_a, dx_high = (-bdy + root) / s.conic_a;
+      const int x0 = ClampToInt(std::ceil(s.px - dx_high - 0.01f), x_begin, x_end);
+      const int x1 = ClampToInt(std::floor(s.px - dx_low + 0.01f), x_begin - 1, x_end - 1);
+      if (x1 < x0) continue;
+      const int row = (y - y_begin) * kTile;
+      float* __restrict t_row = state->transmittance + row;
+      float* __restrict r_row = state->acc_r + row;
+      float* __restrict g_row = state->acc_g + row;
+      float* __restrict b_row = state->acc_b + row;
+      float* __restrict z_row = state->acc_z + row;
+      float* __restrict done_row = state->done + row;
+      const float* __restrict err_row = state->error + row;
+      const float* __restrict valid_row = state->error_valid + row;
+      const float* __restrict pixel_x = state->pixel_x;
+      int stops = 0;
+      alignas(64) float weights[kTile];
+      // Whole row (16 lanes, two vectors of 8): pixels outside the chord get alpha < 1/255 and
+      // change nothing.
+      for (int h = 0; h < kTile; h += 8) {
+        const V8f dx = s.px - *reinterpret_cast<const V8f*>(pixel_x + h);
+        const V8f power = -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - bdy * dx;
+        const V8f a = s.opacity * ExpNonPositive(power);
+        const V8f alpha = a < kMaxAlpha ? a : V8f{} + kMaxAlpha;
+        V8f& done = *reinterpret_cast<V8f*>(done_row + h);
+        V8f& transmittance = *reinterpret_cast<V8f*>(t_row + h);
+        const V8i valid = (done == 0.0f) & (power <= 0.0f) & (alpha >= kMinAlpha);
+        const V8f t = transmittance;
+        const V8f test_t = t * (1.0f - alpha);
+        const V8i stop = valid & (test_t < kMinTransmittance);
+        const V8i update = valid & ~stop;
+        const V8f w = update ? alpha * t : V8f{};
+        done = stop ? V8f{} + 1.0f : done;
+        for (int k = 0; k < 8; ++k) stops -= stop[k];  // lanes are -1 where true
+        *reinterpret_cast<V8f*>(r_row + h) += s.r * w;
+        *reinterpret_cast<V8f*>(g_row + h) += s.g * w;
+        *reinterpret_cast<V8f*>(b_row + h) += s.b * w;
+        *reinterpret_cast<V8f*>(z_row + h) += s.depth * w;
+        transmittance = update ? test_t : t;
+        *reinterpret_cast<V8f*>(weights + h) = w;
+      }
+      float row_we = 0, row_w = 0;
+      if (with_error) {
+        for (int i = 0; i < kTile; ++i) {
+          row_we += weights[i] * err_row[i];
+          row_w += weights[i] * valid_row[i];
+        }
+      }
+      state->done_count += static_cast<int>(stops);
+      sum_we += row_we;
+      sum_w += row_w;
+    }
+    if (with_error) {
+      sums_we[e] = sum_we;
+      sums_w[e] = sum_w;
+    }
+  }
+}
 
 struct Band {
   std::vector<uint32_t> offsets;  // per tile of the band, +1
@@ -389,8 +465,6 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   depth->Resize(cam.width, cam.height, 1);
   const Eigen::Vector3f background = options.background;
   ParallelFor(0, static_cast<int64_t>(grid_x) * grid_y, 1, [&](int64_t tb, int64_t te) {
-    // One tile row of 16 pixels at a time (SIMD lanes): every pixel of a row is evaluated, as in
-    // the reference, where the row intersects the Gaussian's alpha >= 1/255 box.
     TileState state;
     for (int64_t tile = tb; tile < te; ++tile) {
       const int tx = static_cast<int>(tile % grid_x), ty = static_cast<int>(tile / grid_x);
@@ -402,37 +476,21 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       const int y_end = std::min(cam.height, y_begin + kTile);
       state.Reset(x_begin, x_end - x_begin, y_end - y_begin);
       if (error != nullptr) state.SetError(error, cam.width, x_begin, y_begin);
-      for (uint32_t e = band.offsets[local];
-           e < band.offsets[local + 1] && state.done_count < kTile * kTile; ++e) {
-        const Splat& s = sorted[band.entries[e]];
-        const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
-        const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
-        const int x0 = ClampToInt(std::ceil(s.px - s.ext_x), x_begin, x_end - 1);
-        const int x1 = ClampToInt(std::floor(s.px + s.ext_x), x_begin - 1, x_end - 1);
-        if (x1 < x0) continue;
-        const int g0 = (x0 - x_begin) / kLanes, g1 = (x1 - x_begin) / kLanes;
-        float sum_we = 0, sum_w = 0;
-        for (int y = y0; y <= y1; ++y) {
-          state.BlendRow(s, y - y_begin, static_cast<float>(y), g0, g1, error != nullptr,
-                         &sum_we, &sum_w);
-        }
-        if (error != nullptr) {
-          entry_weighted_error[band_index][e] = sum_we;
-          entry_weight[band_index][e] = sum_w;
-        }
-      }
+      BlendTile(sorted.data(), band.entries.data(), band.offsets[local], band.offsets[local + 1],
+                x_begin, y_begin, x_end, y_end, error != nullptr, &state,
+                error != nullptr ? entry_weighted_error[band_index].data() : nullptr,
+                error != nullptr ? entry_weight[band_index].data() : nullptr);
       for (int y = y_begin; y < y_end; ++y) {
         float* out = color->row(y) + static_cast<size_t>(x_begin) * 4;
         float* out_depth = depth->row(y) + x_begin;
-        const int row = y - y_begin;
         for (int x = x_begin; x < x_end; ++x, out += 4, ++out_depth) {
-          const int i = x - x_begin;
-          const float t = state.At(state.transmittance, row, i);
-          out[0] = state.At(state.acc_r, row, i) + t * background[0];
-          out[1] = state.At(state.acc_g, row, i) + t * background[1];
-          out[2] = state.At(state.acc_b, row, i) + t * background[2];
+          const int i = (y - y_begin) * kTile + (x - x_begin);
+          const float t = state.transmittance[i];
+          out[0] = state.acc_r[i] + t * background[0];
+          out[1] = state.acc_g[i] + t * background[1];
+          out[2] = state.acc_b[i] + t * background[2];
           out[3] = 1.0f - t;
-          *out_depth = t < 1.0f ? state.At(state.acc_z, row, i) / (1.0f - t)
+          *out_depth = t < 1.0f ? state.acc_z[i] / (1.0f - t)
                                 : std::numeric_limits<float>::quiet_NaN();
         }
       }
