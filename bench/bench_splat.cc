@@ -60,8 +60,8 @@ GaussianModel MakeModel(size_t n) {
       const double spacing = sphere ? sphere_spacing : shell_spacing;
       model.scales[g] = Eigen::Vector3f(spacing * (0.4 + 0.8 * uniform(rng)),
                                         spacing * (0.4 + 0.8 * uniform(rng)), spacing * 0.1);
-      model.rotations[g] = Eigen::Vector4f(normal(rng), normal(rng), normal(rng), normal(rng))
-                               .normalized();
+      model.rotations[g] =
+          Eigen::Vector4f(normal(rng), normal(rng), normal(rng), normal(rng)).normalized();
       model.opacities[g] = 1.0f / (1.0f + std::exp(-(7 * uniform(rng) - 2)));
       float* sh = model.sh.data() + g * 48;
       for (int c = 0; c < 3; ++c) sh[c] = normal(rng);

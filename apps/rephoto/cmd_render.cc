@@ -41,9 +41,9 @@
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/read_scene.h"
-#include "rephoto/split/split.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/splat/rasterize.h"
+#include "rephoto/split/split.h"
 #include "scene_args.h"
 
 namespace rephoto::cli {
@@ -199,10 +199,10 @@ void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
   const auto start = std::chrono::steady_clock::now();
   splat::GaussianFormat format;
   const splat::GaussianModel model = splat::ReadGaussians(args.model, &format);
-  LogInfo(fmt::format("{}: {} Gaussians ({}, SH degree {}), read in {:.2f} s", args.model,
-                      model.size(), splat::GaussianFormatName(format), model.sh_degree,
-                      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                          .count()));
+  LogInfo(
+      fmt::format("{}: {} Gaussians ({}, SH degree {}), read in {:.2f} s", args.model, model.size(),
+                  splat::GaussianFormatName(format), model.sh_degree,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
   splat::GaussianRendering rendering;
   Progress progress("render", views.size());
   for (size_t i = 0; i < views.size(); ++i) {

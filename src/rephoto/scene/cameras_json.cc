@@ -77,9 +77,9 @@ Scene ReadCamerasJson(std::istream& in, std::string_view name, const fs::path& i
     const std::string where = fmt::format("{}: [{}]", name, i);
     REPHOTO_CHECK(entry.is_object(), "{}: expected an object", where);
     const auto img_name = entry.find("img_name");
-    REPHOTO_CHECK(img_name != entry.end() && img_name->is_string() &&
-                      !img_name->get<std::string>().empty(),
-                  "{}: missing \"img_name\" string", where);
+    REPHOTO_CHECK(
+        img_name != entry.end() && img_name->is_string() && !img_name->get<std::string>().empty(),
+        "{}: missing \"img_name\" string", where);
     camera::Camera camera;
     camera.model = camera::CameraModel::kPinhole;
     camera.width = Size(entry, "width", where);

@@ -54,7 +54,8 @@ TEST(CamerasJsonTest, PosesIntrinsicsAndNames) {
 
 TEST(CamerasJsonTest, Errors) {
   EXPECT_THAT(ErrorOf("{}"), HasSubstr("cameras.json: expected a JSON array"));
-  EXPECT_THAT(ErrorOf("[{\"img_name\": \"a\"}]"), HasSubstr("cameras.json: [0]: missing \"width\""));
+  EXPECT_THAT(ErrorOf("[{\"img_name\": \"a\"}]"),
+              HasSubstr("cameras.json: [0]: missing \"width\""));
   EXPECT_THAT(ErrorOf(R"([{"img_name": "a", "width": 4, "height": 3, "fx": 1, "fy": 1,
       "position": [0, 0, 0], "rotation": [[1, 0], [0, 1]]}])"),
               HasSubstr("[0].rotation: expected 3 rows of 3 numbers"));

@@ -43,7 +43,8 @@ enum class SceneFormat {
   kMvsTexturing
 };
 
-// "colmap", "transforms", "cameras-json", "bundler", "middlebury", "strecha", "mve", "mvs-texturing".
+// "colmap", "transforms", "cameras-json", "bundler", "middlebury", "strecha", "mve",
+// "mvs-texturing".
 std::string_view SceneFormatName(SceneFormat format);
 // Parses a name above (also accepts "transforms.json", "nerf", "cameras.json", "3dgs",
 // "mvs_texturing", "cam"); nullopt

@@ -26,10 +26,10 @@ std::string ErrorOf(const std::function<void()>& function) {
 }
 
 TEST(ReadSceneTest, FormatNames) {
-  for (SceneFormat format : {SceneFormat::kColmap, SceneFormat::kTransforms,
-                             SceneFormat::kCamerasJson, SceneFormat::kBundler,
-                             SceneFormat::kMiddlebury, SceneFormat::kStrecha, SceneFormat::kMve,
-                             SceneFormat::kMvsTexturing}) {
+  for (SceneFormat format :
+       {SceneFormat::kColmap, SceneFormat::kTransforms, SceneFormat::kCamerasJson,
+        SceneFormat::kBundler, SceneFormat::kMiddlebury, SceneFormat::kStrecha, SceneFormat::kMve,
+        SceneFormat::kMvsTexturing}) {
     EXPECT_EQ(ParseSceneFormat(SceneFormatName(format)), format);
   }
   EXPECT_FALSE(ParseSceneFormat("ply").has_value());

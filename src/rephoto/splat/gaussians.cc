@@ -302,8 +302,8 @@ class BodyReader {
  private:
   void Need(uint64_t bytes, const Element& element, uint64_t record) const {
     REPHOTO_CHECK(bytes <= body_.size() - offset_,
-                  "{}: element '{}' record {}: unexpected end of file (header promises {})",
-                  name_, element.name, record, element.count);
+                  "{}: element '{}' record {}: unexpected end of file (header promises {})", name_,
+                  element.name, record, element.count);
   }
 
   std::string_view NextToken(const Element& element, uint64_t record) {
@@ -315,8 +315,8 @@ class BodyReader {
       ++offset_;
     }
     REPHOTO_CHECK(offset_ > begin,
-                  "{}: element '{}' record {}: unexpected end of file (header promises {})",
-                  name_, element.name, record, element.count);
+                  "{}: element '{}' record {}: unexpected end of file (header promises {})", name_,
+                  element.name, record, element.count);
     return std::string_view(body_).substr(begin, offset_ - begin);
   }
 
@@ -415,8 +415,7 @@ std::vector<int> RestColumns(const Element& element, std::string_view name, int*
 
 int Require(const Element& element, std::string_view property, std::string_view name) {
   const int column = element.Find(property);
-  REPHOTO_CHECK(column >= 0, "{}: element '{}' has no property '{}'", name, element.name,
-                property);
+  REPHOTO_CHECK(column >= 0, "{}: element '{}' has no property '{}'", name, element.name, property);
   return column;
 }
 
@@ -476,9 +475,8 @@ GaussianModel DecodeInria(const Header& header, BodyReader& reader, size_t verte
     for (int i = 0; i < 3; ++i) model.positions[g][i] = static_cast<float>(get(columns_xyz[i]));
     float* sh = model.sh.data() + g * k_count * 3;
     for (int c = 0; c < 3; ++c) {
-      sh[c] = color_only
-                  ? static_cast<float>((get(columns_color[c]) * color_scale - 0.5) / kShC0)
-                  : static_cast<float>(get(columns_color[c]));
+      sh[c] = color_only ? static_cast<float>((get(columns_color[c]) * color_scale - 0.5) / kShC0)
+                         : static_cast<float>(get(columns_color[c]));
     }
     for (int k = 1; k < k_count; ++k) {
       for (int c = 0; c < 3; ++c) {
@@ -524,20 +522,18 @@ GaussianModel DecodeCompressed(const Header& header, BodyReader& reader, std::st
   const Element* sh_element = header.Find("sh");
   REPHOTO_CHECK(sh_element == nullptr || (sh_element->count == n && sh_element > vertex),
                 "{}: element 'sh' must follow 'vertex' with one record per Gaussian", name);
-  const char* const box_names[] = {"min_x",       "min_y",       "min_z",       "max_x",
-                                   "max_y",       "max_z",       "min_scale_x", "min_scale_y",
-                                   "min_scale_z", "max_scale_x", "max_scale_y", "max_scale_z",
-                                   "min_r",       "min_g",       "min_b",       "max_r",
-                                   "max_g",       "max_b"};
+  const char* const box_names[] = {
+      "min_x",       "min_y",       "min_z",       "max_x",       "max_y",       "max_z",
+      "min_scale_x", "min_scale_y", "min_scale_z", "max_scale_x", "max_scale_y", "max_scale_z",
+      "min_r",       "min_g",       "min_b",       "max_r",       "max_g",       "max_b"};
   const bool has_color_range = chunk->Find("min_r") >= 0;
   int box_columns[18];
   for (int i = 0; i < 18; ++i) {
     box_columns[i] = (i < 12 || has_color_range) ? Require(*chunk, box_names[i], name) : -1;
   }
-  const int packed[4] = {Require(*vertex, "packed_position", name),
-                         Require(*vertex, "packed_rotation", name),
-                         Require(*vertex, "packed_scale", name),
-                         Require(*vertex, "packed_color", name)};
+  const int packed[4] = {
+      Require(*vertex, "packed_position", name), Require(*vertex, "packed_rotation", name),
+      Require(*vertex, "packed_scale", name), Require(*vertex, "packed_color", name)};
   int degree = 0;
   std::vector<int> rest;
   if (sh_element != nullptr) rest = RestColumns(*sh_element, name, &degree);
@@ -572,8 +568,8 @@ GaussianModel DecodeCompressed(const Header& header, BodyReader& reader, std::st
         for (int i = 0; i < 4; ++i) {
           const double value = row[packed[i]];
           REPHOTO_CHECK(value >= 0 && value <= 4294967295.0 && value == std::floor(value),
-                        "{}: Gaussian {}: property '{}' is not a 32-bit unsigned integer", name,
-                        g, vertex->properties[packed[i]].name);
+                        "{}: Gaussian {}: property '{}' is not a 32-bit unsigned integer", name, g,
+                        vertex->properties[packed[i]].name);
           word[i] = static_cast<uint32_t>(value);
         }
         const float t_pos[3] = {Unorm(word[0] >> 21, 11), Unorm(word[0] >> 11, 10),
@@ -589,17 +585,15 @@ GaussianModel DecodeCompressed(const Header& header, BodyReader& reader, std::st
         const float others[3] = {(Unorm(word[1] >> 20, 10) - 0.5f) * norm,
                                  (Unorm(word[1] >> 10, 10) - 0.5f) * norm,
                                  (Unorm(word[1], 10) - 0.5f) * norm};
-        const float largest_value =
-            std::sqrt(std::max(0.0f, 1.0f - (others[0] * others[0] + others[1] * others[1] +
-                                             others[2] * others[2])));
+        const float largest_value = std::sqrt(std::max(
+            0.0f, 1.0f - (others[0] * others[0] + others[1] * others[1] + others[2] * others[2])));
         const int largest = static_cast<int>(word[1] >> 30);
         Eigen::Vector4f q;
         for (int i = 0, o = 0; i < 4; ++i) q[i] = (i == largest) ? largest_value : others[o++];
         model.rotations[g] = NormalizedQuaternion(q);
         float* sh = model.sh.data() + g * k_count * 3;
         for (int ch = 0; ch < 3; ++ch) {
-          const float color =
-              Lerp(box[12 + ch], box[15 + ch], Unorm(word[3] >> (24 - 8 * ch), 8));
+          const float color = Lerp(box[12 + ch], box[15 + ch], Unorm(word[3] >> (24 - 8 * ch), 8));
           sh[ch] = (color - 0.5f) / kShC0;
         }
         model.opacities[g] = Unorm(word[3], 8);
@@ -612,8 +606,8 @@ GaussianModel DecodeCompressed(const Header& header, BodyReader& reader, std::st
         for (size_t k = 1; k < sh_count; ++k) {
           for (size_t ch = 0; ch < 3; ++ch) {
             const double value = row[rest[ch * (sh_count - 1) + (k - 1)]];
-            REPHOTO_CHECK(value >= 0 && value <= 255, "{}: Gaussian {}: SH byte out of range",
-                          name, g);
+            REPHOTO_CHECK(value >= 0 && value <= 255, "{}: Gaussian {}: SH byte out of range", name,
+                          g);
             sh[k * 3 + ch] = static_cast<float>(((value + 0.5) / 256.0 - 0.5) * 8.0);
           }
         }
@@ -630,8 +624,8 @@ bool IsCompressed(const Element& vertex) {
   return vertex.Find("packed_position") >= 0 && vertex.Find("packed_rotation") >= 0;
 }
 bool IsGaussianVertex(const Element& vertex) {
-  return IsCompressed(vertex) || (vertex.Find("opacity") >= 0 && vertex.Find("scale_0") >= 0 &&
-                                  vertex.Find("rot_0") >= 0);
+  return IsCompressed(vertex) ||
+         (vertex.Find("opacity") >= 0 && vertex.Find("scale_0") >= 0 && vertex.Find("rot_0") >= 0);
 }
 
 GaussianModel ReadPlyGaussians(std::istream& in, std::string_view name, GaussianFormat* format) {
@@ -763,7 +757,8 @@ void WriteInriaPly(std::ostream& out, const GaussianModel& model) {
       "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float "
       "y\nproperty float z\nproperty float f_dc_0\nproperty float f_dc_1\nproperty float f_dc_2\n",
       model.size());
-  for (int i = 0; i < 3 * (k_count - 1); ++i) header += fmt::format("property float f_rest_{}\n", i);
+  for (int i = 0; i < 3 * (k_count - 1); ++i)
+    header += fmt::format("property float f_rest_{}\n", i);
   header +=
       "property float opacity\nproperty float scale_0\nproperty float scale_1\nproperty float "
       "scale_2\nproperty float rot_0\nproperty float rot_1\nproperty float rot_2\nproperty float "

@@ -52,7 +52,7 @@ TEST(ReadGaussians, InriaLayoutByPropertyName) {
   EXPECT_EQ(model.sh_degree, 1);
   EXPECT_EQ(model.positions[0], Eigen::Vector3f(1, 2, 3));
   EXPECT_NEAR(model.opacities[0], 0.5f, 1e-7f);  // sigmoid(0)
-  EXPECT_NEAR(model.scales[0][0], 1.0f, 1e-6f);   // exp(0)
+  EXPECT_NEAR(model.scales[0][0], 1.0f, 1e-6f);  // exp(0)
   EXPECT_NEAR(model.scales[0][1], std::exp(-1.0f), 1e-6f);
   EXPECT_TRUE(model.rotations[0].isApprox(Eigen::Vector4f(1, 0, 0, 0)));  // (2,0,0,0) normalised
   // Coefficient k of channel c is f_rest_{c * 3 + k - 1}: red 10 11 12, green 20 21 22, ...

@@ -23,7 +23,7 @@ constexpr float kDilation = 0.3f;
 constexpr float kShC1 = 0.4886025119029199f;
 constexpr float kShC2[] = {1.0925484305920792f, -1.0925484305920792f, 0.31539156525252005f,
                            -1.0925484305920792f, 0.5462742152960396f};
-constexpr float kShC3[] = {-0.5900435899266435f, 2.890611442640554f, -0.4570457994644658f,
+constexpr float kShC3[] = {-0.5900435899266435f, 2.890611442640554f,   -0.4570457994644658f,
                            0.3731763325901154f,  -0.4570457994644658f, 1.445305721320277f,
                            -0.5900435899266435f};
 
@@ -41,11 +41,11 @@ struct Pinhole {
 // What blending needs of one projected Gaussian (reference pixel coordinates: pixel x's centre
 // is at x).
 struct Splat {
-  float px, py;                  // projected mean
+  float px, py;                     // projected mean
   float conic_a, conic_b, conic_c;  // inverse 2D covariance (a b; b c)
   float opacity;
   float r, g, b;
-  float depth;     // view z
+  float depth;  // view z
   // Where opacity * exp(power) >= 1/255 can hold: q = d^T conic d <= level (inflated by the
   // rounding margin), and |dy| <= ext_y.
   float level, ext_y;
@@ -68,8 +68,8 @@ Eigen::Vector3f ShColor(const float* sh, int degree, const Eigen::Vector3f& dir)
                kShC2[2] * (2.0f * zz - xx - yy) * coef(6) + kShC2[3] * xz * coef(7) +
                kShC2[4] * (xx - yy) * coef(8);
       if (degree > 2) {
-        result = result + kShC3[0] * y * (3.0f * xx - yy) * coef(9) +
-                 kShC3[1] * xy * z * coef(10) + kShC3[2] * y * (4.0f * zz - xx - yy) * coef(11) +
+        result = result + kShC3[0] * y * (3.0f * xx - yy) * coef(9) + kShC3[1] * xy * z * coef(10) +
+                 kShC3[2] * y * (4.0f * zz - xx - yy) * coef(11) +
                  kShC3[3] * z * (2.0f * zz - 3.0f * xx - 3.0f * yy) * coef(12) +
                  kShC3[4] * x * (4.0f * zz - xx - yy) * coef(13) +
                  kShC3[5] * z * (xx - yy) * coef(14) + kShC3[6] * x * (xx - 3.0f * yy) * coef(15);
@@ -385,7 +385,8 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
     }
   });
   const auto sort_start = Clock::now();
-  if (stats) stats->project_ms = std::chrono::duration<double, std::milli>(sort_start - start).count();
+  if (stats)
+    stats->project_ms = std::chrono::duration<double, std::milli>(sort_start - start).count();
 
   // Front to back by view depth, ties by index.
   std::vector<uint32_t> keys, order;
@@ -490,8 +491,8 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
           out[1] = state.acc_g[i] + t * background[1];
           out[2] = state.acc_b[i] + t * background[2];
           out[3] = 1.0f - t;
-          *out_depth = t < 1.0f ? state.acc_z[i] / (1.0f - t)
-                                : std::numeric_limits<float>::quiet_NaN();
+          *out_depth =
+              t < 1.0f ? state.acc_z[i] / (1.0f - t) : std::numeric_limits<float>::quiet_NaN();
         }
       }
     }
@@ -651,10 +652,10 @@ void AccumulateGaussianErrors(const GaussianModel& model, const camera::Camera& 
                               const GaussianRenderOptions& options, const Image& error,
                               GaussianErrorAccumulator* accumulator) {
   camera.Validate("AccumulateGaussianErrors");
-  REPHOTO_CHECK(error.width() == camera.width && error.height() == camera.height &&
-                    error.channels() == 1,
-                "AccumulateGaussianErrors: error image is {}x{}x{}, camera is {}x{} (1 channel)",
-                error.width(), error.height(), error.channels(), camera.width, camera.height);
+  REPHOTO_CHECK(
+      error.width() == camera.width && error.height() == camera.height && error.channels() == 1,
+      "AccumulateGaussianErrors: error image is {}x{}x{}, camera is {}x{} (1 channel)",
+      error.width(), error.height(), error.channels(), camera.width, camera.height);
   if (accumulator->weight.empty() && accumulator->weighted_error.empty()) {
     accumulator->Reset(model.size());
   }

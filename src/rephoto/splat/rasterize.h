@@ -37,8 +37,12 @@
 // rasterizer is a pinhole model; this is the usual approximation (the splat's shape is not
 // distorted, only its position and the image around it).
 //
-// Threading: preprocessing, sorting and blending run in parallel with ParallelFor (TBB, all
-// cores or a ThreadLimit); the result does not depend on the thread count. Functions are
+// Threading and speed: preprocessing, the per-band tile lists and blending (one tile per task)
+// run in parallel with ParallelFor (TBB, all cores or a ThreadLimit); the result does not
+// depend on the thread count. The blend kernel evaluates 16-pixel tile rows on 8-float vectors
+// (an AVX2/FMA version is chosen at run time where the CPU has it, SSE2 otherwise) with a
+// polynomial exp (relative error < 2e-7 against expf). Memory per view: about 80 bytes per
+// visible Gaussian plus 4 bytes per (tile, Gaussian) pair, besides the images. Functions are
 // reentrant; the model is only read.
 #pragma once
 
@@ -66,10 +70,10 @@ struct GaussianRendering {
 
 // Wall-clock milliseconds per stage of the last render and sizes (for benchmarks and logs).
 struct GaussianRenderStats {
-  double project_ms = 0;  // preprocessing: cull, covariance, SH colour, tile rectangles
-  double sort_ms = 0;     // depth sort and per-tile lists
-  double blend_ms = 0;    // per-pixel blending (and resampling for distorted cameras)
-  size_t visible = 0;     // Gaussians that survived culling
+  double project_ms = 0;    // preprocessing: cull, covariance, SH colour, tile rectangles
+  double sort_ms = 0;       // depth sort and per-tile lists
+  double blend_ms = 0;      // per-pixel blending (and resampling for distorted cameras)
+  size_t visible = 0;       // Gaussians that survived culling
   size_t tile_entries = 0;  // (tile, Gaussian) pairs blended
 };
 

@@ -47,8 +47,7 @@ class ReferenceFixtures : public ::testing::Test {
     }
     dir_ = new fs::path(fs::temp_directory_path() /
                         ("rephoto_splat_fixtures_" + std::to_string(::getpid())));
-    const fs::path script =
-        testing::SourceDir() / "src/rephoto/splat/testdata/make_fixtures.py";
+    const fs::path script = testing::SourceDir() / "src/rephoto/splat/testdata/make_fixtures.py";
     const std::string command =
         "'" + python + "' '" + script.string() + "' --out '" + dir_->string() + "'";
     if (std::system(command.c_str()) != 0) error_ = "failed: " + command;
@@ -186,6 +185,28 @@ TEST_F(ReferenceFixtures, DistortionPathMatchesPinholeWithoutDistortion) {
   EXPECT_LE(a.mean_alpha_error, 0.01);
 }
 
+// Real distortion: the principal point's pixel sees the same Gaussians as the pinhole camera
+// (distortion is zero on the optical axis), and barrel distortion (k1 < 0) pulls more of the
+// scene into the image.
+TEST_F(ReferenceFixtures, DistortedCameraAgreesOnTheAxis) {
+  const fs::path base = Dir() / "scene_0";
+  const GaussianModel model = ReadGaussians(fs::path(base.string() + ".ply"));
+  FixtureView view = ReadView(base.string() + ".json");
+  camera::Camera camera = view.camera;
+  camera.width = camera.height = 64;
+  camera.params = {60, 60, 32, 32};
+  camera::Camera opencv = camera;
+  opencv.model = camera::CameraModel::kOpenCv;
+  opencv.params.insert(opencv.params.end(), {-0.2, 0.0, 0.0, 0.0});
+  const GaussianRendering pinhole = RenderGaussians(model, camera, view.pose, view.options);
+  const GaussianRendering distorted = RenderGaussians(model, opencv, view.pose, view.options);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_NEAR(distorted.color.at(31, 31, c), pinhole.color.at(31, 31, c), 0.02f) << c;
+  }
+  EXPECT_NE(0, std::memcmp(pinhole.color.data(), distorted.color.data(),
+                           pinhole.color.size() * sizeof(float)));
+}
+
 // Decoded compressed formats against the PLY they were made from, within the quantisation.
 void ExpectSameGaussians(const GaussianModel& original, const GaussianModel& decoded,
                          bool compressed_ply) {
@@ -220,8 +241,7 @@ void ExpectSameGaussians(const GaussianModel& original, const GaussianModel& dec
                       0.5f * (hi_s[i] - lo_s[i]) / bits + 1e-4f);
         } else {
           EXPECT_NEAR(decoded.positions[g][i], original.positions[g][i], 1e-6f);
-          EXPECT_NEAR(decoded.scales[g][i], original.scales[g][i],
-                      1e-6f * original.scales[g][i]);
+          EXPECT_NEAR(decoded.scales[g][i], original.scales[g][i], 1e-6f * original.scales[g][i]);
         }
         // Colour = C0 * f_dc + 0.5; .splat stores it clamped to [0, 1] in 8 bits.
         const float colour_step = compressed_ply ? 0.5f * (hi_c[i] - lo_c[i]) / 255 : 1.0f / 255;
@@ -229,8 +249,8 @@ void ExpectSameGaussians(const GaussianModel& original, const GaussianModel& dec
         if (!compressed_ply) colour = std::clamp(colour, 0.0f, 1.0f);
         EXPECT_NEAR(decoded.sh[g * k_dec * 3 + i] * kShC0 + 0.5f, colour, colour_step + 1e-5f);
       }
-      EXPECT_NEAR(decoded.opacities[g], original.opacities[g], compressed_ply ? 0.5f / 255 + 1e-6f
-                                                                              : 1.0f / 255);
+      EXPECT_NEAR(decoded.opacities[g], original.opacities[g],
+                  compressed_ply ? 0.5f / 255 + 1e-6f : 1.0f / 255);
       // q and -q are the same rotation.
       const float dot = std::abs(decoded.rotations[g].dot(original.rotations[g]));
       EXPECT_GE(dot, compressed_ply ? 0.9999f : 0.999f);
