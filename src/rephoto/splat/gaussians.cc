@@ -108,17 +108,32 @@ std::vector<std::string_view> Tokens(std::string_view line) {
   return tokens;
 }
 
+// Reads one header line of at most `limit` bytes (binary files need not have line breaks);
+// false at end of stream or when the line is longer.
+bool ReadHeaderLine(std::istream& in, std::string& line, size_t limit) {
+  line.clear();
+  char c;
+  while (in.get(c)) {
+    if (c == '\n') return true;
+    if (line.size() >= limit) return false;
+    line.push_back(c);
+  }
+  return !line.empty();
+}
+
 // Reads the header through "end_header\n". Throws Error naming the file.
 Header ReadHeader(std::istream& in, std::string_view name) {
   std::string line;
-  REPHOTO_CHECK(std::getline(in, line) && Tokens(line) == std::vector<std::string_view>{"ply"},
-                "{}: not a PLY file (no 'ply' magic)", name);
+  REPHOTO_CHECK(
+      ReadHeaderLine(in, line, 16) && Tokens(line) == std::vector<std::string_view>{"ply"},
+      "{}: not a PLY file (no 'ply' magic)", name);
   Header header;
   bool have_format = false;
   int line_number = 1;
   size_t header_bytes = line.size() + 1;
   while (true) {
-    REPHOTO_CHECK(std::getline(in, line), "{}: PLY header ends before end_header", name);
+    REPHOTO_CHECK(ReadHeaderLine(in, line, 1u << 16), "{}: PLY header ends before end_header",
+                  name);
     ++line_number;
     header_bytes += line.size() + 1;
     REPHOTO_CHECK(header_bytes <= (1u << 20), "{}: PLY header longer than 1 MiB", name);

@@ -5,6 +5,10 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <mutex>
+#include <utility>
+#include <vector>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
@@ -578,6 +582,25 @@ Undistortion ComputeUndistortion(const camera::Camera& camera) {
   return u;
 }
 
+// The undistortion map of `camera`, from a small process-wide cache: views of one camera (the
+// usual case) compute it once (it costs one Newton solve per pixel). Thread-safe.
+std::shared_ptr<const Undistortion> UndistortionFor(const camera::Camera& camera) {
+  static std::mutex mutex;
+  static std::vector<std::pair<camera::Camera, std::shared_ptr<const Undistortion>>> cache;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& [key, value] : cache) {
+      if (key == camera) return value;
+    }
+  }
+  auto computed = std::make_shared<const Undistortion>(ComputeUndistortion(camera));
+  const std::lock_guard<std::mutex> lock(mutex);
+  constexpr size_t kCachedCameras = 4;
+  if (cache.size() == kCachedCameras) cache.erase(cache.begin());
+  cache.emplace_back(camera, computed);
+  return computed;
+}
+
 void Resample(const Undistortion& u, const Image& grid_color, const Image& grid_depth,
               const camera::Camera& camera, const Eigen::Vector3f& background,
               GaussianRendering* out) {
@@ -629,7 +652,8 @@ void RenderGaussians(const GaussianModel& model, const camera::Camera& camera,
                      nullptr, nullptr, stats);
     return;
   }
-  const Undistortion u = ComputeUndistortion(camera);
+  const std::shared_ptr<const Undistortion> cached = UndistortionFor(camera);
+  const Undistortion& u = *cached;
   GaussianRendering grid;
   RasterizePinhole(model, u.grid, cam_from_world, options, &grid.color, &grid.depth, nullptr,
                    nullptr, stats);
@@ -670,7 +694,8 @@ void AccumulateGaussianErrors(const GaussianModel& model, const camera::Camera& 
     return;
   }
   // Move each pixel's error to the nearest grid pixel (mean where several land on one).
-  const Undistortion u = ComputeUndistortion(camera);
+  const std::shared_ptr<const Undistortion> cached = UndistortionFor(camera);
+  const Undistortion& u = *cached;
   const size_t grid_pixels = static_cast<size_t>(u.grid.width) * u.grid.height;
   std::vector<float> sum(grid_pixels, 0.0f);
   std::vector<int> count(grid_pixels, 0);

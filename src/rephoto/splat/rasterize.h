@@ -35,7 +35,9 @@
 // ray's position on that grid (depth: nearest grid pixel). Pixels whose ray does not exist or
 // falls outside the grid are empty (alpha 0, background, NaN depth). Like the reference, the
 // rasterizer is a pinhole model; this is the usual approximation (the splat's shape is not
-// distorted, only its position and the image around it).
+// distorted, only its position and the image around it). The per-pixel undistortion map is
+// kept for the last 4 distinct cameras (a process-wide, thread-safe cache of about 8 bytes per
+// pixel each), so the views of one camera pay for it once.
 //
 // Threading and speed: preprocessing, the per-band tile lists and blending (one tile per task)
 // run in parallel with ParallelFor (TBB, all cores or a ThreadLimit); the result does not
