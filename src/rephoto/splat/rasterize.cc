@@ -212,9 +212,6 @@ void RadixSort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values) {
 
 constexpr int kTilePixels = kTile * kTile;
 
-// Passing V8f by value to an inlined helper is not an ABI boundary.
-#pragma GCC diagnostic ignored "-Wpsabi"
-
 // Eight floats (one AVX register; two SSE registers where AVX is missing), GCC/Clang vector
 // extensions: the blend kernel is written once for both instruction sets.
 typedef float V8f __attribute__((vector_size(32), may_alias));
@@ -223,8 +220,9 @@ typedef int32_t V8i __attribute__((vector_size(32), may_alias));
 // exp(x) for x <= 0 (larger x are clamped to 0; callers mask them anyway), relative error
 // below 2e-7: Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a degree-6 Taylor polynomial
 // for exp(r) and 2^n from the exponent bits (std::exp is a scalar libm call).
-__attribute__((always_inline)) inline V8f ExpNonPositive(V8f x) {
-  x = x < -87.0f ? V8f{} - 87.0f : x;
+// (By reference: a 32-byte vector passed by value would change the ABI without AVX.)
+__attribute__((always_inline)) inline void ExpNonPositive(const V8f& in, V8f* out) {
+  V8f x = in < -87.0f ? V8f{} - 87.0f : in;
   x = x > 0.0f ? V8f{} : x;
   // round(x / ln2) for x <= 0 by truncation (SSE2 has no vector rounding instruction).
   const V8i ni = __builtin_convertvector(x * 1.44269504088896341f - 0.5f, V8i);
@@ -238,7 +236,7 @@ __attribute__((always_inline)) inline V8f ExpNonPositive(V8f x) {
   p = p * r + 1.0f;
   p = p * r + 1.0f;
   const V8i bits = (ni + 127) << 23;
-  return p * reinterpret_cast<const V8f&>(bits);
+  *out = p * reinterpret_cast<const V8f&>(bits);
 }
 
 // Per-pixel blending state of one tile (row-major, kTile x kTile).
@@ -323,7 +321,9 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void BlendTile(
       for (int h = 0; h < kTile; h += 8) {
         const V8f dx = s.px - *reinterpret_cast<const V8f*>(pixel_x + h);
         const V8f power = -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - bdy * dx;
-        const V8f a = s.opacity * ExpNonPositive(power);
+        V8f a;
+        ExpNonPositive(power, &a);
+        a *= s.opacity;
         const V8f alpha = a < kMaxAlpha ? a : V8f{} + kMaxAlpha;
         V8f& done = *reinterpret_cast<V8f*>(done_row + h);
         V8f& transmittance = *reinterpret_cast<V8f*>(t_row + h);
