@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -514,6 +515,15 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   if (stats) stats->blend_ms = MillisecondsSince(blend_start);
 }
 
+// Array sizes only (O(1)); values were validated when the model was read.
+void CheckModel(const GaussianModel& model, std::string_view context) {
+  const size_t n = model.size();
+  REPHOTO_CHECK(model.sh_degree >= 0 && model.sh_degree <= 3 && model.scales.size() == n &&
+                    model.rotations.size() == n && model.opacities.size() == n &&
+                    model.sh.size() == n * model.ShCoefficients() * 3 && n < (1ull << 32),
+                "{}: inconsistent Gaussian model (array sizes or SH degree)", context);
+}
+
 Pinhole PinholeOf(const camera::Camera& camera) {
   return {camera.width,
           camera.height,
@@ -647,6 +657,7 @@ void RenderGaussians(const GaussianModel& model, const camera::Camera& camera,
                      const camera::Pose& cam_from_world, const GaussianRenderOptions& options,
                      GaussianRendering* out, GaussianRenderStats* stats) {
   camera.Validate("RenderGaussians");
+  CheckModel(model, "RenderGaussians");
   if (camera.IsPinhole()) {
     RasterizePinhole(model, PinholeOf(camera), cam_from_world, options, &out->color, &out->depth,
                      nullptr, nullptr, stats);
@@ -676,6 +687,7 @@ void AccumulateGaussianErrors(const GaussianModel& model, const camera::Camera& 
                               const GaussianRenderOptions& options, const Image& error,
                               GaussianErrorAccumulator* accumulator) {
   camera.Validate("AccumulateGaussianErrors");
+  CheckModel(model, "AccumulateGaussianErrors");
   REPHOTO_CHECK(
       error.width() == camera.width && error.height() == camera.height && error.channels() == 1,
       "AccumulateGaussianErrors: error image is {}x{}x{}, camera is {}x{} (1 channel)",

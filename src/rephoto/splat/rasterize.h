@@ -80,7 +80,9 @@ struct GaussianRenderStats {
 };
 
 // Renders `model` at a camera with intrinsics `camera` (image size camera.width x
-// camera.height) and pose `cam_from_world`. Throws Error for an invalid camera.
+// camera.height) and pose `cam_from_world`. Throws Error for an invalid camera or a model whose
+// arrays disagree in size (values are checked by the readers and GaussianModel::Validate, not
+// per render).
 GaussianRendering RenderGaussians(const GaussianModel& model, const camera::Camera& camera,
                                   const camera::Pose& cam_from_world,
                                   const GaussianRenderOptions& options = {},
