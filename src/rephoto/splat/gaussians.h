@@ -90,8 +90,9 @@ bool IsGaussianFile(const std::filesystem::path& path);
 // True when a PLY header (the text up to and including "end_header") declares Gaussians.
 bool IsGaussianPlyHeader(std::istream& stream);
 
-// Writers for tests, tools and round trips: the Inria layout (binary little endian, float32, no
-// normals, f_rest channel-major, logit opacity, log scales) and the .splat layout.
+// Writes the Inria layout (binary little endian, float32, no normals, f_rest channel-major,
+// logit opacity clamped to +-16.1, log scales), for tests, tools and round trips; the path
+// version writes atomically. Throws Error when the file cannot be written.
 void WriteInriaPly(const std::filesystem::path& path, const GaussianModel& model);
 void WriteInriaPly(std::ostream& stream, const GaussianModel& model);
 
