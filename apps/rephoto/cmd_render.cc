@@ -1,11 +1,17 @@
 // rephoto render [MODEL] --scene SCENE [--images LIST] [--spp N] [--no-backfaces]
 //                [--point-radius R] [--format F] [--image-root DIR] --out DIR
-//                [--representation auto|vdt|ibr] [--training LIST] [--depth-maps DIR]
+//                [--representation auto|vdt|ibr|gaussians] [--training LIST] [--depth-maps DIR]
 //                [--k-best K] [--depth-tolerance T] [--sweep-width W] [--sweep-planes N]
+//                [--gaussian-mode classic|antialiased] [--background R,G,B]
 // Rephotographs a reconstruction at every selected camera of a scene, at each camera's own
 // resolution and distortion:
 // - auto (default): MODEL (mesh or point cloud, PLY/OBJ) with the built-in Embree renderer
-//   (rephoto/render/render.h): vertex colours, textures or splats, from what the file holds.
+//   (rephoto/render/render.h): vertex colours, textures or splats, from what the file holds; a
+//   3D Gaussian splatting model (a PLY with Gaussian properties, a compressed PLY or a .splat
+//   file, rephoto/splat/gaussians.h) is detected and rendered as with `gaussians`.
+// - gaussians: MODEL as 3D Gaussians with the CPU rasterizer (rephoto/splat/rasterize.h: the
+//   reference CUDA rasterizer's forward pass; --gaussian-mode antialiased as gsplat's; RGB over
+//   --background, default black; one sample at each pixel centre, --spp does not apply).
 // - vdt: view-dependent texturing of the training photos on MODEL as geometry proxy
 //   (rephoto/ibr/image_based_renderer.h).
 // - ibr: image-based rendering of the training photos with per-view depth maps (--depth-maps:
@@ -35,6 +41,8 @@
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/read_scene.h"
+#include "rephoto/splat/gaussians.h"
+#include "rephoto/splat/rasterize.h"
 #include "rephoto/split/split.h"
 #include "scene_args.h"
 
@@ -55,7 +63,30 @@ struct RenderArguments {
   std::string training;
   std::string depth_maps;
   ibr::ImageBasedOptions ibr_options;
+  std::string gaussian_mode = "classic";
+  std::string background = "0,0,0";
+  bool spp_given = false;
 };
+
+// "R,G,B" with values in [0, 1], or "black" / "white". Throws Error otherwise.
+Eigen::Vector3f ParseBackground(const std::string& value) {
+  if (value == "black") return Eigen::Vector3f::Zero();
+  if (value == "white") return Eigen::Vector3f::Ones();
+  Eigen::Vector3f color;
+  size_t begin = 0;
+  for (int c = 0; c < 3; ++c) {
+    const size_t end = value.find(',', begin);
+    REPHOTO_CHECK((c < 2) == (end != std::string::npos),
+                  "--background {}: expected R,G,B in [0, 1], black or white", value);
+    const std::string token = value.substr(begin, end == std::string::npos ? end : end - begin);
+    char* stop = nullptr;
+    color[c] = std::strtof(token.c_str(), &stop);
+    REPHOTO_CHECK(!token.empty() && *stop == '\0' && color[c] >= 0 && color[c] <= 1,
+                  "--background {}: expected R,G,B in [0, 1], black or white", value);
+    begin = end + 1;
+  }
+  return color;
+}
 
 // Scene view indices of a --training value: a list file when such a file exists, else
 // comma-separated image names. Throws Error naming an unknown image.
@@ -154,6 +185,37 @@ void RenderModelFile(const RenderArguments& args, const scene::Scene& scene,
   progress.Finish();
 }
 
+void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
+                        const std::vector<size_t>& views) {
+  REPHOTO_CHECK(!args.model.empty(), "render: MODEL is required for Gaussians");
+  const std::vector<std::filesystem::path> stems = OutputStems(args, scene, views);
+  splat::GaussianRenderOptions options;
+  options.mode = args.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
+                                                     : splat::GaussianMode::kClassic;
+  options.background = ParseBackground(args.background);
+  if (args.spp_given) {
+    LogWarning("--spp does not apply to Gaussians (one sample at each pixel centre, as 3DGS)");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  splat::GaussianFormat format;
+  const splat::GaussianModel model = splat::ReadGaussians(args.model, &format);
+  LogInfo(
+      fmt::format("{}: {} Gaussians ({}, SH degree {}), read in {:.2f} s", args.model, model.size(),
+                  splat::GaussianFormatName(format), model.sh_degree,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
+  splat::GaussianRendering rendering;
+  Progress progress("render", views.size());
+  for (size_t i = 0; i < views.size(); ++i) {
+    const scene::View& view = scene.views[views[i]];
+    splat::RenderGaussians(model, scene.CameraOf(view), view.cam_from_world, options, &rendering);
+    const std::filesystem::path out(args.out);
+    io::WritePng(out / (stems[i].string() + ".png"), rendering.color);
+    io::WriteExr(out / (stems[i].string() + ".depth.exr"), rendering.depth);
+    progress.Advance(view.name);
+  }
+  progress.Finish();
+}
+
 void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
                       const std::vector<size_t>& views) {
   const bool vdt = args.representation == "vdt";
@@ -215,9 +277,11 @@ CommandRunner SetupRender(CLI::App& app) {
   app.add_option("--scene", args->scene, "Scene file or folder with the cameras")->required();
   app.add_option("--images", args->images,
                  "List file of the image names to render (one per line; default: all views)");
-  app.add_option("--spp", args->spp, "Samples per pixel (stratified, jittered, deterministic)")
-      ->check(CLI::Range(1, 1024))
-      ->capture_default_str();
+  CLI::Option* spp_option =
+      app.add_option("--spp", args->spp,
+                     "Samples per pixel (stratified, jittered, deterministic; not for Gaussians)")
+          ->check(CLI::Range(1, 1024))
+          ->capture_default_str();
   app.add_flag("--no-backfaces", args->no_backfaces, "Do not render the back sides of triangles");
   app.add_option("--point-radius", args->point_radius,
                  "Splat radius of point clouds in model units (default: the file's radius, else "
@@ -228,9 +292,19 @@ CommandRunner SetupRender(CLI::App& app) {
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   app.add_option("--representation", args->representation,
-                 "auto: render MODEL as it is; vdt: view-dependent texturing of the training "
-                 "photos on MODEL; ibr: image-based rendering with per-view depth maps")
-      ->check(CLI::IsMember({"auto", "vdt", "ibr"}))
+                 "auto: render MODEL as it is (Gaussian splatting files detected); vdt: "
+                 "view-dependent texturing of the training photos on MODEL; ibr: image-based "
+                 "rendering with per-view depth maps; gaussians: MODEL as 3D Gaussians")
+      ->check(CLI::IsMember({"auto", "vdt", "ibr", "gaussians"}))
+      ->capture_default_str();
+  app.add_option("--gaussian-mode", args->gaussian_mode,
+                 "Gaussians: classic (graphdeco's rasterizer) or antialiased (gsplat's "
+                 "rasterize_mode=antialiased: opacity scaled by sqrt(det cov / det(cov + 0.3 I)))")
+      ->check(CLI::IsMember({"classic", "antialiased"}))
+      ->capture_default_str();
+  app.add_option("--background", args->background,
+                 "Gaussians: background colour R,G,B in [0, 1], black or white (the colour "
+                 "the model was trained against)")
       ->capture_default_str();
   app.add_option("--training", args->training,
                  "vdt/ibr training photos: a list file (e.g. a split's train.txt) or "
@@ -256,12 +330,17 @@ CommandRunner SetupRender(CLI::App& app) {
   AddSceneOptions(app, &args->scene_args);
   app.add_option("--out", args->out, "Output folder for <name>.png and <name>.depth.exr")
       ->required();
-  return [args]() {
+  return [args, spp_option]() {
+    args->spp_given = spp_option->count() > 0;
     const scene::ReadSceneOptions scene_options = MakeReadSceneOptions(args->scene_args);
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     const std::vector<size_t> views = SelectViews(scene, args->images);
 
-    if (args->representation != "auto") {
+    if (args->representation == "gaussians" ||
+        (args->representation == "auto" && !args->model.empty() &&
+         splat::IsGaussianFile(args->model))) {
+      RenderGaussianFile(*args, scene, views);
+    } else if (args->representation != "auto") {
       RenderImageBased(*args, scene, views);
     } else {
       RenderModelFile(*args, scene, views);
@@ -275,7 +354,8 @@ CommandRunner SetupRender(CLI::App& app) {
 
 REPHOTO_COMMAND(
     30, "render",
-    "Rephotograph a mesh, point cloud or image-based representation at a scene's cameras",
+    "Rephotograph a mesh, point cloud, Gaussian splatting model or image-based representation "
+    "at a scene's cameras",
     SetupRender);
 
 }  // namespace rephoto::cli

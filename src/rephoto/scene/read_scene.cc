@@ -6,6 +6,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/scene/bundler.h"
+#include "rephoto/scene/cameras_json.h"
 #include "rephoto/scene/image_name.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/middlebury.h"
@@ -21,9 +22,9 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr SceneFormat kAllFormats[] = {SceneFormat::kColmap,      SceneFormat::kTransforms,
-                                       SceneFormat::kBundler,     SceneFormat::kMiddlebury,
-                                       SceneFormat::kStrecha,     SceneFormat::kMve,
-                                       SceneFormat::kMvsTexturing};
+                                       SceneFormat::kCamerasJson, SceneFormat::kBundler,
+                                       SceneFormat::kMiddlebury,  SceneFormat::kStrecha,
+                                       SceneFormat::kMve,         SceneFormat::kMvsTexturing};
 
 // Regular files in `folder` whose name ends with `suffix`, sorted.
 std::vector<fs::path> FilesEndingWith(const fs::path& folder, std::string_view suffix) {
@@ -80,10 +81,20 @@ std::optional<fs::path> TryColmap(const fs::path& path) {
 
 std::optional<fs::path> TryTransforms(const fs::path& path) {
   if (IsFile(path)) {
-    if (path.extension() == ".json") return path;
+    // A JSON array is a 3DGS cameras.json, not a transforms.json object.
+    if (path.extension() == ".json" && !IsCamerasJsonFile(path)) return path;
     return std::nullopt;
   }
   if (IsFile(path / "transforms.json")) return path / "transforms.json";
+  return std::nullopt;
+}
+
+std::optional<fs::path> TryCamerasJson(const fs::path& path) {
+  if (IsFile(path)) {
+    if (IsCamerasJsonFile(path)) return path;
+    return std::nullopt;
+  }
+  if (IsCamerasJsonFile(path / "cameras.json")) return path / "cameras.json";
   return std::nullopt;
 }
 
@@ -171,6 +182,8 @@ std::optional<fs::path> TryFormat(SceneFormat format, const fs::path& path) {
       return TryColmap(path);
     case SceneFormat::kTransforms:
       return TryTransforms(path);
+    case SceneFormat::kCamerasJson:
+      return TryCamerasJson(path);
     case SceneFormat::kBundler:
       return TryBundler(path);
     case SceneFormat::kMiddlebury:
@@ -191,6 +204,8 @@ std::string_view LookedFor(SceneFormat format) {
       return "cameras/images/points3D .txt or .bin (also in sparse/0, sparse)";
     case SceneFormat::kTransforms:
       return "transforms.json";
+    case SceneFormat::kCamerasJson:
+      return "cameras.json (a 3D Gaussian splatting output folder)";
     case SceneFormat::kBundler:
       return "bundle.out (also bundle/bundle.out, */bundle.out next to list.txt)";
     case SceneFormat::kMiddlebury:
@@ -213,6 +228,8 @@ std::string_view SceneFormatName(SceneFormat format) {
       return "colmap";
     case SceneFormat::kTransforms:
       return "transforms";
+    case SceneFormat::kCamerasJson:
+      return "cameras-json";
     case SceneFormat::kBundler:
       return "bundler";
     case SceneFormat::kMiddlebury:
@@ -232,6 +249,7 @@ std::optional<SceneFormat> ParseSceneFormat(std::string_view name) {
     if (name == SceneFormatName(format)) return format;
   }
   if (name == "transforms.json" || name == "nerf") return SceneFormat::kTransforms;
+  if (name == "cameras.json" || name == "3dgs") return SceneFormat::kCamerasJson;
   if (name == "mvs_texturing" || name == "cam") return SceneFormat::kMvsTexturing;
   return std::nullopt;
 }
@@ -334,6 +352,9 @@ Scene ReadScene(const fs::path& path, const ReadSceneOptions& options, SceneSour
     }
     case SceneFormat::kTransforms:
       scene = ReadTransformsJson(source.path, options.image_root.value_or(fs::path()));
+      break;
+    case SceneFormat::kCamerasJson:
+      scene = ReadCamerasJson(source.path);
       break;
     case SceneFormat::kBundler:
       scene = ReadBundlerScene(source.path);

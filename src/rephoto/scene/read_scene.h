@@ -4,6 +4,8 @@
 //   colmap        COLMAP sparse model: a folder with cameras/images/points3D .bin or .txt, or a
 //                 project folder with sparse/0 or sparse/, or one of the model files.
 //   transforms    transforms.json (NeRF-synthetic, instant-ngp, nerfstudio), or a folder with it.
+//   cameras-json  cameras.json of a 3D Gaussian splatting output folder (a JSON array, see
+//                 cameras_json.h), or the folder with it.
 //   bundler       bundle.out (+ list.txt beside it or in its parent folder), or a folder with
 //                 bundle.out, bundle/bundle.out, or list.txt and exactly one */bundle.out.
 //   middlebury    a *_par.txt file, or a folder with exactly one *_par.txt.
@@ -33,6 +35,7 @@ namespace rephoto::scene {
 enum class SceneFormat {
   kColmap,
   kTransforms,
+  kCamerasJson,
   kBundler,
   kMiddlebury,
   kStrecha,
@@ -40,9 +43,11 @@ enum class SceneFormat {
   kMvsTexturing
 };
 
-// "colmap", "transforms", "bundler", "middlebury", "strecha", "mve", "mvs-texturing".
+// "colmap", "transforms", "cameras-json", "bundler", "middlebury", "strecha", "mve",
+// "mvs-texturing".
 std::string_view SceneFormatName(SceneFormat format);
-// Parses a name above (also accepts "transforms.json", "nerf", "mvs_texturing", "cam"); nullopt
+// Parses a name above (also accepts "transforms.json", "nerf", "cameras.json", "3dgs",
+// "mvs_texturing", "cam"); nullopt
 // if unknown.
 std::optional<SceneFormat> ParseSceneFormat(std::string_view name);
 // "colmap, transforms, bundler, ..." for messages and --help.

@@ -26,14 +26,15 @@ std::string ErrorOf(const std::function<void()>& function) {
 }
 
 TEST(ReadSceneTest, FormatNames) {
-  for (SceneFormat format : {SceneFormat::kColmap, SceneFormat::kTransforms, SceneFormat::kBundler,
-                             SceneFormat::kMiddlebury, SceneFormat::kStrecha, SceneFormat::kMve,
-                             SceneFormat::kMvsTexturing}) {
+  for (SceneFormat format :
+       {SceneFormat::kColmap, SceneFormat::kTransforms, SceneFormat::kCamerasJson,
+        SceneFormat::kBundler, SceneFormat::kMiddlebury, SceneFormat::kStrecha, SceneFormat::kMve,
+        SceneFormat::kMvsTexturing}) {
     EXPECT_EQ(ParseSceneFormat(SceneFormatName(format)), format);
   }
   EXPECT_FALSE(ParseSceneFormat("ply").has_value());
   EXPECT_EQ(SceneFormatList(),
-            "colmap, transforms, bundler, middlebury, strecha, mve, mvs-texturing");
+            "colmap, transforms, cameras-json, bundler, middlebury, strecha, mve, mvs-texturing");
 }
 
 // Every dataset in ../shared/data loads through the one entry point, with the format detected
@@ -89,7 +90,7 @@ TEST(ReadSceneTest, UndetectableFolderListsFormats) {
   EXPECT_THAT(
       ErrorOf([&] { DetectSceneFormat(empty); }),
       AllOf(HasSubstr(empty.string() + ": cannot detect the scene format"), HasSubstr("*_par.txt"),
-            HasSubstr("pass --format with one of: colmap, transforms, bundler")));
+            HasSubstr("pass --format with one of: colmap, transforms, cameras-json, bundler")));
   EXPECT_THAT(ErrorOf([&] { DetectSceneFormat(empty / "nothing"); }),
               HasSubstr("no such file or folder"));
   EXPECT_THAT(ErrorOf([&] { ReadScene(empty, {.format = SceneFormat::kMve}); }),

@@ -1,0 +1,732 @@
+#include "rephoto/splat/rasterize.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/parallel.h"
+
+namespace rephoto::splat {
+namespace {
+
+constexpr int kTile = 16;  // BLOCK_X = BLOCK_Y of the reference
+constexpr float kNearZ = 0.2f;
+constexpr float kMinAlpha = 1.0f / 255.0f;
+constexpr float kMaxAlpha = 0.99f;
+constexpr float kMinTransmittance = 0.0001f;
+constexpr float kDilation = 0.3f;
+
+// SH basis constants (auxiliary.h of the reference).
+constexpr float kShC1 = 0.4886025119029199f;
+constexpr float kShC2[] = {1.0925484305920792f, -1.0925484305920792f, 0.31539156525252005f,
+                           -1.0925484305920792f, 0.5462742152960396f};
+constexpr float kShC3[] = {-0.5900435899266435f, 2.890611442640554f,   -0.4570457994644658f,
+                           0.3731763325901154f,  -0.4570457994644658f, 1.445305721320277f,
+                           -0.5900435899266435f};
+
+using Clock = std::chrono::steady_clock;
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+struct Pinhole {
+  int width = 0;
+  int height = 0;
+  float fx = 0, fy = 0, cx = 0, cy = 0;  // corner convention (rephoto)
+};
+
+// What blending needs of one projected Gaussian (reference pixel coordinates: pixel x's centre
+// is at x).
+struct Splat {
+  float px, py;                     // projected mean
+  float conic_a, conic_b, conic_c;  // inverse 2D covariance (a b; b c)
+  float opacity;
+  float r, g, b;
+  float depth;  // view z
+  // Where opacity * exp(power) >= 1/255 can hold: q = d^T conic d <= level (inflated by the
+  // rounding margin), and |dy| <= ext_y.
+  float level, ext_y;
+};
+
+struct TileRect {
+  int x0, y0, x1, y1;  // tiles [x0, x1) x [y0, y1)
+};
+
+Eigen::Vector3f ShColor(const float* sh, int degree, const Eigen::Vector3f& dir) {
+  auto coef = [&](int k) { return Eigen::Vector3f(sh[k * 3], sh[k * 3 + 1], sh[k * 3 + 2]); };
+  Eigen::Vector3f result = kShC0 * coef(0);
+  if (degree > 0) {
+    const float x = dir.x(), y = dir.y(), z = dir.z();
+    result = result - kShC1 * y * coef(1) + kShC1 * z * coef(2) - kShC1 * x * coef(3);
+    if (degree > 1) {
+      const float xx = x * x, yy = y * y, zz = z * z;
+      const float xy = x * y, yz = y * z, xz = x * z;
+      result = result + kShC2[0] * xy * coef(4) + kShC2[1] * yz * coef(5) +
+               kShC2[2] * (2.0f * zz - xx - yy) * coef(6) + kShC2[3] * xz * coef(7) +
+               kShC2[4] * (xx - yy) * coef(8);
+      if (degree > 2) {
+        result = result + kShC3[0] * y * (3.0f * xx - yy) * coef(9) + kShC3[1] * xy * z * coef(10) +
+                 kShC3[2] * y * (4.0f * zz - xx - yy) * coef(11) +
+                 kShC3[3] * z * (2.0f * zz - 3.0f * xx - 3.0f * yy) * coef(12) +
+                 kShC3[4] * x * (4.0f * zz - xx - yy) * coef(13) +
+                 kShC3[5] * z * (xx - yy) * coef(14) + kShC3[6] * x * (xx - 3.0f * yy) * coef(15);
+      }
+    }
+  }
+  result.array() += 0.5f;
+  return result.cwiseMax(0.0f);
+}
+
+// Tile index range of getRect: min(grid, max(0, (int)v)), with the float clamped before the
+// conversion so that huge radii cannot overflow.
+int TileBound(float v, int grid) {
+  if (!(v > 0.0f)) return 0;
+  if (v >= static_cast<float>(grid)) return grid;
+  return static_cast<int>(v);
+}
+
+// v clamped to [lo, hi] before the conversion (no overflow for huge extents).
+int ClampToInt(float v, int lo, int hi) {
+  return static_cast<int>(std::clamp(v, static_cast<float>(lo), static_cast<float>(hi)));
+}
+
+// Projects Gaussian g; false when it is culled.
+bool Project(const GaussianModel& model, size_t g, const Pinhole& cam, const Eigen::Matrix3f& rot,
+             const Eigen::Vector3f& trans, const Eigen::Vector3f& center, GaussianMode mode,
+             int grid_x, int grid_y, Splat* splat, TileRect* rect) {
+  const Eigen::Vector3f& mean = model.positions[g];
+  const Eigen::Vector3f p = rot * mean + trans;
+  if (p.z() <= kNearZ) return false;
+  const float opacity_raw = model.opacities[g];
+  if (!(opacity_raw >= kMinAlpha)) return false;  // can never reach alpha >= 1/255
+
+  // Sigma = R S S^T R^T (computeCov3D).
+  const Eigen::Vector4f& q = model.rotations[g];
+  const float r = q[0], x = q[1], y = q[2], z = q[3];
+  Eigen::Matrix3f rq;
+  rq << 1.f - 2.f * (y * y + z * z), 2.f * (x * y - r * z), 2.f * (x * z + r * y),
+      2.f * (x * y + r * z), 1.f - 2.f * (x * x + z * z), 2.f * (y * z - r * x),
+      2.f * (x * z - r * y), 2.f * (y * z + r * x), 1.f - 2.f * (x * x + y * y);
+  const Eigen::Matrix3f m = rq * model.scales[g].asDiagonal();
+  const Eigen::Matrix3f sigma = m * m.transpose();
+
+  // EWA (computeCov2D) with the Jacobian clamp.
+  const float tan_x = 0.5f * cam.width / cam.fx, tan_y = 0.5f * cam.height / cam.fy;
+  const float lim_x_pos = (cam.width - cam.cx) / cam.fx + 0.3f * tan_x;
+  const float lim_x_neg = cam.cx / cam.fx + 0.3f * tan_x;
+  const float lim_y_pos = (cam.height - cam.cy) / cam.fy + 0.3f * tan_y;
+  const float lim_y_neg = cam.cy / cam.fy + 0.3f * tan_y;
+  const float tz = p.z();
+  const float tx = std::min(lim_x_pos, std::max(-lim_x_neg, p.x() / tz)) * tz;
+  const float ty = std::min(lim_y_pos, std::max(-lim_y_neg, p.y() / tz)) * tz;
+  Eigen::Matrix<float, 2, 3> jac;
+  jac << cam.fx / tz, 0.0f, -(cam.fx * tx) / (tz * tz), 0.0f, cam.fy / tz,
+      -(cam.fy * ty) / (tz * tz);
+  const Eigen::Matrix<float, 2, 3> t = jac * rot;
+  const Eigen::Matrix2f cov = t * sigma * t.transpose();
+  const float cov_a0 = cov(0, 0), cov_b = cov(0, 1), cov_c0 = cov(1, 1);
+  const float cov_a = cov_a0 + kDilation, cov_c = cov_c0 + kDilation;
+  const float det = cov_a * cov_c - cov_b * cov_b;
+  if (det == 0.0f) return false;
+  float opacity = opacity_raw;
+  if (mode == GaussianMode::kAntialiased) {
+    const float det_orig = cov_a0 * cov_c0 - cov_b * cov_b;
+    opacity *= std::sqrt(std::max(0.0f, det_orig / det));
+    if (!(opacity >= kMinAlpha)) return false;
+  }
+  const float det_inv = 1.0f / det;
+  const float mid = 0.5f * (cov_a + cov_c);
+  const float lambda1 = mid + std::sqrt(std::max(0.1f, mid * mid - det));
+  const float lambda2 = mid - std::sqrt(std::max(0.1f, mid * mid - det));
+  const float radius = std::ceil(3.0f * std::sqrt(std::max(lambda1, lambda2)));
+  const float px = cam.fx * p.x() / p.z() + cam.cx - 0.5f;
+  const float py = cam.fy * p.y() / p.z() + cam.cy - 0.5f;
+  rect->x0 = TileBound((px - radius) / kTile, grid_x);
+  rect->y0 = TileBound((py - radius) / kTile, grid_y);
+  rect->x1 = TileBound((px + radius + kTile - 1) / kTile, grid_x);
+  rect->y1 = TileBound((py + radius + kTile - 1) / kTile, grid_y);
+  if ((rect->x1 - rect->x0) * (rect->y1 - rect->y0) == 0) return false;
+
+  // Work saving, not a change of result: beyond the ellipse q = d^T conic d <= 2 ln(255 o),
+  // alpha < 1/255 and the reference skips the pixel. The ellipse's bounding box has half extents
+  // sqrt(level cov_xx), sqrt(level cov_yy) (cov = conic^-1). The level is inflated by a margin
+  // that covers the float rounding of the per-pixel q (relative 1e-6 of its largest terms inside
+  // the box, where thin rotated ellipses cancel), so no pixel the reference blends is missed.
+  const float level = 2.0f * std::log(opacity * 255.0f);
+  if (!(level >= 0.0f)) return false;
+  const float ext_x0 = std::sqrt(level * cov_a), ext_y0 = std::sqrt(level * cov_c);
+  const float conic_a = cov_c * det_inv, conic_b = -cov_b * det_inv, conic_c = cov_a * det_inv;
+  const float term_scale = conic_a * ext_x0 * ext_x0 + conic_c * ext_y0 * ext_y0 +
+                           2.0f * std::abs(conic_b) * ext_x0 * ext_y0;
+  splat->level = level * 1.002f + 0.002f + 1e-6f * term_scale;
+  const float ext_x = std::sqrt(splat->level * cov_a) + 0.01f;
+  splat->ext_y = std::sqrt(splat->level * cov_c) + 0.01f;
+  // Shrink the tile range to the tiles that ellipse box touches (others would skip it).
+  rect->x0 = std::max(rect->x0, TileBound((px - ext_x) / kTile, grid_x));
+  rect->y0 = std::max(rect->y0, TileBound((py - splat->ext_y) / kTile, grid_y));
+  rect->x1 = std::min(rect->x1, TileBound((px + ext_x) / kTile + 1.0f, grid_x));
+  rect->y1 = std::min(rect->y1, TileBound((py + splat->ext_y) / kTile + 1.0f, grid_y));
+  if (rect->x1 <= rect->x0 || rect->y1 <= rect->y0) return false;
+
+  const Eigen::Vector3f dir = (mean - center).normalized();
+  const Eigen::Vector3f color =
+      ShColor(model.sh.data() + g * model.ShCoefficients() * 3, model.sh_degree, dir);
+  splat->px = px;
+  splat->py = py;
+  splat->conic_a = conic_a;
+  splat->conic_b = conic_b;
+  splat->conic_c = conic_c;
+  splat->opacity = opacity;
+  splat->r = color[0];
+  splat->g = color[1];
+  splat->b = color[2];
+  splat->depth = p.z();
+  return true;
+}
+
+// Stable LSD radix sort of (key, value) pairs by key (non-negative float bits order as floats).
+void RadixSort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values) {
+  const size_t n = keys.size();
+  std::vector<uint32_t> keys_tmp(n), values_tmp(n);
+  for (int shift = 0; shift < 32; shift += 8) {
+    size_t count[257] = {};
+    for (size_t i = 0; i < n; ++i) ++count[((keys[i] >> shift) & 0xff) + 1];
+    if (count[((keys.empty() ? 0 : keys[0]) >> shift & 0xff) + 1] == n) continue;  // one bucket
+    for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
+    for (size_t i = 0; i < n; ++i) {
+      const size_t at = count[(keys[i] >> shift) & 0xff]++;
+      keys_tmp[at] = keys[i];
+      values_tmp[at] = values[i];
+    }
+    keys.swap(keys_tmp);
+    values.swap(values_tmp);
+  }
+}
+
+constexpr int kTilePixels = kTile * kTile;
+
+// Eight floats (one AVX register; two SSE registers where AVX is missing), GCC/Clang vector
+// extensions: the blend kernel is written once for both instruction sets.
+typedef float V8f __attribute__((vector_size(32), may_alias));
+typedef int32_t V8i __attribute__((vector_size(32), may_alias));
+
+// exp(x) for x <= 0 (larger x are clamped to 0; callers mask them anyway), relative error
+// below 2e-7: Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a degree-6 Taylor polynomial
+// for exp(r) and 2^n from the exponent bits (std::exp is a scalar libm call).
+// (By reference: a 32-byte vector passed by value would change the ABI without AVX.)
+__attribute__((always_inline)) inline void ExpNonPositive(const V8f& in, V8f* out) {
+  V8f x = in < -87.0f ? V8f{} - 87.0f : in;
+  x = x > 0.0f ? V8f{} : x;
+  // round(x / ln2) for x <= 0 by truncation (SSE2 has no vector rounding instruction).
+  const V8i ni = __builtin_convertvector(x * 1.44269504088896341f - 0.5f, V8i);
+  const V8f n = __builtin_convertvector(ni, V8f);
+  const V8f r = (x - n * 0.693359375f) + n * 2.12194440e-4f;
+  V8f p = V8f{} + 1.3888889e-3f;
+  p = p * r + 8.3333333e-3f;
+  p = p * r + 4.1666667e-2f;
+  p = p * r + 1.6666667e-1f;
+  p = p * r + 0.5f;
+  p = p * r + 1.0f;
+  p = p * r + 1.0f;
+  const V8i bits = (ni + 127) << 23;
+  *out = p * reinterpret_cast<const V8f&>(bits);
+}
+
+// Per-pixel blending state of one tile (row-major, kTile x kTile).
+struct TileState {
+  alignas(64) float transmittance[kTilePixels];
+  alignas(64) float acc_r[kTilePixels];
+  alignas(64) float acc_g[kTilePixels];
+  alignas(64) float acc_b[kTilePixels];
+  alignas(64) float acc_z[kTilePixels];
+  alignas(64) float done[kTilePixels];         // 1 = stopped (or outside the image)
+  alignas(64) float error[kTilePixels];        // per-pixel error, 0 where invalid
+  alignas(64) float error_valid[kTilePixels];  // 1 where the error is finite
+  alignas(64) float pixel_x[kTile];
+  int done_count = 0;
+
+  void Reset(int x_begin, int width, int height) {
+    done_count = 0;
+    for (int i = 0; i < kTilePixels; ++i) {
+      transmittance[i] = 1.0f;
+      acc_r[i] = acc_g[i] = acc_b[i] = acc_z[i] = 0.0f;
+      const bool outside = i / kTile >= height || i % kTile >= width;
+      done[i] = outside ? 1.0f : 0.0f;
+      done_count += outside;
+    }
+    for (int i = 0; i < kTile; ++i) pixel_x[i] = static_cast<float>(x_begin + i);
+  }
+
+  void SetError(const float* image, int image_width, int x_begin, int y_begin) {
+    for (int i = 0; i < kTilePixels; ++i) {
+      float e = 0;
+      if (done[i] == 0.0f) {
+        e = image[static_cast<size_t>(y_begin + i / kTile) * image_width + x_begin + i % kTile];
+      }
+      error_valid[i] = std::isfinite(e) ? 1.0f : 0.0f;
+      error[i] = std::isfinite(e) ? e : 0.0f;
+    }
+  }
+};
+
+// Blends the Gaussians entries[begin, end) (front to back) into one tile, the reference's
+// per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse and then
+// evaluated over whole kTile-pixel rows without branches, so that the compiler vectorizes them
+// (target_clones: an AVX2 + FMA version where the CPU has it, SSE2 otherwise; the arithmetic is
+// the same IEEE float operations in both). `sums` (optional) receives per entry the sums of
+// w * error and of w over valid error pixels.
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void BlendTile(
+    const Splat* splats, const uint32_t* entries, uint32_t begin, uint32_t end, int x_begin,
+    int y_begin, int x_end, int y_end, bool with_error, TileState* state, float* sums_we,
+    float* sums_w) {
+  for (uint32_t e = begin; e < end && state->done_count < kTilePixels; ++e) {
+    if (e + 8 < end) __builtin_prefetch(&splats[entries[e + 8]]);
+    const Splat& s = splats[entries[e]];
+    const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
+    const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
+    float sum_we = 0, sum_w = 0;
+    for (int y = y0; y <= y1; ++y) {
+      // The row's chord of the ellipse q <= level: a dx^2 + 2 b dy dx + c dy^2 - level <= 0
+      // with dx = px - x (a > 0: the conic is positive definite).
+      const float dy = s.py - static_cast<float>(y);
+      const float bdy = s.conic_b * dy;
+      const float disc = bdy * bdy - s.conic_a * (s.conic_c * dy * dy - s.level);
+      if (!(disc >= 0.0f)) continue;
+      const float root = std::sqrt(disc);
+      const float dx_low = (-bdy - root) / s.conic_a, dx_high = (-bdy + root) / s.conic_a;
+      const int x0 = ClampToInt(std::ceil(s.px - dx_high - 0.01f), x_begin, x_end);
+      const int x1 = ClampToInt(std::floor(s.px - dx_low + 0.01f), x_begin - 1, x_end - 1);
+      if (x1 < x0) continue;
+      const int row = (y - y_begin) * kTile;
+      float* __restrict t_row = state->transmittance + row;
+      float* __restrict r_row = state->acc_r + row;
+      float* __restrict g_row = state->acc_g + row;
+      float* __restrict b_row = state->acc_b + row;
+      float* __restrict z_row = state->acc_z + row;
+      float* __restrict done_row = state->done + row;
+      const float* __restrict err_row = state->error + row;
+      const float* __restrict valid_row = state->error_valid + row;
+      const float* __restrict pixel_x = state->pixel_x;
+      int stops = 0;
+      alignas(64) float weights[kTile];
+      // Whole row (16 lanes, two vectors of 8): pixels outside the chord get alpha < 1/255 and
+      // change nothing.
+      for (int h = 0; h < kTile; h += 8) {
+        const V8f dx = s.px - *reinterpret_cast<const V8f*>(pixel_x + h);
+        const V8f power = -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - bdy * dx;
+        V8f a;
+        ExpNonPositive(power, &a);
+        a *= s.opacity;
+        const V8f alpha = a < kMaxAlpha ? a : V8f{} + kMaxAlpha;
+        V8f& done = *reinterpret_cast<V8f*>(done_row + h);
+        V8f& transmittance = *reinterpret_cast<V8f*>(t_row + h);
+        const V8i valid = (done == 0.0f) & (power <= 0.0f) & (alpha >= kMinAlpha);
+        const V8f t = transmittance;
+        const V8f test_t = t * (1.0f - alpha);
+        const V8i stop = valid & (test_t < kMinTransmittance);
+        const V8i update = valid & ~stop;
+        const V8f w = update ? alpha * t : V8f{};
+        done = stop ? V8f{} + 1.0f : done;
+        for (int k = 0; k < 8; ++k) stops -= stop[k];  // lanes are -1 where true
+        *reinterpret_cast<V8f*>(r_row + h) += s.r * w;
+        *reinterpret_cast<V8f*>(g_row + h) += s.g * w;
+        *reinterpret_cast<V8f*>(b_row + h) += s.b * w;
+        *reinterpret_cast<V8f*>(z_row + h) += s.depth * w;
+        transmittance = update ? test_t : t;
+        *reinterpret_cast<V8f*>(weights + h) = w;
+      }
+      float row_we = 0, row_w = 0;
+      if (with_error) {
+        for (int i = 0; i < kTile; ++i) {
+          row_we += weights[i] * err_row[i];
+          row_w += weights[i] * valid_row[i];
+        }
+      }
+      state->done_count += static_cast<int>(stops);
+      sum_we += row_we;
+      sum_w += row_w;
+    }
+    if (with_error) {
+      sums_we[e] = sum_we;
+      sums_w[e] = sum_w;
+    }
+  }
+}
+
+struct Band {
+  std::vector<uint32_t> offsets;  // per tile of the band, +1
+  std::vector<uint32_t> entries;  // indices into the depth order, front to back per tile
+};
+
+// Rasterizes on a pinhole grid. `error` (optional, width x height floats, NaN = skip) with
+// `accumulator` adds per-Gaussian weights.
+void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const camera::Pose& pose,
+                      const GaussianRenderOptions& options, Image* color, Image* depth,
+                      const float* error, GaussianErrorAccumulator* accumulator,
+                      GaussianRenderStats* stats) {
+  const auto start = Clock::now();
+  const int grid_x = (cam.width + kTile - 1) / kTile;
+  const int grid_y = (cam.height + kTile - 1) / kTile;
+  const Eigen::Matrix3f rot = pose.rotation.cast<float>();
+  const Eigen::Vector3f trans = pose.translation.cast<float>();
+  const Eigen::Vector3f center = pose.Center().cast<float>();
+  const size_t n = model.size();
+
+  std::vector<Splat> splats(n);
+  std::vector<TileRect> rects(n);
+  std::vector<uint8_t> visible(n);
+  ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
+    for (int64_t g = b; g < e; ++g) {
+      visible[g] = Project(model, static_cast<size_t>(g), cam, rot, trans, center, options.mode,
+                           grid_x, grid_y, &splats[g], &rects[g]);
+    }
+  });
+  const auto sort_start = Clock::now();
+  if (stats)
+    stats->project_ms = std::chrono::duration<double, std::milli>(sort_start - start).count();
+
+  // Front to back by view depth, ties by index.
+  std::vector<uint32_t> keys, order;
+  keys.reserve(n);
+  order.reserve(n);
+  for (size_t g = 0; g < n; ++g) {
+    if (!visible[g]) continue;
+    uint32_t bits;
+    std::memcpy(&bits, &splats[g].depth, sizeof(bits));
+    keys.push_back(bits);
+    order.push_back(static_cast<uint32_t>(g));
+  }
+  RadixSort(keys, order);
+  std::vector<uint32_t>().swap(keys);
+  // Gaussians in depth order: each tile's list then walks memory forwards.
+  const size_t visible_count = order.size();
+  std::vector<Splat> sorted(visible_count);
+  std::vector<TileRect> sorted_rects(visible_count);
+  ParallelFor(0, static_cast<int64_t>(visible_count), 65536, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      sorted[i] = splats[order[i]];
+      sorted_rects[i] = rects[order[i]];
+    }
+  });
+  std::vector<Splat>().swap(splats);
+  std::vector<TileRect>().swap(rects);
+
+  // Per-tile lists, built per band of tile rows (each band scans the sorted Gaussians once).
+  const int band_rows = std::max(1, (grid_y + 15) / 16);
+  const int band_count = (grid_y + band_rows - 1) / band_rows;
+  std::vector<Band> bands(band_count);
+  ParallelFor(0, band_count, 1, [&](int64_t bb, int64_t be) {
+    for (int64_t band_index = bb; band_index < be; ++band_index) {
+      Band& band = bands[band_index];
+      const int ty0 = static_cast<int>(band_index) * band_rows;
+      const int ty1 = std::min(grid_y, ty0 + band_rows);
+      const int tiles = (ty1 - ty0) * grid_x;
+      band.offsets.assign(tiles + 1, 0);
+      for (uint32_t i = 0; i < visible_count; ++i) {
+        const TileRect& r = sorted_rects[i];
+        const int y0 = std::max(r.y0, ty0), y1 = std::min(r.y1, ty1);
+        for (int ty = y0; ty < y1; ++ty) {
+          for (int tx = r.x0; tx < r.x1; ++tx) ++band.offsets[(ty - ty0) * grid_x + tx + 1];
+        }
+      }
+      for (int t = 0; t < tiles; ++t) band.offsets[t + 1] += band.offsets[t];
+      band.entries.resize(band.offsets[tiles]);
+      std::vector<uint32_t> cursor(band.offsets.begin(), band.offsets.end() - 1);
+      for (uint32_t i = 0; i < visible_count; ++i) {
+        const TileRect& r = sorted_rects[i];
+        const int y0 = std::max(r.y0, ty0), y1 = std::min(r.y1, ty1);
+        for (int ty = y0; ty < y1; ++ty) {
+          for (int tx = r.x0; tx < r.x1; ++tx) {
+            band.entries[cursor[(ty - ty0) * grid_x + tx]++] = i;
+          }
+        }
+      }
+    }
+  });
+  std::vector<TileRect>().swap(sorted_rects);
+  const auto blend_start = Clock::now();
+  if (stats) {
+    stats->sort_ms = std::chrono::duration<double, std::milli>(blend_start - sort_start).count();
+    stats->visible = order.size();
+    stats->tile_entries = 0;
+    for (const Band& band : bands) stats->tile_entries += band.entries.size();
+  }
+
+  std::vector<std::vector<float>> entry_weighted_error(accumulator ? band_count : 0);
+  std::vector<std::vector<float>> entry_weight(accumulator ? band_count : 0);
+  for (size_t b = 0; b < entry_weight.size(); ++b) {
+    entry_weighted_error[b].assign(bands[b].entries.size(), 0.0f);
+    entry_weight[b].assign(bands[b].entries.size(), 0.0f);
+  }
+
+  color->Resize(cam.width, cam.height, 4);
+  depth->Resize(cam.width, cam.height, 1);
+  const Eigen::Vector3f background = options.background;
+  ParallelFor(0, static_cast<int64_t>(grid_x) * grid_y, 1, [&](int64_t tb, int64_t te) {
+    TileState state;
+    for (int64_t tile = tb; tile < te; ++tile) {
+      const int tx = static_cast<int>(tile % grid_x), ty = static_cast<int>(tile / grid_x);
+      const int band_index = ty / band_rows;
+      const Band& band = bands[band_index];
+      const int local = (ty - band_index * band_rows) * grid_x + tx;
+      const int x_begin = tx * kTile, y_begin = ty * kTile;
+      const int x_end = std::min(cam.width, x_begin + kTile);
+      const int y_end = std::min(cam.height, y_begin + kTile);
+      state.Reset(x_begin, x_end - x_begin, y_end - y_begin);
+      if (error != nullptr) state.SetError(error, cam.width, x_begin, y_begin);
+      BlendTile(sorted.data(), band.entries.data(), band.offsets[local], band.offsets[local + 1],
+                x_begin, y_begin, x_end, y_end, error != nullptr, &state,
+                error != nullptr ? entry_weighted_error[band_index].data() : nullptr,
+                error != nullptr ? entry_weight[band_index].data() : nullptr);
+      for (int y = y_begin; y < y_end; ++y) {
+        float* out = color->row(y) + static_cast<size_t>(x_begin) * 4;
+        float* out_depth = depth->row(y) + x_begin;
+        for (int x = x_begin; x < x_end; ++x, out += 4, ++out_depth) {
+          const int i = (y - y_begin) * kTile + (x - x_begin);
+          const float t = state.transmittance[i];
+          out[0] = state.acc_r[i] + t * background[0];
+          out[1] = state.acc_g[i] + t * background[1];
+          out[2] = state.acc_b[i] + t * background[2];
+          out[3] = 1.0f - t;
+          *out_depth =
+              t < 1.0f ? state.acc_z[i] / (1.0f - t) : std::numeric_limits<float>::quiet_NaN();
+        }
+      }
+    }
+  });
+  if (accumulator != nullptr) {
+    // In (band, tile, depth) order: the same sums for any thread count.
+    for (int b = 0; b < band_count; ++b) {
+      for (size_t e = 0; e < bands[b].entries.size(); ++e) {
+        const uint32_t g = order[bands[b].entries[e]];
+        accumulator->weighted_error[g] += entry_weighted_error[b][e];
+        accumulator->weight[g] += entry_weight[b][e];
+      }
+    }
+  }
+  if (stats) stats->blend_ms = MillisecondsSince(blend_start);
+}
+
+// Array sizes only (O(1)); values were validated when the model was read.
+void CheckModel(const GaussianModel& model, std::string_view context) {
+  const size_t n = model.size();
+  REPHOTO_CHECK(model.sh_degree >= 0 && model.sh_degree <= 3 && model.scales.size() == n &&
+                    model.rotations.size() == n && model.opacities.size() == n &&
+                    model.sh.size() == n * model.ShCoefficients() * 3 && n < (1ull << 32),
+                "{}: inconsistent Gaussian model (array sizes or SH degree)", context);
+}
+
+Pinhole PinholeOf(const camera::Camera& camera) {
+  return {camera.width,
+          camera.height,
+          static_cast<float>(camera.FocalLengthX()),
+          static_cast<float>(camera.FocalLengthY()),
+          static_cast<float>(camera.PrincipalPointX()),
+          static_cast<float>(camera.PrincipalPointY())};
+}
+
+// For a distorted camera: the undistorted position (pinhole pixel coordinates, corner
+// convention, with the camera's fx, fy, cx, cy) of every pixel centre, NaN where there is no
+// ray; and the pinhole grid that covers them.
+struct Undistortion {
+  std::vector<Eigen::Vector2f> positions;  // per pixel; grid coordinates (offset applied)
+  Pinhole grid;
+};
+
+Undistortion ComputeUndistortion(const camera::Camera& camera) {
+  Undistortion u;
+  const Pinhole base = PinholeOf(camera);
+  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  u.positions.resize(pixels);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  ParallelFor(0, camera.height, 8, [&](int64_t yb, int64_t ye) {
+    for (int64_t y = yb; y < ye; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        const auto ray = camera.CamFromImg(Eigen::Vector2d(x + 0.5, y + 0.5));
+        Eigen::Vector2f& at = u.positions[static_cast<size_t>(y) * camera.width + x];
+        if (!ray || (*ray).z() <= 0) {
+          at = Eigen::Vector2f(nan, nan);
+          continue;
+        }
+        at = Eigen::Vector2f(static_cast<float>(base.fx * ray->x() / ray->z() + base.cx),
+                             static_cast<float>(base.fy * ray->y() / ray->z() + base.cy));
+      }
+    }
+  });
+  // Grid covering the positions, at most 4x the image per axis around the image itself.
+  float min_x = 0, min_y = 0, max_x = static_cast<float>(camera.width),
+        max_y = static_cast<float>(camera.height);
+  for (const Eigen::Vector2f& p : u.positions) {
+    if (!std::isfinite(p.x())) continue;
+    min_x = std::min(min_x, p.x());
+    max_x = std::max(max_x, p.x());
+    min_y = std::min(min_y, p.y());
+    max_y = std::max(max_y, p.y());
+  }
+  const float limit_x = 1.5f * camera.width, limit_y = 1.5f * camera.height;
+  min_x = std::max(min_x, -limit_x);
+  min_y = std::max(min_y, -limit_y);
+  max_x = std::min(max_x, camera.width + limit_x);
+  max_y = std::min(max_y, camera.height + limit_y);
+  const int offset_x = static_cast<int>(std::floor(min_x)) - 1;
+  const int offset_y = static_cast<int>(std::floor(min_y)) - 1;
+  u.grid = base;
+  u.grid.width = static_cast<int>(std::ceil(max_x)) + 1 - offset_x;
+  u.grid.height = static_cast<int>(std::ceil(max_y)) + 1 - offset_y;
+  u.grid.cx -= static_cast<float>(offset_x);
+  u.grid.cy -= static_cast<float>(offset_y);
+  for (Eigen::Vector2f& p : u.positions) {
+    p -= Eigen::Vector2f(static_cast<float>(offset_x), static_cast<float>(offset_y));
+    if (!(p.x() >= 0 && p.y() >= 0 && p.x() <= u.grid.width && p.y() <= u.grid.height)) {
+      p = Eigen::Vector2f(nan, nan);
+    }
+  }
+  return u;
+}
+
+// The undistortion map of `camera`, from a small process-wide cache: views of one camera (the
+// usual case) compute it once (it costs one Newton solve per pixel). Thread-safe.
+std::shared_ptr<const Undistortion> UndistortionFor(const camera::Camera& camera) {
+  static std::mutex mutex;
+  static std::vector<std::pair<camera::Camera, std::shared_ptr<const Undistortion>>> cache;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& [key, value] : cache) {
+      if (key == camera) return value;
+    }
+  }
+  auto computed = std::make_shared<const Undistortion>(ComputeUndistortion(camera));
+  const std::lock_guard<std::mutex> lock(mutex);
+  constexpr size_t kCachedCameras = 4;
+  if (cache.size() == kCachedCameras) cache.erase(cache.begin());
+  cache.emplace_back(camera, computed);
+  return computed;
+}
+
+void Resample(const Undistortion& u, const Image& grid_color, const Image& grid_depth,
+              const camera::Camera& camera, const Eigen::Vector3f& background,
+              GaussianRendering* out) {
+  out->color.Resize(camera.width, camera.height, 4);
+  out->depth.Resize(camera.width, camera.height, 1);
+  const int gw = grid_color.width(), gh = grid_color.height();
+  ParallelFor(0, camera.height, 8, [&](int64_t yb, int64_t ye) {
+    for (int64_t y = yb; y < ye; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        const Eigen::Vector2f p = u.positions[static_cast<size_t>(y) * camera.width + x];
+        float* c = &out->color.at(x, static_cast<int>(y), 0);
+        float& d = out->depth.at(x, static_cast<int>(y));
+        if (!std::isfinite(p.x())) {
+          c[0] = background[0];
+          c[1] = background[1];
+          c[2] = background[2];
+          c[3] = 0.0f;
+          d = std::numeric_limits<float>::quiet_NaN();
+          continue;
+        }
+        // Bilinear between grid pixel centres (clamped at the border).
+        const float fx = p.x() - 0.5f, fy = p.y() - 0.5f;
+        const int x0 = std::clamp(static_cast<int>(std::floor(fx)), 0, gw - 1);
+        const int y0 = std::clamp(static_cast<int>(std::floor(fy)), 0, gh - 1);
+        const int x1 = std::min(x0 + 1, gw - 1), y1 = std::min(y0 + 1, gh - 1);
+        const float ax = std::clamp(fx - x0, 0.0f, 1.0f), ay = std::clamp(fy - y0, 0.0f, 1.0f);
+        for (int ch = 0; ch < 4; ++ch) {
+          const float top = grid_color.at(x0, y0, ch) * (1 - ax) + grid_color.at(x1, y0, ch) * ax;
+          const float bottom =
+              grid_color.at(x0, y1, ch) * (1 - ax) + grid_color.at(x1, y1, ch) * ax;
+          c[ch] = top * (1 - ay) + bottom * ay;
+        }
+        const int nx = std::clamp(static_cast<int>(p.x()), 0, gw - 1);
+        const int ny = std::clamp(static_cast<int>(p.y()), 0, gh - 1);
+        d = grid_depth.at(nx, ny);
+      }
+    }
+  });
+}
+
+}  // namespace
+
+void RenderGaussians(const GaussianModel& model, const camera::Camera& camera,
+                     const camera::Pose& cam_from_world, const GaussianRenderOptions& options,
+                     GaussianRendering* out, GaussianRenderStats* stats) {
+  camera.Validate("RenderGaussians");
+  CheckModel(model, "RenderGaussians");
+  if (camera.IsPinhole()) {
+    RasterizePinhole(model, PinholeOf(camera), cam_from_world, options, &out->color, &out->depth,
+                     nullptr, nullptr, stats);
+    return;
+  }
+  const std::shared_ptr<const Undistortion> cached = UndistortionFor(camera);
+  const Undistortion& u = *cached;
+  GaussianRendering grid;
+  RasterizePinhole(model, u.grid, cam_from_world, options, &grid.color, &grid.depth, nullptr,
+                   nullptr, stats);
+  const auto start = Clock::now();
+  Resample(u, grid.color, grid.depth, camera, options.background, out);
+  if (stats) stats->blend_ms += MillisecondsSince(start);
+}
+
+GaussianRendering RenderGaussians(const GaussianModel& model, const camera::Camera& camera,
+                                  const camera::Pose& cam_from_world,
+                                  const GaussianRenderOptions& options,
+                                  GaussianRenderStats* stats) {
+  GaussianRendering out;
+  RenderGaussians(model, camera, cam_from_world, options, &out, stats);
+  return out;
+}
+
+void AccumulateGaussianErrors(const GaussianModel& model, const camera::Camera& camera,
+                              const camera::Pose& cam_from_world,
+                              const GaussianRenderOptions& options, const Image& error,
+                              GaussianErrorAccumulator* accumulator) {
+  camera.Validate("AccumulateGaussianErrors");
+  CheckModel(model, "AccumulateGaussianErrors");
+  REPHOTO_CHECK(
+      error.width() == camera.width && error.height() == camera.height && error.channels() == 1,
+      "AccumulateGaussianErrors: error image is {}x{}x{}, camera is {}x{} (1 channel)",
+      error.width(), error.height(), error.channels(), camera.width, camera.height);
+  if (accumulator->weight.empty() && accumulator->weighted_error.empty()) {
+    accumulator->Reset(model.size());
+  }
+  REPHOTO_CHECK(accumulator->weight.size() == model.size() &&
+                    accumulator->weighted_error.size() == model.size(),
+                "AccumulateGaussianErrors: accumulator holds {} Gaussians, model {}",
+                accumulator->weight.size(), model.size());
+  GaussianRendering grid;
+  if (camera.IsPinhole()) {
+    RasterizePinhole(model, PinholeOf(camera), cam_from_world, options, &grid.color, &grid.depth,
+                     error.data(), accumulator, nullptr);
+    return;
+  }
+  // Move each pixel's error to the nearest grid pixel (mean where several land on one).
+  const std::shared_ptr<const Undistortion> cached = UndistortionFor(camera);
+  const Undistortion& u = *cached;
+  const size_t grid_pixels = static_cast<size_t>(u.grid.width) * u.grid.height;
+  std::vector<float> sum(grid_pixels, 0.0f);
+  std::vector<int> count(grid_pixels, 0);
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const Eigen::Vector2f p = u.positions[static_cast<size_t>(y) * camera.width + x];
+      const float e = error.at(x, y);
+      if (!std::isfinite(p.x()) || !std::isfinite(e)) continue;
+      const int gx = std::clamp(static_cast<int>(p.x()), 0, u.grid.width - 1);
+      const int gy = std::clamp(static_cast<int>(p.y()), 0, u.grid.height - 1);
+      sum[static_cast<size_t>(gy) * u.grid.width + gx] += e;
+      ++count[static_cast<size_t>(gy) * u.grid.width + gx];
+    }
+  }
+  for (size_t i = 0; i < grid_pixels; ++i) {
+    sum[i] = count[i] > 0 ? sum[i] / count[i] : std::numeric_limits<float>::quiet_NaN();
+  }
+  RasterizePinhole(model, u.grid, cam_from_world, options, &grid.color, &grid.depth, sum.data(),
+                   accumulator, nullptr);
+}
+
+}  // namespace rephoto::splat
