@@ -41,6 +41,9 @@
 #include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/scene/transforms_json.h"
+#include "rephoto/splat/gaussians.h"
+#include "rephoto/splat/rasterize.h"
+#include "rephoto/splat/scalar_ply.h"
 #include "rephoto/split/random.h"
 #include "rephoto/split/split.h"
 #include "rephoto/split/split_writer.h"
@@ -271,6 +274,7 @@ struct FoldState {
   bool ok = true;
   std::string message;
   fs::path model_path;  // the model file rendered
+  bool gaussians = false;  // model_path holds 3D Gaussians (splat/gaussians.h)
   std::string model_key;
   std::string colorize_key;
   double colorize_seconds = 0;
@@ -302,6 +306,24 @@ class ModelRenderer : public FoldRenderer {
  private:
   std::shared_ptr<const render::RenderModel> model_;
   render::RenderOptions options_;
+};
+
+// 3D Gaussian splatting models: the CPU forward pass of the reference rasterizer.
+class GaussianFoldRenderer : public FoldRenderer {
+ public:
+  GaussianFoldRenderer(std::shared_ptr<const splat::GaussianModel> model,
+                       splat::GaussianRenderOptions options)
+      : model_(std::move(model)), options_(options) {}
+  void Render(const TestView& view, render::Rephoto* out) override {
+    splat::RenderGaussians(*model_, view.camera, view.pose, options_, &rendering_);
+    std::swap(out->color, rendering_.color);
+    std::swap(out->depth, rendering_.depth);
+  }
+
+ private:
+  std::shared_ptr<const splat::GaussianModel> model_;
+  splat::GaussianRenderOptions options_;
+  splat::GaussianRendering rendering_;
 };
 
 // The built-in renderer of `representation` for one fold: `model` is the fold's prepared
@@ -398,6 +420,15 @@ class Evaluation {
   void GuardProjection(const std::function<void()>& project);
   // The rendered model is made from the fold's model: coloured and/or degraded (model.ply).
   bool DerivesModel() const { return o_.colorize || HasDefects(o_.degrade); }
+  // Whether `path` is rendered as 3D Gaussians (representation gaussians, or auto and a file
+  // with Gaussian properties).
+  bool IsGaussianModel(const fs::path& path);
+  std::shared_ptr<const splat::GaussianModel> LoadGaussians(const fs::path& path,
+                                                            const std::string& key);
+  splat::GaussianRenderOptions GaussianOptions() const;
+  void ProjectOntoGaussians(const fs::path& model_path, const std::string& model_key,
+                            const std::vector<project::ProjectView>& views,
+                            const std::string& metric_name, const fs::path& out);
   void ProjectOnto(const fs::path& model_path, const std::string& model_key,
                    const std::vector<const FoldState*>& folds, metrics::Metric metric,
                    const fs::path& out);
@@ -461,6 +492,9 @@ class Evaluation {
   // Model file keys by "<path>\n<content hash>", so a shared model is parsed once.
   std::map<std::string, std::string> model_file_keys_;
   Json scene_identity_;
+  std::shared_ptr<const splat::GaussianModel> cached_gaussians_;  // the last Gaussian model read
+  std::string cached_gaussians_key_;
+  std::map<fs::path, bool> is_gaussian_file_;  // splat::IsGaussianFile, asked once per file
   fs::path cached_model_path_;                       // the file cached_model_ was built from
   std::string projection_message_, report_message_;  // why they were not written
   bool projection_checked_ = false;
@@ -490,6 +524,40 @@ std::string Evaluation::CompareSettingsKey() const {
   h.AddInt(o_.resize).AddInt(o_.error_images).AddInt(o_.eval_short_side);
   h.Add(compare::ToolVersion());
   return h.Hex();
+}
+
+bool Evaluation::IsGaussianModel(const fs::path& path) {
+  if (path.empty() || (o_.representation != "auto" && o_.representation != "gaussians")) {
+    return false;
+  }
+  if (o_.representation == "gaussians") return true;
+  const auto [it, inserted] = is_gaussian_file_.emplace(path, false);
+  if (inserted) it->second = splat::IsGaussianFile(path);
+  return it->second;
+}
+
+std::shared_ptr<const splat::GaussianModel> Evaluation::LoadGaussians(const fs::path& path,
+                                                                      const std::string& key) {
+  if (!cached_gaussians_ || cached_gaussians_key_ != key) {
+    cached_gaussians_.reset();
+    const auto start = Clock::now();
+    splat::GaussianFormat format;
+    auto model = std::make_shared<splat::GaussianModel>(splat::ReadGaussians(path, &format));
+    LogInfo(fmt::format("{}: {} Gaussians ({}, SH degree {}) read in {:.1f} s", path.string(),
+                        model->size(), splat::GaussianFormatName(format), model->sh_degree,
+                        Seconds(start)));
+    cached_gaussians_ = std::move(model);
+    cached_gaussians_key_ = key;
+  }
+  return cached_gaussians_;
+}
+
+splat::GaussianRenderOptions Evaluation::GaussianOptions() const {
+  splat::GaussianRenderOptions options;
+  options.mode = o_.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
+                                                   : splat::GaussianMode::kClassic;
+  options.background = Eigen::Vector3f(o_.background[0], o_.background[1], o_.background[2]);
+  return options;
 }
 
 std::string Evaluation::RenderSettingsKey() const {
@@ -1225,9 +1293,22 @@ void Evaluation::EvaluateView(FoldState& fold, const TestView& test, FoldRendere
     RemoveStaleErrorImages(errors_dir, test.stem);
     fs::create_directories((errors_dir / test.stem).parent_path(), ec);
   }
+  // Gaussians: a pixel is the model's where its alpha reaches --min-alpha (the PNG's alpha, so
+  // a reused rendering gives the same mask).
+  std::optional<Mask> render_mask;
+  if (fold.gaussians && (renderer != nullptr || outcome->reuse_render)) {
+    render_mask.emplace(render.width(), render.height(), 1);
+    const float* px = render.data();
+    const int channels = render.channels();
+    uint8_t* m = render_mask->data();
+    for (size_t i = 0, n = static_cast<size_t>(render.width()) * render.height(); i < n; ++i) {
+      m[i] = channels == 4 && px[i * 4 + 3] >= static_cast<float>(o_.min_alpha) ? 255 : 0;
+    }
+  }
   outcome->image = compare::ComparePhotoAndRender(
       CompareSettings(), test.stem, photo_path, fs::path(RelativeTo(render_path, run_)), photo,
-      render, mask ? &*mask : nullptr, nullptr, errors_dir, &compare_workspace_);
+      render, mask ? &*mask : nullptr, render_mask ? &*render_mask : nullptr, errors_dir,
+      &compare_workspace_);
   outcome->compare_seconds = Seconds(start);
   timings_.compare += outcome->compare_seconds;
   ++counters_.views_compared;
@@ -1245,8 +1326,24 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
   std::string base_key;
   std::optional<mesh::Mesh> mesh;  // read by ComputeModelKey unless its key was known
   if (!external) {
+    fold.gaussians = IsGaussianModel(fold.model_path);
     if (fold.model_path.empty()) {
       fold.model_key = Hasher().Add(kKeyVersion).Add("no model").Hex();  // ibr from depth
+    } else if (fold.gaussians) {
+      REPHOTO_CHECK(!DerivesModel(),
+                    "{}: holds 3D Gaussians; --colorize and model defects need a mesh",
+                    fold.model_path.string());
+      // Rendering and completeness settings of Gaussians are part of the model's key.
+      fold.model_key = Hasher()
+                           .Add(kKeyVersion)
+                           .Add("gaussians")
+                           .Add(hashes_->Hash(fold.model_path))
+                           .Add(o_.gaussian_mode)
+                           .AddDouble(o_.background[0])
+                           .AddDouble(o_.background[1])
+                           .AddDouble(o_.background[2])
+                           .AddDouble(o_.min_alpha)
+                           .Hex();
     } else {
       ComputeModelKey(fold, &mesh);  // model_key = the colorize key when colouring
     }
@@ -1258,7 +1355,7 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
     Hasher base;
     base.Add(fold.model_key).Add(RenderSettingsKey());
     // Image-based representations render from the fold's training photos (and depth maps).
-    if (o_.representation != "auto") {
+    if (o_.representation == "vdt" || o_.representation == "ibr") {
       base.Add(fold.train_key);
       if (o_.representation == "ibr" && !o_.depth_maps.empty()) {
         base.Add(o_.depth_maps.string());
@@ -1315,7 +1412,10 @@ void Evaluation::RephotoStage(FoldState& fold, Progress& progress) {
   bool need_renderer = false;
   for (size_t i : todo) need_renderer |= !external && !fold.views[i].reuse_render;
   std::unique_ptr<FoldRenderer> renderer;
-  if (need_renderer) {
+  if (need_renderer && fold.gaussians) {
+    renderer = std::make_unique<GaussianFoldRenderer>(
+        LoadGaussians(fold.model_path, fold.model_key), GaussianOptions());
+  } else if (need_renderer) {
     std::shared_ptr<const render::RenderModel> model;
     if (fold.model_path.empty()) {
       // No model (image-based rendering from depth maps alone).
@@ -1676,6 +1776,13 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
       ReadFileToString(key_file) == key.Hex()) {
     return;
   }
+  if (IsGaussianModel(model_path)) {
+    fs::remove(key_file, ec);
+    ProjectOntoGaussians(model_path, model_key, views, metric_name, out);
+    WriteTextFileAtomically(key_file, key.Hex());
+    ++counters_.projections;
+    return;
+  }
   project::ProjectOptions options;
   options.backfaces = o_.backfaces;
   options.higher_is_better = metric == metrics::Metric::kSsim;
@@ -1698,6 +1805,33 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
   LogInfo(fmt::format("projected {} of {} views onto {} vertices ({} seen) -> {}", metric_name,
                       views.size(), projected.vertex_error.size(), projected.seen_vertices,
                       out.string()));
+}
+
+void Evaluation::ProjectOntoGaussians(const fs::path& model_path, const std::string& model_key,
+                                      const std::vector<project::ProjectView>& views,
+                                      const std::string& metric_name, const fs::path& out) {
+  const std::shared_ptr<const splat::GaussianModel> model = LoadGaussians(model_path, model_key);
+  const splat::GaussianRenderOptions options = GaussianOptions();
+  splat::GaussianErrorAccumulator accumulator;
+  accumulator.Reset(model->size());
+  Image error;
+  for (const project::ProjectView& view : views) {
+    io::ReadImage(view.error_image, &error);
+    splat::AccumulateGaussianErrors(*model, view.camera, view.cam_from_world, options, error,
+                                    &accumulator);
+  }
+  // Per Gaussian: the mean error over the views' pixels, weighted by its blending weight there.
+  std::vector<float> mean(model->size(), std::numeric_limits<float>::quiet_NaN());
+  size_t seen = 0;
+  for (size_t g = 0; g < mean.size(); ++g) {
+    if (accumulator.weight[g] > 0) {
+      mean[g] = static_cast<float>(accumulator.weighted_error[g] / accumulator.weight[g]);
+      ++seen;
+    }
+  }
+  splat::WriteGaussiansWithScalar(model_path, *model, "error", mean, out);
+  LogInfo(fmt::format("projected {} of {} views onto {} Gaussians ({} seen) -> {}", metric_name,
+                      views.size(), model->size(), seen, out.string()));
 }
 
 std::optional<metrics::Metric> Evaluation::ProjectionMetric() {
@@ -2176,10 +2310,12 @@ void EvaluateOptions::Check() const {
   if (!reconstruct.empty())
     TemplatePlaceholders(reconstruct, CommandPlaceholders(), "--reconstruct");
   if (!render.empty()) TemplatePlaceholders(render, CommandPlaceholders(), "--render");
-  if (representation != "auto" && representation != "vdt" && representation != "ibr") {
+  if (representation != "auto" && representation != "vdt" && representation != "ibr" &&
+      representation != "gaussians") {
     throw UsageError(fmt::format(
         "evaluate: --representation '{}' is not one of auto (the model as it is), vdt "
-        "(view-dependent texturing on the model), ibr (image-based rendering with depth maps)",
+        "(view-dependent texturing on the model), ibr (image-based rendering with depth maps), "
+        "gaussians (the model as 3D Gaussian splats)",
         representation));
   }
   if (representation != "auto" && !render.empty()) {

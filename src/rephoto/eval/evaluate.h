@@ -119,6 +119,7 @@
 #pragma once
 
 #include <cstdint>
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -182,6 +183,16 @@ struct EvaluateOptions {
   bool backfaces = true;
   float point_radius = 0;  // 0 = from the file or the density
   int point_neighbors = 6;
+  // 3D Gaussian splatting models (splat/rasterize.h): a model file holding Gaussians (detected
+  // with representation "auto", or forced with "gaussians") is rasterized as the reference
+  // CUDA rasterizer does, "classic" or "antialiased" (gsplat's mode), its RGB composited over
+  // `background` (RGB in [0, 1]; 3DGS trains black or white). Completeness counts the pixels
+  // whose alpha (1 - transmittance) reaches `min_alpha`: a splat's soft edge covers a pixel
+  // only partly, and 0.5 counts a pixel as the model's when the model makes most of its colour.
+  // Not with --colorize or defects (they change meshes).
+  std::string gaussian_mode = "classic";
+  std::array<float, 3> background = {0, 0, 0};
+  double min_alpha = 0.5;
 
   // ---- run
   std::filesystem::path out;

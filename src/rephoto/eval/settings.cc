@@ -35,7 +35,8 @@ const std::vector<SettingInfo>& Settings() {
        "External renderer command per fold writing RGBA <test stem>.<png|jpg|exr|pfm> into "
        "{out} (placeholders as --reconstruct)"},
       {"representation", SettingType::kString,
-       "Built-in renderer: auto (the model: mesh or point cloud), vdt (view-dependent "
+       "Built-in renderer: auto (the model: mesh, point cloud or 3D Gaussians, detected), "
+       "gaussians (the model as 3D Gaussian splats), vdt (view-dependent "
        "texturing of the fold's training photos on the model), ibr (training photos warped by "
        "depth maps; no model needed; its plane sweep takes about 20x vdt's time per fold: "
        "give --depth-maps or a lower --train-short-side to trade quality for time)"},
@@ -73,6 +74,13 @@ const std::vector<SettingInfo>& Settings() {
       {"point-radius", SettingType::kDouble,
        "Splat radius of point clouds in model units (0 = the file's, else from the density)"},
       {"point-neighbors", SettingType::kInt, "k of the k-th nearest neighbour splat radius"},
+      {"gaussian-mode", SettingType::kString,
+       "Gaussian splatting models: classic (graphdeco's rasterizer) or antialiased (gsplat's)"},
+      {"background", SettingType::kString,
+       "Gaussian splatting models: background colour R,G,B in [0,1], black or white"},
+      {"min-alpha", SettingType::kDouble,
+       "Gaussian splatting models: a pixel counts as rendered (completeness) when its alpha "
+       "reaches this"},
       {"out", SettingType::kPath, "Run directory"},
       {"jobs", SettingType::kInt, "Folds whose external commands run at once"},
       {"command-timeout", SettingType::kDouble,
@@ -299,6 +307,35 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->point_radius = static_cast<float>(radius);
   } else if (n == "point-neighbors") {
     o->point_neighbors = CheckedInt(value, source, 1, 100);
+  } else if (n == "gaussian-mode") {
+    const std::string mode = AsString(value, source);
+    if (mode != "classic" && mode != "antialiased") {
+      throw UsageError(fmt::format("{}: '{}' is not classic or antialiased", source, mode));
+    }
+    o->gaussian_mode = mode;
+  } else if (n == "background") {
+    const std::string text = AsString(value, source);
+    std::array<float, 3> rgb{};
+    if (text == "black" || text == "white") {
+      rgb.fill(text == "white" ? 1.0f : 0.0f);
+    } else {
+      std::istringstream in(text);
+      char comma1 = 0, comma2 = 0;
+      in >> rgb[0] >> comma1 >> rgb[1] >> comma2 >> rgb[2];
+      const bool ok = in && comma1 == ',' && comma2 == ',' && (in >> std::ws).eof() &&
+                      std::all_of(rgb.begin(), rgb.end(), [](float c) { return c >= 0 && c <= 1; });
+      if (!ok) {
+        throw UsageError(fmt::format(
+            "{}: '{}' is not black, white or R,G,B with each in [0, 1]", source, text));
+      }
+    }
+    o->background = rgb;
+  } else if (n == "min-alpha") {
+    const double min_alpha = AsDouble(value, source);
+    if (!(min_alpha > 0 && min_alpha <= 1)) {
+      throw UsageError(fmt::format("{}: the minimum alpha must be in (0, 1]", source));
+    }
+    o->min_alpha = min_alpha;
   } else if (n == "out") {
     o->out = AsPath(value, source, base_dir);
   } else if (n == "jobs") {
@@ -470,6 +507,10 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["backfaces"] = o.backfaces;
   j["point-radius"] = o.point_radius;
   j["point-neighbors"] = o.point_neighbors;
+  j["gaussian-mode"] = o.gaussian_mode;
+  j["background"] = fmt::format("{:g},{:g},{:g}", o.background[0], o.background[1],
+                                o.background[2]);
+  j["min-alpha"] = o.min_alpha;
   j["out"] = o.out.string();
   j["jobs"] = o.jobs;
   j["command-timeout"] = o.command_timeout;
