@@ -22,6 +22,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/io/image_encode.h"
@@ -30,10 +31,6 @@ namespace rephoto::io {
 namespace fs = std::filesystem;
 
 namespace {
-
-// Decoders refuse images above this many pixels, so that a corrupt header claiming an absurd
-// size gives a clear error instead of an allocation failure. 2^30 pixels = 32768 x 32768.
-constexpr uint64_t kMaxPixels = uint64_t{1} << 30;
 
 enum class Format { kUnknown, kPng, kJpeg, kExr, kPfm };
 
@@ -55,12 +52,13 @@ Format DetectFormat(std::span<const uint8_t> b) {
   ThrowError("{}: not a supported image file (expected PNG, JPEG, EXR or PFM content)", name);
 }
 
-void CheckSize(const std::string& name, const char* format, int64_t width, int64_t height) {
-  REPHOTO_CHECK(width > 0 && height > 0, "{}: invalid {}: image size {}x{}", name, format, width,
-                height);
-  REPHOTO_CHECK(static_cast<uint64_t>(width) * static_cast<uint64_t>(height) <= kMaxPixels,
-                "{}: {} image size {}x{} is too large (more than 2^30 pixels)", name, format, width,
-                height);
+// Decoders check the size a header claims before allocating anything for it: at most
+// --max-pixels pixels and, once the channels are known, --max-memory bytes of values
+// (core/limits.h), so that a corrupt or hostile header gives an error naming the file instead
+// of an allocation failure. `bytes_per_value`: 4 for the float Image, 1 for Image8.
+void CheckSize(const std::string& name, const char* format, int64_t width, int64_t height,
+               int channels = 0, int bytes_per_value = 4) {
+  CheckImageSize(name, format, width, height, channels, bytes_per_value);
 }
 
 struct FileCloser {
@@ -159,6 +157,9 @@ bool DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* i
   const int channels = PngChannels(ihdr.color_type, has_trns);
   REPHOTO_CHECK(channels > 0, "{}: unsupported PNG colour type {}", name, ihdr.color_type);
   const bool wide = ihdr.bit_depth == 16;
+  // Floats (4 bytes) plus the decoded samples (1 or 2 bytes), or the 8-bit samples alone.
+  CheckSize(name, "PNG", ihdr.width, ihdr.height, channels,
+            image8 != nullptr && !wide ? 1 : (wide ? 6 : 5));
 
   int format = 0;
   switch (ihdr.color_type) {
@@ -219,15 +220,35 @@ struct TjDeleter {
   void operator()(void* handle) const { tjDestroy(handle); }
 };
 
+std::unique_ptr<void, TjDeleter>& DecompressorHandle() {
+  thread_local std::unique_ptr<void, TjDeleter> handle;
+  return handle;
+}
+
 tjhandle Decompressor() {
-  thread_local std::unique_ptr<void, TjDeleter> handle(tjInitDecompress());
+  std::unique_ptr<void, TjDeleter>& handle = DecompressorHandle();
+  if (!handle) handle.reset(tjInitDecompress());
   return handle.get();
 }
+
+bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::string& name,
+                    Image* image, Image8* image8);
 
 // As DecodePng: 8-bit samples into `image8` when given (returns true), else floats.
 bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* image,
                 Image8* image8 = nullptr) {
-  tjhandle tj = Decompressor();
+  try {
+    return DecodeJpegWith(Decompressor(), bytes, name, image, image8);
+  } catch (...) {
+    // A decoder that failed half-way keeps state (Huffman tables, markers) that made the next,
+    // valid JPEG on this thread fail with "Bogus Huffman table definition": start afresh.
+    DecompressorHandle().reset();
+    throw;
+  }
+}
+
+bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::string& name,
+                    Image* image, Image8* image8) {
   REPHOTO_CHECK(tj != nullptr, "{}: cannot initialize the JPEG decoder", name);
   // TurboJPEG 2.x takes non-const buffers but does not write to them.
   auto* data = const_cast<unsigned char*>(bytes.data());
@@ -241,6 +262,7 @@ bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* 
                 "{}: CMYK JPEG is not supported (convert it to RGB)", name);
   const bool grey = colorspace == TJCS_GRAY;
   const int channels = grey ? 1 : 3;
+  CheckSize(name, "JPEG", width, height, channels, image8 != nullptr ? 1 : 5);
   UninitVector<uint8_t>& pixels = PixelScratch();
   uint8_t* target = nullptr;
   if (image8 != nullptr) {
@@ -355,8 +377,16 @@ void DecodeExr(std::span<const uint8_t> bytes, const std::string& name, Image* i
       h.requested_pixel_types[i] = TINYEXR_PIXELTYPE_FLOAT;
     }
   }
-  CheckSize(name, "EXR", int64_t{h.data_window.max_x} - h.data_window.min_x + 1,
-            int64_t{h.data_window.max_y} - h.data_window.min_y + 1);
+  const int64_t width = int64_t{h.data_window.max_x} - h.data_window.min_x + 1;
+  const int64_t height = int64_t{h.data_window.max_y} - h.data_window.min_y + 1;
+  CheckSize(name, "EXR", width, height);
+  // tinyexr decodes every channel of the file (4 bytes per value) before the selected ones are
+  // copied into the image.
+  CheckAllocation(name,
+                  fmt::format("EXR image of {}x{} pixels x {} channels (+ {} output channels)",
+                              width, height, h.num_channels, selected.size()),
+                  SaturatingMultiply(SaturatingMultiply(width, height),
+                                     4 * (uint64_t(h.num_channels) + selected.size())));
   ExrImageGuard exr;
   const char* err = nullptr;
   const int r = LoadEXRImageFromMemory(&exr.image, &h, bytes.data(), bytes.size(), &err);
@@ -447,6 +477,7 @@ PfmHeader ParsePfmHeader(std::span<const uint8_t> b, const std::string& name) {
 
 void DecodePfm(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
   const PfmHeader header = ParsePfmHeader(bytes, name);
+  CheckSize(name, "PFM", header.width, header.height, header.channels);
   const size_t values = static_cast<size_t>(header.width) * header.height * header.channels;
   const size_t available = bytes.size() - std::min(bytes.size(), header.data_offset);
   REPHOTO_CHECK(available >= values * 4,
