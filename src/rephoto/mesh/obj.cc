@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <memory>
 
 #include "rephoto/core/error.h"
 #include "rephoto/mesh/ply.h"
@@ -24,14 +25,27 @@ std::string FirstLine(const std::string& text) {
 Mesh ReadObj(const std::filesystem::path& path) {
   const std::string name = path.string();
   REPHOTO_CHECK(std::filesystem::is_regular_file(path), "{}: cannot open file", name);
+  std::ifstream stream(path, std::ios::binary);
+  REPHOTO_CHECK(stream.is_open(), "{}: cannot open file", name);
+  return ReadObj(stream, name, path.parent_path());
+}
+
+Mesh ReadObj(std::istream& stream, std::string_view name_view,
+             const std::filesystem::path& base_path, std::istream* mtl) {
+  const std::string name(name_view);
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;
   std::string warn, err;
-  std::string base_dir = path.parent_path().string();
+  std::string base_dir = base_path.string();
   if (!base_dir.empty()) base_dir += '/';
-  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, name.c_str(),
-                                   base_dir.c_str(), /*triangulate=*/false,
+  tinyobj::MaterialFileReader file_reader(base_dir);
+  std::unique_ptr<tinyobj::MaterialStreamReader> stream_reader;
+  if (mtl != nullptr) stream_reader = std::make_unique<tinyobj::MaterialStreamReader>(*mtl);
+  tinyobj::MaterialReader* material_reader =
+      stream_reader ? static_cast<tinyobj::MaterialReader*>(stream_reader.get()) : &file_reader;
+  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &stream,
+                                   material_reader, /*triangulate=*/false,
                                    /*default_vcols_fallback=*/false);
   REPHOTO_CHECK(ok, "{}: {}", name, err.empty() ? std::string("cannot parse OBJ") : FirstLine(err));
 
@@ -56,7 +70,7 @@ Mesh ReadObj(const std::filesystem::path& path) {
     material.diffuse = Eigen::Vector3f(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
     if (!m.diffuse_texname.empty()) {
       std::filesystem::path texture(m.diffuse_texname);
-      material.diffuse_texture = texture.is_absolute() ? texture : path.parent_path() / texture;
+      material.diffuse_texture = texture.is_absolute() ? texture : base_path / texture;
     }
     mesh.materials.push_back(std::move(material));
   }
