@@ -85,5 +85,17 @@ TEST(ObjTest, StreamsGiveTheSameMeshAsFiles) {
   }
 }
 
+TEST(ObjTest, StatementsRephotoDoesNotUseAreIgnored) {
+  // Skin weights, free-form curves, points and lines: tinyobjloader rejected the whole file
+  // for "vw 0 -1 0.5" (negative joint) and converted "vw 1 5e30" to int (undefined behaviour).
+  std::istringstream obj(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nvw 0 -1 0.5\nvw 1 55555555555555555555555555555000000\n"
+      "vp 0.5\nl 1 2\np 3\nt crease 2/1/0 1 2\n  f 1 2 3\n");
+  std::istringstream mtl("newmtl m\nKd 1 0 0\nillum 99999999999999999999\n");
+  const Mesh mesh = ReadObj(obj, "weights.obj", "", &mtl);
+  EXPECT_EQ(mesh.vertex_count(), 3u);
+  EXPECT_EQ(mesh.face_count(), 1u);
+}
+
 }  // namespace
 }  // namespace rephoto::mesh
