@@ -71,6 +71,10 @@ jobs = 2
   LoadConfigFile(dir / "exp.json", &json);
   ExpectSameSettings(flags, toml);
   ExpectSameSettings(flags, json);
+  // The text entry point (fuzzers, tests) reads the same.
+  EvaluateOptions text;
+  LoadConfigText(ReadFileToString(dir / "exp.json"), dir / "exp.json", &text);
+  ExpectSameSettings(flags, text);
   EXPECT_EQ(toml.train_count, 12);
   EXPECT_EQ(toml.metric_options.window, 7);
   EXPECT_FALSE(toml.metric_options.ssim_gaussian);
