@@ -391,7 +391,8 @@ void LoadConfigText(std::string_view text, const fs::path& file, EvaluateOptions
     nlohmann::json json;
     try {
       json = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {
+      // parse_error, and out_of_range for numbers beyond double ("1e999").
       ThrowError("{}: invalid JSON: {}", file.string(), e.what());
     }
     REPHOTO_CHECK(json.is_object(), "{}: expected a JSON object of settings", file.string());
