@@ -388,6 +388,10 @@ void DecodeExr(std::span<const uint8_t> bytes, const std::string& name, Image* i
                   SaturatingMultiply(SaturatingMultiply(width, height),
                                      4 * (uint64_t(h.num_channels) + selected.size())));
   ExrImageGuard exr;
+  // tinyexr frees a half-decoded image with FreeEXRImage, which frees num_channels planes; for
+  // scanline files that fail it had not set num_channels yet and leaked every plane (found by
+  // fuzz_image under LeakSanitizer). It sets the same value itself when it succeeds.
+  exr.image.num_channels = h.num_channels;
   const char* err = nullptr;
   const int r = LoadEXRImageFromMemory(&exr.image, &h, bytes.data(), bytes.size(), &err);
   if (r != 0) {

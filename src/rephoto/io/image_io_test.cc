@@ -612,6 +612,14 @@ TEST(ImageIo, AFailedJpegDoesNotSpoilTheNextOne) {
   EXPECT_GT(failures, 0);
 }
 
+TEST(ImageIo, CorruptScanlineExrLeaksNothing) {
+  // testdata/leak_scanline.exr is an input fuzz_image found (a mutated half_rgba.exr whose pixel
+  // data is invalid): tinyexr freed the half-decoded image without its channel planes. The
+  // error must name the file; LeakSanitizer (scripts/test.sh's sanitize step) checks the leak.
+  const fs::path path = Fixture("leak_scanline.exr");
+  for (int i = 0; i < 3; ++i) ExpectErrorNaming([&] { ReadImage(path); }, path, "EXR");
+}
+
 TEST(ImageIo, IsImageFileByExtension) {
   EXPECT_TRUE(IsImageFile("a/b.PNG"));
   EXPECT_TRUE(IsImageFile("x.jpeg"));
