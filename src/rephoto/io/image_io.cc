@@ -313,6 +313,40 @@ struct ExrImageGuard {
   ThrowError("{}: {}: {}", name, what, message);
 }
 
+// tinyexr reads the "tiles" (9 bytes) and "compression" (1 byte) attributes without checking
+// their size: a header whose "tiles" attribute was shorter made it read past its buffer (found
+// by fuzz_image). So the attributes of a single-part header are walked here first: each is
+// "<name>\0<type>\0", a little-endian 32-bit size and that many bytes; a 0 byte ends the list.
+void CheckExrAttributes(std::span<const uint8_t> bytes, const std::string& name) {
+  size_t pos = 8;  // magic number and version field
+  auto c_string = [&](const char* what) {
+    const void* nul =
+        pos < bytes.size() ? std::memchr(bytes.data() + pos, 0, bytes.size() - pos) : nullptr;
+    REPHOTO_CHECK(nul != nullptr, "{}: truncated EXR header ({})", name, what);
+    const auto length = static_cast<size_t>(static_cast<const uint8_t*>(nul) - bytes.data() - pos);
+    const std::string_view text(reinterpret_cast<const char*>(bytes.data()) + pos, length);
+    pos += length + 1;
+    return text;
+  };
+  for (;;) {
+    REPHOTO_CHECK(pos < bytes.size(), "{}: truncated EXR header", name);
+    if (bytes[pos] == 0) return;
+    const std::string_view attribute = c_string("attribute name");
+    c_string("attribute type");
+    REPHOTO_CHECK(bytes.size() - pos >= 4, "{}: truncated EXR header (attribute '{}')", name,
+                  attribute);
+    const uint32_t size = uint32_t{bytes[pos]} | (uint32_t{bytes[pos + 1]} << 8) |
+                          (uint32_t{bytes[pos + 2]} << 16) | (uint32_t{bytes[pos + 3]} << 24);
+    pos += 4;
+    REPHOTO_CHECK(size <= bytes.size() - pos, "{}: truncated EXR header (attribute '{}')", name,
+                  attribute);
+    const uint32_t needed = attribute == "tiles" ? 9 : attribute == "compression" ? 1 : 0;
+    REPHOTO_CHECK(size >= needed, "{}: invalid EXR header: attribute '{}' has {} bytes, not {}",
+                  name, attribute, size, needed);
+    pos += size;
+  }
+}
+
 // Parses the version field and the header of a single-part EXR; throws Error otherwise.
 void ParseExrHeader(std::span<const uint8_t> bytes, const std::string& name, EXRHeader* header) {
   EXRVersion version{};
@@ -320,6 +354,7 @@ void ParseExrHeader(std::span<const uint8_t> bytes, const std::string& name, EXR
   REPHOTO_CHECK(r == 0, "{}: invalid EXR version field", name);
   REPHOTO_CHECK(!version.multipart, "{}: multi-part EXR is not supported", name);
   REPHOTO_CHECK(!version.non_image, "{}: deep EXR is not supported", name);
+  CheckExrAttributes(bytes, name);
   const char* err = nullptr;
   r = ParseEXRHeaderFromMemory(header, &version, bytes.data(), bytes.size(), &err);
   if (r != 0) ThrowExr(name, "invalid EXR header", r, err);

@@ -620,6 +620,22 @@ TEST(ImageIo, CorruptScanlineExrLeaksNothing) {
   for (int i = 0; i < 3; ++i) ExpectErrorNaming([&] { ReadImage(path); }, path, "EXR");
 }
 
+TEST(ImageIo, ShortExrAttributesAreErrors) {
+  // testdata/short_tiles_attribute.exr, found by fuzz_image: a 2-byte "tiles" attribute, which
+  // tinyexr read as 9 bytes (past its buffer; AddressSanitizer in fuzz_image).
+  const fs::path path = Fixture("short_tiles_attribute.exr");
+  ExpectErrorNaming([&] { ReadImage(path); }, path,
+                    "invalid EXR header: attribute 'tiles' has 2 bytes, not 9");
+  ExpectErrorNaming([&] { ReadImageHeader(path); }, path, "attribute 'tiles' has 2 bytes");
+  // Every prefix of a valid EXR is an error naming the file, never a read past the data.
+  const std::string exr = ReadFileToString(Fixture("half_rgba.exr"));
+  for (size_t n = 0; n < exr.size(); n += 7) {
+    Image image;
+    const std::vector<uint8_t> prefix(exr.begin(), exr.begin() + static_cast<ptrdiff_t>(n));
+    EXPECT_THROW(DecodeImage(prefix, "prefix.exr", &image), Error) << n;
+  }
+}
+
 TEST(ImageIo, IsImageFileByExtension) {
   EXPECT_TRUE(IsImageFile("a/b.PNG"));
   EXPECT_TRUE(IsImageFile("x.jpeg"));
