@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds rephoto's libFuzzer targets (CMake preset "fuzz": clang, ASan + UBSan) and runs each
-# for a short time over a seed corpus made from the real datasets in ../shared/data.
+# for a short time over a seed corpus made from the real datasets in ../shared/data, the
+# readers' test fixtures, fuzz/corpus and examples/experiments: scene readers, models (PLY,
+# OBJ + MTL), images (PNG, JPEG, EXR, PFM), COLMAP depth maps, experiment files (TOML, JSON).
 #
 # Usage: scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]
 #   SECONDS_PER_TARGET  default 20 (CI); use 60 or more locally
@@ -59,6 +61,22 @@ for colmap_file in "$data_dir"/openmvs_sceaux/colmap_text_derived/*.txt "$data_d
   seed fuzz_scene_colmap "$colmap_file"
 done
 seed fuzz_scene_transforms_json "$data_dir/instant_ngp_fox/transforms.json"
+# Models: small hand-written meshes and point clouds (every encoding and property kind) and
+# the real sparse cloud and mesh of Sceaux (the 3 MB refined mesh would slow mutation down).
+seed fuzz_ply fuzz/corpus/ply/* "$data_dir/openmvs_sceaux/Sparse.ply" "$data_dir/openmvs_sceaux/scene_mesh.ply"
+seed fuzz_obj fuzz/corpus/obj/*  # OBJ, NUL, MTL (see fuzz/fuzz_obj.cc)
+# Images: the decoder test fixtures (every PNG variant, JPEG, EXR half/float, PFM both byte
+# orders) and one real photo of each of two datasets.
+seed fuzz_image src/rephoto/io/testdata/*.png src/rephoto/io/testdata/*.jpg \
+  src/rephoto/io/testdata/*.exr src/rephoto/io/testdata/*.pfm \
+  "$data_dir/bundler_kermit/kermit000.jpg" "$data_dir/llff_fern/images_8/image000.png"
+seed fuzz_depth_map fuzz/corpus/depth_map/*
+# Experiment files: fuzz_config takes a selector byte (bit 0: JSON, bit 1: sweep config).
+seed fuzz_config fuzz/corpus/config/*
+for toml in examples/experiments/*.toml; do
+  { printf '\000'; cat "$toml"; } > "$corpus/fuzz_config/evaluate_$(basename "$toml")"
+  { printf '\002'; cat "$toml"; } > "$corpus/fuzz_config/sweep_$(basename "$toml")"
+done
 
 status=0
 mkdir -p "$build_dir/fuzz-logs"

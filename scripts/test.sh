@@ -4,7 +4,8 @@
 #   2. builds the file readers' tests (scene, split, io, mesh) and the libFuzzer targets with
 #      clang, AddressSanitizer + UndefinedBehaviorSanitizer in ./build-sanitize (preset
 #      "sanitize") and runs the tests (skip with REPHOTO_SKIP_SANITIZE=1);
-#   3. runs each libFuzzer target (one per scene reader) for REPHOTO_FUZZ_SECONDS (default 10)
+#   3. runs each libFuzzer target (scene readers, PLY, OBJ, images, depth maps, experiment
+#      files; see fuzz/) for REPHOTO_FUZZ_SECONDS (default 10)
 #      on that build (skipped with REPHOTO_SKIP_SANITIZE=1 or REPHOTO_SKIP_FUZZ=1).
 set -euo pipefail
 cd "$(dirname "$0")/.."

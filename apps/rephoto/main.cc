@@ -10,6 +10,7 @@
 
 #include "command.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/process.h"
 #include "rephoto/core/progress.h"
@@ -50,6 +51,29 @@ int main(int argc, char** argv) {
   bool quiet = false;
   app.add_option("-j,--threads", threads, "Worker threads (0 = all cores)")->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "Only print warnings and errors");
+  // Resource limits for the files read (core/limits.h): a file whose header claims more is an
+  // error naming it, before anything is allocated.
+  uint64_t max_pixels = MaxPixels();
+  std::string max_memory;
+  app.add_option("--max-pixels", max_pixels,
+                 "Largest image read, in pixels (default 2^28 = 16384x16384)")
+      ->capture_default_str()
+      ->check([](const std::string& text) {
+        return text.find_first_not_of('0') == std::string::npos ? "must be at least 1" : "";
+      });
+  app.add_option("--max-memory", max_memory,
+                 fmt::format("Most memory one input (model, image) may need once read, e.g. 16G, "
+                             "512M or bytes (default: half the physical memory, here {})",
+                             FormatBytes(DefaultMaxMemoryBytes())))
+      ->check([](const std::string& text) {
+        try {
+          ParseByteSize(text);
+          return std::string();
+        } catch (const Error& e) {
+          const std::string message = e.what();  // "--max-memory: ...": CLI11 names the option
+          return message.substr(message.find(": ") + 2);
+        }
+      });
 
   auto& table = cli::CommandTable();
   std::sort(table.begin(), table.end(),
@@ -68,6 +92,8 @@ int main(int argc, char** argv) {
   }
 
   SetQuiet(quiet);
+  SetMaxPixels(max_pixels);
+  if (!max_memory.empty()) SetMaxMemoryBytes(ParseByteSize(max_memory));
   ThreadLimit thread_limit(threads);
   try {
     for (auto& [sub, run] : commands) {

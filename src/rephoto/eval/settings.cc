@@ -398,6 +398,11 @@ SettingValue FromJson(const nlohmann::json& node, const std::string& source) {
 
 void LoadConfigFile(const fs::path& file, EvaluateOptions* options,
                     const std::vector<std::string>& extra_tables, nlohmann::json* tables) {
+  LoadConfigText(ReadFileToString(file), file, options, extra_tables, tables);
+}
+
+void LoadConfigText(std::string_view text, const fs::path& file, EvaluateOptions* options,
+                    const std::vector<std::string>& extra_tables, nlohmann::json* tables) {
   auto is_extra = [&](const std::string& name) {
     return tables != nullptr &&
            std::find(extra_tables.begin(), extra_tables.end(), name) != extra_tables.end();
@@ -406,7 +411,6 @@ void LoadConfigFile(const fs::path& file, EvaluateOptions* options,
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   REPHOTO_CHECK(extension == ".toml" || extension == ".json", "{}: config files are .toml or .json",
                 file.string());
-  const std::string text = ReadFileToString(file);
   const fs::path base_dir = fs::absolute(file).parent_path();
   std::vector<std::pair<std::string, SettingValue>> entries;
   if (extension == ".toml") {
@@ -439,7 +443,8 @@ void LoadConfigFile(const fs::path& file, EvaluateOptions* options,
     nlohmann::json json;
     try {
       json = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {
+      // parse_error, and out_of_range for numbers beyond double ("1e999").
       ThrowError("{}: invalid JSON: {}", file.string(), e.what());
     }
     REPHOTO_CHECK(json.is_object(), "{}: expected a JSON object of settings", file.string());

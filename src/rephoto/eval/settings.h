@@ -53,6 +53,12 @@ void LoadConfigFile(const std::filesystem::path& file, EvaluateOptions* options,
                     const std::vector<std::string>& extra_tables = {},
                     nlohmann::json* tables = nullptr);
 
+// The same from the file's text (tests, fuzzers): `file` names it in messages, picks the format
+// by its extension and is the base of relative paths; nothing is read from disk.
+void LoadConfigText(std::string_view text, const std::filesystem::path& file,
+                    EvaluateOptions* options, const std::vector<std::string>& extra_tables = {},
+                    nlohmann::json* tables = nullptr);
+
 // All settings with their resolved values, by name (for run.json).
 nlohmann::ordered_json SettingsJson(const EvaluateOptions& options);
 

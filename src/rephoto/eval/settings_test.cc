@@ -71,6 +71,18 @@ jobs = 2
   LoadConfigFile(dir / "exp.json", &json);
   ExpectSameSettings(flags, toml);
   ExpectSameSettings(flags, json);
+  // fuzz_config: a number beyond double escaped as nlohmann's out_of_range ("internal error").
+  EvaluateOptions huge;
+  try {
+    LoadConfigText(R"({"jobs": 6e999442})", "/x/exp.json", &huge);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("/x/exp.json: invalid JSON: ", 0), 0u) << e.what();
+  }
+  // The text entry point (fuzzers, tests) reads the same.
+  EvaluateOptions text;
+  LoadConfigText(ReadFileToString(dir / "exp.json"), dir / "exp.json", &text);
+  ExpectSameSettings(flags, text);
   EXPECT_EQ(toml.train_count, 12);
   EXPECT_EQ(toml.metric_options.window, 7);
   EXPECT_FALSE(toml.metric_options.ssim_gaussian);

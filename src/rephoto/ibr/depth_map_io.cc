@@ -10,6 +10,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/io/image_io.h"
 
 namespace rephoto::ibr {
@@ -53,7 +54,25 @@ Image ReadColmapDepthMap(std::istream& in, const std::string& name) {
                 "{}: COLMAP depth map header: bad size {}x{}", name, width, height);
   REPHOTO_CHECK(channels >= 1 && channels <= 4, "{}: COLMAP depth map header: bad channel count {}",
                 name, channels);
+  // Before allocating: the size against --max-pixels / --max-memory (core/limits.h), and the
+  // payload against the bytes the stream still holds, when it can tell.
+  CheckImageSize(name, "COLMAP depth map", width, height, 1, sizeof(float));
   const size_t plane = static_cast<size_t>(width) * static_cast<size_t>(height);
+  const std::streampos here = in.tellg();
+  if (here != std::streampos(-1)) {
+    in.seekg(0, std::ios::end);
+    const std::streampos end = in.tellg();
+    in.seekg(here);
+    if (end != std::streampos(-1) && in) {
+      const auto available = static_cast<uint64_t>(end - here);
+      REPHOTO_CHECK(available >= plane * channels * 4,
+                    "{}: truncated COLMAP depth map: {} of {} bytes of values", name, available,
+                    plane * channels * 4);
+    } else {
+      in.clear();
+      in.seekg(here);
+    }
+  }
   Image depth(static_cast<int>(width), static_cast<int>(height), 1);
   // Only the first channel (the first plane) is needed, but the whole payload must be there.
   in.read(reinterpret_cast<char*>(depth.data()), static_cast<std::streamsize>(plane * 4));

@@ -32,7 +32,9 @@ namespace rephoto::ibr {
 
 // Reads a depth map in any of the formats above. Throws Error "<path>: <what is wrong>" for a
 // missing or unreadable file, a bad COLMAP header (non-numeric, zero or absurd sizes, missing
-// '&'), a truncated payload, or an image without channels.
+// '&'), a truncated payload, or an image without channels. The size in the header is checked
+// against --max-pixels and --max-memory (core/limits.h) and, when the stream can tell, against
+// the bytes that follow, before the depth map is allocated.
 Image ReadDepthMap(const std::filesystem::path& path);
 
 // COLMAP .bin reader on a stream; `name` is used in error messages. Trailing bytes after the

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/testing/testing.h"
 
@@ -117,6 +118,27 @@ TEST(DepthMapIo, BadFilesThrowNamingTheFile) {
   EXPECT_NE(ErrorOf(dir / "missing.bin").find("missing.bin"), std::string::npos);
   Image rgb(2, 2, 3);
   EXPECT_THROW(WriteColmapDepthMap(dir / "rgb.bin", rgb), Error);
+}
+
+TEST(DepthMapIo, HugeHeaderIsRejectedBeforeAllocating) {
+  // The header of a 12-byte file claimed 131072 x 131072 values: the reader allocated 64 GiB
+  // before finding the payload short.
+  const uint64_t pixels = MaxPixels(), memory = MaxMemoryBytes();
+  const auto dir = rephoto::testing::MakeTempDir();
+  const auto path = dir / "huge.bin";
+  WriteBytes(path, ColmapBytes("131072&131072&1&", {1}));
+  EXPECT_EQ(ErrorOf(path), path.string() +
+                               ": COLMAP depth map image of 131072x131072 pixels (1.72e+10) "
+                               "exceeds --max-pixels 268435456 (raise it with --max-pixels)");
+  // Within the limits, the missing payload is found before allocating too.
+  SetMaxPixels(uint64_t{1} << 40);
+  SetMaxMemoryBytes(uint64_t{1} << 40);
+  EXPECT_EQ(ErrorOf(path),
+            path.string() + ": truncated COLMAP depth map: 4 of 68719476736 bytes of values");
+  SetMaxMemoryBytes(1000);
+  EXPECT_NE(ErrorOf(path).find("more than --max-memory 1000 B"), std::string::npos);
+  SetMaxPixels(pixels);
+  SetMaxMemoryBytes(memory);
 }
 
 }  // namespace

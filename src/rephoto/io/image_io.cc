@@ -22,6 +22,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/io/image_encode.h"
@@ -30,10 +31,6 @@ namespace rephoto::io {
 namespace fs = std::filesystem;
 
 namespace {
-
-// Decoders refuse images above this many pixels, so that a corrupt header claiming an absurd
-// size gives a clear error instead of an allocation failure. 2^30 pixels = 32768 x 32768.
-constexpr uint64_t kMaxPixels = uint64_t{1} << 30;
 
 enum class Format { kUnknown, kPng, kJpeg, kExr, kPfm };
 
@@ -55,12 +52,13 @@ Format DetectFormat(std::span<const uint8_t> b) {
   ThrowError("{}: not a supported image file (expected PNG, JPEG, EXR or PFM content)", name);
 }
 
-void CheckSize(const std::string& name, const char* format, int64_t width, int64_t height) {
-  REPHOTO_CHECK(width > 0 && height > 0, "{}: invalid {}: image size {}x{}", name, format, width,
-                height);
-  REPHOTO_CHECK(static_cast<uint64_t>(width) * static_cast<uint64_t>(height) <= kMaxPixels,
-                "{}: {} image size {}x{} is too large (more than 2^30 pixels)", name, format, width,
-                height);
+// Decoders check the size a header claims before allocating anything for it: at most
+// --max-pixels pixels and, once the channels are known, --max-memory bytes of values
+// (core/limits.h), so that a corrupt or hostile header gives an error naming the file instead
+// of an allocation failure. `bytes_per_value`: 4 for the float Image, 1 for Image8.
+void CheckSize(const std::string& name, const char* format, int64_t width, int64_t height,
+               int channels = 0, int bytes_per_value = 4) {
+  CheckImageSize(name, format, width, height, channels, bytes_per_value);
 }
 
 struct FileCloser {
@@ -159,6 +157,9 @@ bool DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* i
   const int channels = PngChannels(ihdr.color_type, has_trns);
   REPHOTO_CHECK(channels > 0, "{}: unsupported PNG colour type {}", name, ihdr.color_type);
   const bool wide = ihdr.bit_depth == 16;
+  // Floats (4 bytes) plus the decoded samples (1 or 2 bytes), or the 8-bit samples alone.
+  CheckSize(name, "PNG", ihdr.width, ihdr.height, channels,
+            image8 != nullptr && !wide ? 1 : (wide ? 6 : 5));
 
   int format = 0;
   switch (ihdr.color_type) {
@@ -219,15 +220,35 @@ struct TjDeleter {
   void operator()(void* handle) const { tjDestroy(handle); }
 };
 
+std::unique_ptr<void, TjDeleter>& DecompressorHandle() {
+  thread_local std::unique_ptr<void, TjDeleter> handle;
+  return handle;
+}
+
 tjhandle Decompressor() {
-  thread_local std::unique_ptr<void, TjDeleter> handle(tjInitDecompress());
+  std::unique_ptr<void, TjDeleter>& handle = DecompressorHandle();
+  if (!handle) handle.reset(tjInitDecompress());
   return handle.get();
 }
+
+bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::string& name,
+                    Image* image, Image8* image8);
 
 // As DecodePng: 8-bit samples into `image8` when given (returns true), else floats.
 bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* image,
                 Image8* image8 = nullptr) {
-  tjhandle tj = Decompressor();
+  try {
+    return DecodeJpegWith(Decompressor(), bytes, name, image, image8);
+  } catch (...) {
+    // A decoder that failed half-way keeps state (Huffman tables, markers) that made the next,
+    // valid JPEG on this thread fail with "Bogus Huffman table definition": start afresh.
+    DecompressorHandle().reset();
+    throw;
+  }
+}
+
+bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::string& name,
+                    Image* image, Image8* image8) {
   REPHOTO_CHECK(tj != nullptr, "{}: cannot initialize the JPEG decoder", name);
   // TurboJPEG 2.x takes non-const buffers but does not write to them.
   auto* data = const_cast<unsigned char*>(bytes.data());
@@ -241,6 +262,7 @@ bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* 
                 "{}: CMYK JPEG is not supported (convert it to RGB)", name);
   const bool grey = colorspace == TJCS_GRAY;
   const int channels = grey ? 1 : 3;
+  CheckSize(name, "JPEG", width, height, channels, image8 != nullptr ? 1 : 5);
   UninitVector<uint8_t>& pixels = PixelScratch();
   uint8_t* target = nullptr;
   if (image8 != nullptr) {
@@ -291,6 +313,40 @@ struct ExrImageGuard {
   ThrowError("{}: {}: {}", name, what, message);
 }
 
+// tinyexr reads the "tiles" (9 bytes) and "compression" (1 byte) attributes without checking
+// their size: a header whose "tiles" attribute was shorter made it read past its buffer (found
+// by fuzz_image). So the attributes of a single-part header are walked here first: each is
+// "<name>\0<type>\0", a little-endian 32-bit size and that many bytes; a 0 byte ends the list.
+void CheckExrAttributes(std::span<const uint8_t> bytes, const std::string& name) {
+  size_t pos = 8;  // magic number and version field
+  auto c_string = [&](const char* what) {
+    const void* nul =
+        pos < bytes.size() ? std::memchr(bytes.data() + pos, 0, bytes.size() - pos) : nullptr;
+    REPHOTO_CHECK(nul != nullptr, "{}: truncated EXR header ({})", name, what);
+    const auto length = static_cast<size_t>(static_cast<const uint8_t*>(nul) - bytes.data() - pos);
+    const std::string_view text(reinterpret_cast<const char*>(bytes.data()) + pos, length);
+    pos += length + 1;
+    return text;
+  };
+  for (;;) {
+    REPHOTO_CHECK(pos < bytes.size(), "{}: truncated EXR header", name);
+    if (bytes[pos] == 0) return;
+    const std::string_view attribute = c_string("attribute name");
+    c_string("attribute type");
+    REPHOTO_CHECK(bytes.size() - pos >= 4, "{}: truncated EXR header (attribute '{}')", name,
+                  attribute);
+    const uint32_t size = uint32_t{bytes[pos]} | (uint32_t{bytes[pos + 1]} << 8) |
+                          (uint32_t{bytes[pos + 2]} << 16) | (uint32_t{bytes[pos + 3]} << 24);
+    pos += 4;
+    REPHOTO_CHECK(size <= bytes.size() - pos, "{}: truncated EXR header (attribute '{}')", name,
+                  attribute);
+    const uint32_t needed = attribute == "tiles" ? 9 : attribute == "compression" ? 1 : 0;
+    REPHOTO_CHECK(size >= needed, "{}: invalid EXR header: attribute '{}' has {} bytes, not {}",
+                  name, attribute, size, needed);
+    pos += size;
+  }
+}
+
 // Parses the version field and the header of a single-part EXR; throws Error otherwise.
 void ParseExrHeader(std::span<const uint8_t> bytes, const std::string& name, EXRHeader* header) {
   EXRVersion version{};
@@ -298,6 +354,7 @@ void ParseExrHeader(std::span<const uint8_t> bytes, const std::string& name, EXR
   REPHOTO_CHECK(r == 0, "{}: invalid EXR version field", name);
   REPHOTO_CHECK(!version.multipart, "{}: multi-part EXR is not supported", name);
   REPHOTO_CHECK(!version.non_image, "{}: deep EXR is not supported", name);
+  CheckExrAttributes(bytes, name);
   const char* err = nullptr;
   r = ParseEXRHeaderFromMemory(header, &version, bytes.data(), bytes.size(), &err);
   if (r != 0) ThrowExr(name, "invalid EXR header", r, err);
@@ -355,9 +412,21 @@ void DecodeExr(std::span<const uint8_t> bytes, const std::string& name, Image* i
       h.requested_pixel_types[i] = TINYEXR_PIXELTYPE_FLOAT;
     }
   }
-  CheckSize(name, "EXR", int64_t{h.data_window.max_x} - h.data_window.min_x + 1,
-            int64_t{h.data_window.max_y} - h.data_window.min_y + 1);
+  const int64_t width = int64_t{h.data_window.max_x} - h.data_window.min_x + 1;
+  const int64_t height = int64_t{h.data_window.max_y} - h.data_window.min_y + 1;
+  CheckSize(name, "EXR", width, height);
+  // tinyexr decodes every channel of the file (4 bytes per value) before the selected ones are
+  // copied into the image.
+  CheckAllocation(name,
+                  fmt::format("EXR image of {}x{} pixels x {} channels (+ {} output channels)",
+                              width, height, h.num_channels, selected.size()),
+                  SaturatingMultiply(SaturatingMultiply(width, height),
+                                     4 * (uint64_t(h.num_channels) + selected.size())));
   ExrImageGuard exr;
+  // tinyexr frees a half-decoded image with FreeEXRImage, which frees num_channels planes; for
+  // scanline files that fail it had not set num_channels yet and leaked every plane (found by
+  // fuzz_image under LeakSanitizer). It sets the same value itself when it succeeds.
+  exr.image.num_channels = h.num_channels;
   const char* err = nullptr;
   const int r = LoadEXRImageFromMemory(&exr.image, &h, bytes.data(), bytes.size(), &err);
   if (r != 0) {
@@ -447,6 +516,7 @@ PfmHeader ParsePfmHeader(std::span<const uint8_t> b, const std::string& name) {
 
 void DecodePfm(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
   const PfmHeader header = ParsePfmHeader(bytes, name);
+  CheckSize(name, "PFM", header.width, header.height, header.channels);
   const size_t values = static_cast<size_t>(header.width) * header.height * header.channels;
   const size_t available = bytes.size() - std::min(bytes.size(), header.data_offset);
   REPHOTO_CHECK(available >= values * 4,

@@ -2,6 +2,8 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <fstream>
@@ -10,6 +12,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::io {
@@ -477,6 +480,160 @@ TEST(ImageIo, RandomCorruptionNeverCrashes) {
         EXPECT_EQ(std::string(e.what()).rfind(path.string(), 0), 0u) << e.what();
       }
     }
+  }
+}
+
+// Restores the process-wide limits (core/limits.h) when a test ends.
+struct LimitsGuard {
+  uint64_t pixels = MaxPixels();
+  uint64_t memory = MaxMemoryBytes();
+  ~LimitsGuard() {
+    SetMaxPixels(pixels);
+    SetMaxMemoryBytes(memory);
+  }
+};
+
+void AppendChunk(std::string* png, const char* type, const std::string& data) {
+  const auto be32 = [&](uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8) png->push_back(static_cast<char>(v >> shift));
+  };
+  be32(static_cast<uint32_t>(data.size()));
+  const std::string typed = std::string(type, 4) + data;
+  png->append(typed);
+  be32(static_cast<uint32_t>(
+      crc32(0, reinterpret_cast<const Bytef*>(typed.data()), static_cast<uInt>(typed.size()))));
+}
+
+// A valid PNG (correct CRCs) whose IHDR claims width x height RGB pixels but whose IDAT holds
+// only the first row: the issue's "3 MB PNG that claims 32768x32768 pixels", in 200 bytes.
+std::string PngClaiming(uint32_t width, uint32_t height) {
+  std::string png("\x89PNG\r\n\x1a\n", 8);
+  std::string ihdr;
+  for (uint32_t v : {width, height}) {
+    for (int shift = 24; shift >= 0; shift -= 8) ihdr.push_back(static_cast<char>(v >> shift));
+  }
+  ihdr += std::string("\x08\x02\x00\x00\x00", 5);  // 8 bit, RGB, deflate, no filter, no Adam7
+  AppendChunk(&png, "IHDR", ihdr);
+  const std::string row(1 + 3 * static_cast<size_t>(width), '\0');
+  std::string idat(compressBound(static_cast<uLong>(row.size())), '\0');
+  uLongf size = static_cast<uLongf>(idat.size());
+  EXPECT_EQ(compress(reinterpret_cast<Bytef*>(idat.data()), &size,
+                     reinterpret_cast<const Bytef*>(row.data()), static_cast<uLong>(row.size())),
+            Z_OK);
+  idat.resize(size);
+  AppendChunk(&png, "IDAT", idat);
+  AppendChunk(&png, "IEND", "");
+  return png;
+}
+
+long PeakRssMegabytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024;
+}
+
+TEST(ImageIo, HugeClaimedSizeIsRejectedBeforeAllocating) {
+  // Issue 14, item 4: the IHDR of a tiny PNG claims 32768 x 32768 pixels. The decoder used to
+  // accept up to 2^30 pixels and allocate 3 GB for the samples before finding the data short.
+  LimitsGuard guard;
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path big = dir / "big.png";
+  WriteTextFileAtomically(big, PngClaiming(32768, 32768));
+  ASSERT_LT(fs::file_size(big), 1000u);
+  const std::string expected =
+      "PNG image of 32768x32768 pixels (1.07e+09) exceeds --max-pixels 268435456 (raise it with "
+      "--max-pixels)";
+  ExpectErrorNaming([&] { ReadImage(big); }, big, expected);
+  ExpectErrorNaming([&] { ReadImageHeader(big); }, big, expected);
+  ExpectErrorNaming([&] { ReadMask(big); }, big, expected);
+  Image image;
+  Image8 image8;
+  ExpectErrorNaming([&] { ReadImage8(big, &image8, &image); }, big, expected);
+  EXPECT_EQ(image.size() + image8.size(), 0u);
+  // Raised pixel limit: now the memory budget speaks, still before any allocation.
+  SetMaxPixels(uint64_t{1} << 30);
+  SetMaxMemoryBytes(uint64_t{1} << 30);
+  ExpectErrorNaming([&] { ReadImage(big); }, big,
+                    "PNG image of 32768x32768 pixels x 3 channels need 15.0 GiB, more than "
+                    "--max-memory 1.0 GiB (raise it with --max-memory)");
+  ExpectErrorNaming([&] { ReadImage8(big, &image8, &image); }, big,
+                    "PNG image of 32768x32768 pixels x 3 channels need 3.0 GiB, more than "
+                    "--max-memory 1.0 GiB");
+  EXPECT_LT(PeakRssMegabytes(), 1024);
+
+  // A PFM header alone claiming too much is rejected on the size, not read as truncated data.
+  const fs::path pfm = dir / "big.pfm";
+  WriteTextFileAtomically(pfm, "PF\n40000 40000\n-1\n");
+  ExpectErrorNaming([&] { ReadImage(pfm); }, pfm, "PFM image of 40000x40000 pixels");
+}
+
+TEST(ImageIo, EveryFormatHonoursTheLimits) {
+  LimitsGuard guard;
+  const char* const names[] = {"rgb8.png", "colour.jpg", "half_rgb.exr", "rgb_big_endian.pfm"};
+  const char* const formats[] = {"PNG", "JPEG", "EXR", "PFM"};
+  SetMaxPixels(4);
+  for (int i = 0; i < 4; ++i) {
+    const fs::path path = Fixture(names[i]);
+    ExpectErrorNaming([&] { ReadImage(path); }, path, std::string(formats[i]) + " image of ");
+    ExpectErrorNaming([&] { ReadImage(path); }, path, "exceeds --max-pixels 4");
+    ExpectErrorNaming([&] { ReadImageHeader(path); }, path, "exceeds --max-pixels 4");
+  }
+  SetMaxPixels(kDefaultMaxPixels);
+  SetMaxMemoryBytes(16);
+  for (int i = 0; i < 4; ++i) {
+    const fs::path path = Fixture(names[i]);
+    ExpectErrorNaming([&] { ReadImage(path); }, path, "more than --max-memory 16 B");
+    EXPECT_NO_THROW(ReadImageHeader(path));  // the header alone allocates nothing
+  }
+  SetMaxMemoryBytes(uint64_t{1} << 30);
+  for (const char* name : names) EXPECT_GT(ReadImage(Fixture(name)).pixel_count(), 0u);
+}
+
+TEST(ImageIo, AFailedJpegDoesNotSpoilTheNextOne) {
+  // The per-thread TurboJPEG decoder kept state from a corrupt file: the next valid JPEG on the
+  // same thread failed with "invalid JPEG: Bogus Huffman table definition".
+  auto rng = testing::MakeRng();
+  const fs::path dir = testing::MakeTempDir();
+  const std::string original = ReadFileToString(Fixture("colour.jpg"));
+  std::vector<uint8_t> good(original.begin(), original.end());
+  int failures = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<uint8_t> bytes = good;
+    for (int f = 0; f < 3; ++f)
+      bytes[rng() % bytes.size()] ^= static_cast<uint8_t>(1 + rng() % 255);
+    Image image;
+    try {
+      DecodeImage(bytes, "corrupt.jpg", &image);
+    } catch (const Error&) {
+      ++failures;
+    }
+    EXPECT_NO_THROW(DecodeImage(good, "colour.jpg", &image)) << "after trial " << trial;
+  }
+  EXPECT_GT(failures, 0);
+}
+
+TEST(ImageIo, CorruptScanlineExrLeaksNothing) {
+  // testdata/leak_scanline.exr is an input fuzz_image found (a mutated half_rgba.exr whose pixel
+  // data is invalid): the tinyexr compiled into fuzz_image freed the half-decoded image without
+  // its channel planes (LeakSanitizer). The Debian library the tests link did not leak on it,
+  // so here it checks that the error names the file.
+  const fs::path path = Fixture("leak_scanline.exr");
+  for (int i = 0; i < 3; ++i) ExpectErrorNaming([&] { ReadImage(path); }, path, "EXR");
+}
+
+TEST(ImageIo, ShortExrAttributesAreErrors) {
+  // testdata/short_tiles_attribute.exr, found by fuzz_image: a 2-byte "tiles" attribute, which
+  // tinyexr read as 9 bytes (past its buffer; AddressSanitizer in fuzz_image).
+  const fs::path path = Fixture("short_tiles_attribute.exr");
+  ExpectErrorNaming([&] { ReadImage(path); }, path,
+                    "invalid EXR header: attribute 'tiles' has 2 bytes, not 9");
+  ExpectErrorNaming([&] { ReadImageHeader(path); }, path, "attribute 'tiles' has 2 bytes");
+  // Every prefix of a valid EXR is an error naming the file, never a read past the data.
+  const std::string exr = ReadFileToString(Fixture("half_rgba.exr"));
+  for (size_t n = 0; n < exr.size(); n += 7) {
+    Image image;
+    const std::vector<uint8_t> prefix(exr.begin(), exr.begin() + static_cast<ptrdiff_t>(n));
+    EXPECT_THROW(DecodeImage(prefix, "prefix.exr", &image), Error) << n;
   }
 }
 

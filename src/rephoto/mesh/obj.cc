@@ -5,6 +5,10 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <initializer_list>
+#include <map>
+#include <sstream>
+#include <string_view>
 
 #include "rephoto/core/error.h"
 #include "rephoto/mesh/ply.h"
@@ -19,19 +23,80 @@ std::string FirstLine(const std::string& text) {
   return line;
 }
 
+// The statements of `in` whose keyword (first word) is one of `keywords`, one per line.
+// rephoto reads only positions (with colours), texture coordinates, normals, faces, groups and
+// materials; tinyobjloader's parsers of the other statements are where hostile files hurt
+// (a skin-weight line "vw 1 5e30" converted an out-of-range float to int, undefined
+// behaviour; "vw 0 -1 0.5" failed the whole file), so they never see them.
+std::string KeepStatements(std::istream& in, std::initializer_list<std::string_view> keywords) {
+  std::string kept, line;
+  while (std::getline(in, line)) {
+    size_t begin = 0;
+    while (begin < line.size() && (line[begin] == ' ' || line[begin] == '\t')) ++begin;
+    size_t end = begin;
+    while (end < line.size() && line[end] != ' ' && line[end] != '\t' && line[end] != '\r') ++end;
+    const std::string_view keyword = std::string_view(line).substr(begin, end - begin);
+    if (std::find(keywords.begin(), keywords.end(), keyword) == keywords.end()) continue;
+    kept.append(line, begin);
+    kept.push_back('\n');
+  }
+  return kept;
+}
+
+// Reads every mtllib file through KeepStatements: from `mtl` when given, else from
+// `base_dir` + the name (as tinyobj::MaterialFileReader does).
+class FilteringMaterialReader : public tinyobj::MaterialReader {
+ public:
+  FilteringMaterialReader(std::string base_dir, std::istream* mtl)
+      : base_dir_(std::move(base_dir)), mtl_(mtl) {}
+
+  bool operator()(const std::string& material_id, std::vector<tinyobj::material_t>* materials,
+                  std::map<std::string, int>* material_map, std::string* warn,
+                  std::string* err) override {
+    std::ifstream file;
+    std::istream* in = mtl_;
+    if (in == nullptr) {
+      file.open(base_dir_ + material_id, std::ios::binary);
+      if (!file.is_open()) {
+        if (warn != nullptr) *warn += "Material file [ " + material_id + " ] not found.\n";
+        return false;
+      }
+      in = &file;
+    }
+    std::istringstream kept(KeepStatements(*in, {"newmtl", "Kd", "map_Kd"}));
+    tinyobj::LoadMtl(material_map, materials, &kept, warn, err);
+    return true;
+  }
+
+ private:
+  std::string base_dir_;
+  std::istream* mtl_;
+};
+
 }  // namespace
 
 Mesh ReadObj(const std::filesystem::path& path) {
   const std::string name = path.string();
   REPHOTO_CHECK(std::filesystem::is_regular_file(path), "{}: cannot open file", name);
+  std::ifstream stream(path, std::ios::binary);
+  REPHOTO_CHECK(stream.is_open(), "{}: cannot open file", name);
+  return ReadObj(stream, name, path.parent_path());
+}
+
+Mesh ReadObj(std::istream& stream, std::string_view name_view,
+             const std::filesystem::path& base_path, std::istream* mtl) {
+  const std::string name(name_view);
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;
   std::string warn, err;
-  std::string base_dir = path.parent_path().string();
+  std::string base_dir = base_path.string();
   if (!base_dir.empty()) base_dir += '/';
-  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, name.c_str(),
-                                   base_dir.c_str(), /*triangulate=*/false,
+  FilteringMaterialReader material_reader(base_dir, mtl);
+  std::istringstream kept(
+      KeepStatements(stream, {"v", "vt", "vn", "f", "g", "o", "usemtl", "mtllib"}));
+  const bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &kept,
+                                   &material_reader, /*triangulate=*/false,
                                    /*default_vcols_fallback=*/false);
   REPHOTO_CHECK(ok, "{}: {}", name, err.empty() ? std::string("cannot parse OBJ") : FirstLine(err));
 
@@ -56,7 +121,7 @@ Mesh ReadObj(const std::filesystem::path& path) {
     material.diffuse = Eigen::Vector3f(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
     if (!m.diffuse_texname.empty()) {
       std::filesystem::path texture(m.diffuse_texname);
-      material.diffuse_texture = texture.is_absolute() ? texture : path.parent_path() / texture;
+      material.diffuse_texture = texture.is_absolute() ? texture : base_path / texture;
     }
     mesh.materials.push_back(std::move(material));
   }

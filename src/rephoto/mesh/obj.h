@@ -10,11 +10,20 @@
 #pragma once
 
 #include <filesystem>
+#include <istream>
+#include <string_view>
 
 #include "rephoto/mesh/mesh.h"
 
 namespace rephoto::mesh {
 
 Mesh ReadObj(const std::filesystem::path& path);
+
+// The same from a stream: `name` prefixes error messages; `base_dir` is the folder mtllib files
+// and map_Kd textures are resolved against (empty: the working directory). With `mtl`, every
+// mtllib statement reads that stream instead of a file (tests and fuzzers: no file is opened).
+// OBJ files hold no counts: memory grows with the content read, never with a claim.
+Mesh ReadObj(std::istream& stream, std::string_view name,
+             const std::filesystem::path& base_dir = {}, std::istream* mtl = nullptr);
 
 }  // namespace rephoto::mesh

@@ -2,6 +2,8 @@
 
 #include <gmock/gmock.h>
 
+#include <sstream>
+
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/mesh/read_mesh.h"
@@ -62,6 +64,37 @@ TEST(ObjTest, VertexColorsAndErrors) {
   EXPECT_THROW(ReadMesh(dir / "missing.obj"), Error);
   WriteTextFileAtomically(dir / "model.stl", "solid x\n");
   EXPECT_THROW(ReadMesh(dir / "model.stl"), Error);
+}
+
+TEST(ObjTest, StreamsGiveTheSameMeshAsFiles) {
+  std::istringstream obj(
+      "mtllib anything.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+      "usemtl wall\nf 1/1 2/2 3/3\n");
+  std::istringstream mtl("newmtl wall\nKd 0.5 0.5 0.5\nmap_Kd wall.png\n");
+  const Mesh mesh = ReadObj(obj, "stream.obj", "/models", &mtl);
+  ASSERT_EQ(mesh.face_count(), 1u);
+  ASSERT_EQ(mesh.materials.size(), 1u);
+  EXPECT_EQ(mesh.materials[0].diffuse_texture, std::filesystem::path("/models/wall.png"));
+  EXPECT_EQ(mesh.face_materials, (std::vector<int>{0}));
+  std::istringstream bad("v 0 0 0\nf 1 2 3\n");
+  try {
+    ReadObj(bad, "bad.obj");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("bad.obj: face 0: vertex index 1 out of range"));
+  }
+}
+
+TEST(ObjTest, StatementsRephotoDoesNotUseAreIgnored) {
+  // Skin weights, free-form curves, points and lines: tinyobjloader rejected the whole file
+  // for "vw 0 -1 0.5" (negative joint) and converted "vw 1 5e30" to int (undefined behaviour).
+  std::istringstream obj(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nvw 0 -1 0.5\nvw 1 55555555555555555555555555555000000\n"
+      "vp 0.5\nl 1 2\np 3\nt crease 2/1/0 1 2\n  f 1 2 3\n");
+  std::istringstream mtl("newmtl m\nKd 1 0 0\nillum 99999999999999999999\n");
+  const Mesh mesh = ReadObj(obj, "weights.obj", "", &mtl);
+  EXPECT_EQ(mesh.vertex_count(), 3u);
+  EXPECT_EQ(mesh.face_count(), 1u);
 }
 
 }  // namespace

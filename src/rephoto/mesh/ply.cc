@@ -15,6 +15,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 
 namespace rephoto::mesh {
 namespace {
@@ -196,6 +197,9 @@ class PlyInput {
 
   // Bytes left in the stream (including the buffer), if the stream can tell.
   std::optional<uint64_t> RemainingBytes() {
+    // Reading ran into the end of the stream: the rest is in the buffer. (A failed read also
+    // makes tellg() fail, which had hidden the size of every file smaller than the buffer.)
+    if (stream_.eof()) return end_ - pos_;
     const std::streampos here = stream_.tellg();
     if (here == std::streampos(-1)) return std::nullopt;
     stream_.seekg(0, std::ios::end);
@@ -356,32 +360,87 @@ class PlyReader {
     REPHOTO_CHECK(has[0] && has[1] && has[2], "{}: vertex element lacks x, y or z", name_);
   }
 
-  // A binary header that promises more bytes than the file holds is rejected before reading.
-  void CheckSizes() {
-    const auto remaining = input_.RemainingBytes();
-    if (!remaining) return;
-    remaining_bytes_ = *remaining;
-    if (format_ == Format::kAscii) return;
-    uint64_t minimum = 0;
-    for (const Element& element : elements_) {
-      uint64_t record = 0;
-      for (const Property& p : element.properties) {
+  // The fewest bytes one record of `element` takes in the file: binary, the sizes of its
+  // scalars and list counts; ASCII, one digit and one separator per value. At least 1.
+  uint64_t MinRecordBytes(const Element& element) const {
+    uint64_t record = 0;
+    for (const Property& p : element.properties) {
+      if (format_ == Format::kAscii) {
+        record += 2;
+      } else {
         record += p.is_list ? TypeSize(p.count_type) : TypeSize(p.type);
       }
-      const uint64_t bytes = record * element.count;
-      REPHOTO_CHECK(element.count == 0 || bytes / element.count == record,
-                    "{}: element {}: count {} too large", name_, element.name, element.count);
-      minimum += bytes;
-      REPHOTO_CHECK(minimum <= remaining_bytes_,
+    }
+    return std::max<uint64_t>(record, 1);
+  }
+
+  // Before anything is allocated: a header that promises more records than the rest of the file
+  // can hold is rejected (when the stream can tell its size), and so is one whose vertices and
+  // faces would need more than --max-memory (core/limits.h) once read.
+  void CheckSizes() {
+    const auto remaining = input_.RemainingBytes();
+    if (remaining) remaining_bytes_ = *remaining;
+    uint64_t minimum = 0;
+    for (const Element& element : elements_) {
+      if (element.properties.empty()) continue;  // takes no bytes, is never stored
+      const uint64_t bytes = SaturatingMultiply(MinRecordBytes(element), element.count);
+      minimum = bytes > UINT64_MAX - minimum ? UINT64_MAX : minimum + bytes;
+      // An ASCII file may end without a separator after its last value.
+      const uint64_t slack = format_ == Format::kAscii ? 1 : 0;
+      REPHOTO_CHECK(!remaining || minimum <= remaining_bytes_ + slack,
                     "{}: header promises {} {} elements ({} bytes at least) but only {} bytes "
                     "of data follow (truncated file?)",
                     name_, element.count, element.name, minimum, remaining_bytes_);
     }
+    CheckMemory();
   }
 
-  // Capacity worth reserving for `count` records: never more than the file can hold.
-  size_t ReserveCount(size_t count) const {
-    return static_cast<size_t>(std::min<uint64_t>(count, remaining_bytes_ / 2 + 1));
+  void CheckMemory() const {
+    uint64_t vertex_bytes = 0, vertices = 0, face_bytes = 0, faces = 0;
+    if (vertex_element_ != nullptr) {
+      bool normals = false, colors = false, texcoords = false, radii = false;
+      for (const Property& p : vertex_element_->properties) {
+        normals |= p.role == Role::kNx || p.role == Role::kNy || p.role == Role::kNz;
+        colors |= p.role == Role::kRed || p.role == Role::kGreen || p.role == Role::kBlue;
+        texcoords |= p.role == Role::kU || p.role == Role::kV;
+        radii |= p.role == Role::kRadius;
+      }
+      vertices = vertex_element_->count;
+      const uint64_t per_vertex = sizeof(Eigen::Vector3f) * (1 + normals + colors) +
+                                  sizeof(Eigen::Vector2f) * texcoords + sizeof(float) * radii +
+                                  sizeof(float) * mesh_.scalars.size();
+      vertex_bytes = SaturatingMultiply(vertices, per_vertex);
+    }
+    for (const Element& element : elements_) {
+      if (element.name != "face") continue;
+      bool texcoords = false, texnumber = false;
+      for (const Property& p : element.properties) {
+        texcoords |= p.role == Role::kTexcoords;
+        texnumber |= p.role == Role::kTexnumber;
+      }
+      // At least one triangle per face (polygons become more).
+      faces = element.count;
+      const uint64_t per_face =
+          sizeof(Triangle) + 3 * sizeof(Eigen::Vector2f) * texcoords + sizeof(int) * texnumber;
+      face_bytes = SaturatingMultiply(faces, per_face);
+    }
+    const uint64_t total =
+        vertex_bytes > UINT64_MAX - face_bytes ? UINT64_MAX : vertex_bytes + face_bytes;
+    CheckAllocation(name_,
+                    faces == 0 ? fmt::format("{} vertices", vertices)
+                               : fmt::format("{} vertices and {} faces", vertices, faces),
+                    total);
+  }
+
+  // Capacity worth reserving for `element`'s records: never more than the rest of the file can
+  // hold, and a bounded start when the stream cannot tell its size (the vectors grow as the
+  // records arrive, so a header that lies costs nothing).
+  size_t ReserveCount(const Element& element) const {
+    constexpr uint64_t kUnknownSizeReserve = uint64_t{1} << 20;
+    const uint64_t fits = remaining_bytes_ == std::numeric_limits<uint64_t>::max()
+                              ? kUnknownSizeReserve
+                              : remaining_bytes_ / MinRecordBytes(element) + 1;
+    return static_cast<size_t>(std::min<uint64_t>(element.count, fits));
   }
 
   [[noreturn]] void EndOfFile(const Element& element, size_t index) const {
@@ -474,7 +533,7 @@ class PlyReader {
       ReadVertices(element);
     } else if (element.name == "face") {
       ReadFaces(element);
-    } else {
+    } else if (!element.properties.empty()) {
       for (size_t i = 0; i < element.count; ++i) {
         for (const Property& p : element.properties) {
           if (p.is_list) {
@@ -496,7 +555,7 @@ class PlyReader {
       radii |= p.role == Role::kRadius;
     }
     const size_t n = element.count;
-    const size_t reserve = ReserveCount(n);
+    const size_t reserve = ReserveCount(element);
     mesh_.positions.reserve(reserve);
     if (normals) mesh_.normals.reserve(reserve);
     if (colors) mesh_.colors.reserve(reserve);
@@ -574,7 +633,7 @@ class PlyReader {
     }
     REPHOTO_CHECK(has_indices || element.count == 0, "{}: face element has no vertex_indices list",
                   name_);
-    const size_t reserve = ReserveCount(element.count);
+    const size_t reserve = ReserveCount(element);
     mesh_.faces.reserve(reserve);
     if (has_texcoords) mesh_.wedge_texcoords.reserve(3 * reserve);
     if (has_texnumber) mesh_.face_materials.reserve(reserve);

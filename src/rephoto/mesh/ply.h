@@ -12,6 +12,10 @@
 // (scalars and lists) are skipped. The data is streamed through a fixed buffer.
 // Every problem is a rephoto::Error naming the file and, where known, the element and record:
 // "mesh.ply: face 41: unexpected end of file (header promises 100 faces)".
+// Before anything is allocated, the element counts of the header are checked: against the bytes
+// left in the file (binary: the fixed part of each record; ASCII: two bytes per value), when
+// the stream can tell, and the vertex and face arrays they imply against --max-memory
+// (core/limits.h): "huge.ply: 4000000000 vertices need 44.7 GiB, more than --max-memory ...".
 #pragma once
 
 #include <filesystem>

@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/testing/testing.h"
 
@@ -232,8 +234,12 @@ void ExpectError(const std::string& text, const std::string& fragment) {
 
 TEST(PlyTest, TruncatedAndLyingFilesAreErrors) {
   const std::string ascii = AsciiQuad();
-  // Cut inside the third vertex line.
-  ExpectError(ascii.substr(0, ascii.find("1.5 2.25") + 4), "vertex 2: unexpected end of file");
+  // Cut inside the third vertex line: the rest cannot hold the promised values (two bytes each,
+  // a digit and a separator), rejected before reading.
+  ExpectError(ascii.substr(0, ascii.find("1.5 2.25") + 4),
+              "header promises 4 vertex elements (96 bytes at least) but only 73 bytes");
+  // Cut inside the last line (an edge): found where the data ends.
+  ExpectError(ascii.substr(0, ascii.size() - 4), "edge 0: unexpected end of file");
   // Binary: the header promises more vertices than there are bytes.
   std::string binary = BinaryQuad(false);
   std::string lying = binary;
@@ -247,6 +253,94 @@ TEST(PlyTest, TruncatedAndLyingFilesAreErrors) {
               "lacks x, y or z");
   ExpectError("ply\nformat ascii 1.0\nelement vertex 1\nproperty fancy x\nend_header\n",
               "header line 4: bad property");
+}
+
+// Restores the process-wide limits (core/limits.h) when a test ends.
+struct LimitsGuard {
+  uint64_t pixels = MaxPixels();
+  uint64_t memory = MaxMemoryBytes();
+  ~LimitsGuard() {
+    SetMaxPixels(pixels);
+    SetMaxMemoryBytes(memory);
+  }
+};
+
+// A stream that cannot seek or tell its size (a pipe, stdin, a download).
+class UnseekableBuffer : public std::streambuf {
+ public:
+  explicit UnseekableBuffer(std::string bytes) : bytes_(std::move(bytes)) {
+    setg(bytes_.data(), bytes_.data(), bytes_.data() + bytes_.size());
+  }
+
+ private:
+  std::string bytes_;
+};
+
+std::string ErrorOf(auto&& read) {
+  try {
+    read();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(PlyTest, HugeClaimedCountsAreErrorsNamingTheFileBeforeAllocating) {
+  // Issue 14, item 4: a PLY claiming 4e9 vertices ended in "out of memory" naming no file.
+  LimitsGuard guard;
+  SetMaxMemoryBytes(uint64_t{16} << 30);
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  const std::string data(64, '\0');
+  // From a file: the rest of the file cannot hold the records. (Files smaller than the reader's
+  // buffer skipped this check and reserved 48 GB: std::bad_alloc.)
+  const auto dir = testing::MakeTempDir();
+  const auto path = dir / "huge.ply";
+  WriteTextFileAtomically(path, header + data);
+  EXPECT_EQ(ErrorOf([&] { ReadMesh(path); }),
+            path.string() +
+                ": header promises 4000000000 vertex elements (48000000000 bytes at least) but "
+                "only 64 bytes of data follow (truncated file?)");
+  // From a stream that cannot tell its size (it reserved 48 GB and threw std::bad_alloc); 2 MB
+  // of data, more than the reader's buffer, so that the reader cannot know where it ends.
+  const std::string more_data(2 << 20, '\0');
+  UnseekableBuffer buffer(header + more_data);
+  std::istream stream(&buffer);
+  EXPECT_EQ(ErrorOf([&] { ReadPly(stream, "huge.ply"); }),
+            "huge.ply: 4000000000 vertices and 1 faces need 44.7 GiB, more than --max-memory "
+            "16.0 GiB (raise it with --max-memory)");
+  // With the limit raised, the same stream fails where its data ends, still naming the file.
+  SetMaxMemoryBytes(uint64_t{64} << 30);
+  UnseekableBuffer buffer2(header + more_data);
+  std::istream stream2(&buffer2);
+  EXPECT_EQ(ErrorOf([&] { ReadPly(stream2, "huge.ply"); }),
+            "huge.ply: vertex 174762: unexpected end of file (header promises 4000000000 vertex "
+            "elements)");
+  // A small stream that cannot seek: it was read to its end, so its size is known.
+  UnseekableBuffer buffer3(header + data);
+  std::istream stream3(&buffer3);
+  EXPECT_THAT(ErrorOf([&] { ReadPly(stream3, "huge.ply"); }),
+              HasSubstr("huge.ply: header promises 4000000000 vertex elements"));
+  // ASCII: every value takes at least two bytes (a digit and a separator).
+  const auto ascii = dir / "huge_ascii.ply";
+  WriteTextFileAtomically(ascii,
+                          "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
+                          "property float y\nproperty float z\nend_header\n0 0 0\n");
+  EXPECT_THAT(ErrorOf([&] { ReadMesh(ascii); }),
+              HasSubstr(ascii.string() + ": header promises 4000000000 vertex elements"));
+}
+
+TEST(PlyTest, MemoryLimitCanBeRaised) {
+  LimitsGuard guard;
+  const std::string ascii = AsciiQuad();
+  SetMaxMemoryBytes(100);
+  EXPECT_EQ(ErrorOf([&] { ReadString(ascii, "quad.ply"); }),
+            "quad.ply: 4 vertices and 1 faces need 200 B, more than --max-memory 100 B (raise it "
+            "with --max-memory)");
+  SetMaxMemoryBytes(200);
+  ExpectQuad(ReadString(ascii, "quad.ply"));
 }
 
 TEST(PlyTest, BadContentIsAnError) {

@@ -75,9 +75,13 @@ std::string SettingLabel(const SweepSetting& setting) {
 }  // namespace
 
 SweepOptions LoadSweepConfig(const fs::path& file) {
+  return LoadSweepConfigText(ReadFileToString(file), file);
+}
+
+SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
   SweepOptions options;
   nlohmann::json tables;
-  eval::LoadConfigFile(file, &options.base, {"sweep"}, &tables);
+  eval::LoadConfigText(text, file, &options.base, {"sweep"}, &tables);
   REPHOTO_CHECK(tables.contains("sweep") && tables["sweep"].is_object(),
                 "{}: no [sweep] table (the settings to vary)", file.string());
   const fs::path base_dir = fs::absolute(file).parent_path();

@@ -39,6 +39,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rephoto/core/error.h"
@@ -86,6 +87,8 @@ struct SweepResult {
 
 // Reads a sweep config file (see above). Throws Error naming the file and key.
 SweepOptions LoadSweepConfig(const std::filesystem::path& file);
+// The same from the file's text (tests, fuzzers); `file` as for eval::LoadConfigText.
+SweepOptions LoadSweepConfigText(std::string_view text, const std::filesystem::path& file);
 
 // Runs the sweep and writes the outputs. Throws Error for bad settings; a failing setting is
 // recorded, not thrown.
