@@ -273,7 +273,7 @@ struct FoldState {
   // Rephoto stage.
   bool ok = true;
   std::string message;
-  fs::path model_path;  // the model file rendered
+  fs::path model_path;     // the model file rendered
   bool gaussians = false;  // model_path holds 3D Gaussians (splat/gaussians.h)
   std::string model_key;
   std::string colorize_key;
@@ -494,7 +494,7 @@ class Evaluation {
   Json scene_identity_;
   std::shared_ptr<const splat::GaussianModel> cached_gaussians_;  // the last Gaussian model read
   std::string cached_gaussians_key_;
-  std::map<fs::path, bool> is_gaussian_file_;  // splat::IsGaussianFile, asked once per file
+  std::map<fs::path, bool> is_gaussian_file_;        // splat::IsGaussianFile, asked once per file
   fs::path cached_model_path_;                       // the file cached_model_ was built from
   std::string projection_message_, report_message_;  // why they were not written
   bool projection_checked_ = false;
@@ -1811,24 +1811,9 @@ void Evaluation::ProjectOntoGaussians(const fs::path& model_path, const std::str
                                       const std::vector<project::ProjectView>& views,
                                       const std::string& metric_name, const fs::path& out) {
   const std::shared_ptr<const splat::GaussianModel> model = LoadGaussians(model_path, model_key);
-  const splat::GaussianRenderOptions options = GaussianOptions();
-  splat::GaussianErrorAccumulator accumulator;
-  accumulator.Reset(model->size());
-  Image error;
-  for (const project::ProjectView& view : views) {
-    io::ReadImage(view.error_image, &error);
-    splat::AccumulateGaussianErrors(*model, view.camera, view.cam_from_world, options, error,
-                                    &accumulator);
-  }
-  // Per Gaussian: the mean error over the views' pixels, weighted by its blending weight there.
-  std::vector<float> mean(model->size(), std::numeric_limits<float>::quiet_NaN());
   size_t seen = 0;
-  for (size_t g = 0; g < mean.size(); ++g) {
-    if (accumulator.weight[g] > 0) {
-      mean[g] = static_cast<float>(accumulator.weighted_error[g] / accumulator.weight[g]);
-      ++seen;
-    }
-  }
+  const std::vector<float> mean =
+      project::ProjectErrorsOntoGaussians(*model, views, GaussianOptions(), &seen);
   splat::WriteGaussiansWithScalar(model_path, *model, "error", mean, out);
   LogInfo(fmt::format("projected {} of {} views onto {} Gaussians ({} seen) -> {}", metric_name,
                       views.size(), model->size(), seen, out.string()));

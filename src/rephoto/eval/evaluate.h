@@ -118,8 +118,8 @@
 // Outputs of an earlier run with another split (folds, test views) are removed.
 #pragma once
 
-#include <cstdint>
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>

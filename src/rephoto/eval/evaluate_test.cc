@@ -19,6 +19,8 @@
 #include "rephoto/mesh/ply.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/colmap.h"
+#include "rephoto/splat/gaussians.h"
+#include "rephoto/splat/rasterize.h"
 #include "rephoto/synth/demo_scene.h"
 #include "rephoto/testing/testing.h"
 
@@ -370,6 +372,97 @@ TEST(EvaluateTest, TraversingImageNamesTouchNothingOutsideTheRun) {
   EXPECT_EQ(after.st_mtim.tv_nsec, before.st_mtim.tv_nsec);
   EXPECT_EQ(after.st_nlink, 1u);
   EXPECT_EQ(ReadFileToString(victim), "precious");
+}
+
+// issue 16: a 3D Gaussian splatting model is evaluated like any model: rendered by the CPU
+// rasterizer, compared with completeness = alpha >= --min-alpha, error projected onto the
+// Gaussians with every original property kept.
+splat::GaussianModel GaussiansOfTheTruth() {
+  // One isotropic Gaussian per vertex of the ground-truth mesh, coloured by its vertex colour
+  // (SH degree 0), about as wide as the mesh's cells.
+  const mesh::Mesh truth = mesh::ReadPly(Files().truth);
+  const auto box = mesh::BoundingBox(truth);
+  const float size = 0.6f * (box[1] - box[0]).norm() / 60.0f;
+  splat::GaussianModel model;
+  for (size_t v = 0; v < truth.vertex_count(); ++v) {
+    model.positions.push_back(truth.positions[v]);
+    model.scales.push_back(Eigen::Vector3f::Constant(size));
+    model.rotations.push_back(Eigen::Vector4f(1, 0, 0, 0));
+    model.opacities.push_back(0.9f);
+    for (int c = 0; c < 3; ++c) model.sh.push_back((truth.colors[v][c] - 0.5f) / splat::kShC0);
+  }
+  return model;
+}
+
+TEST(EvaluateTest, GaussianSplattingModelsAreRenderedComparedAndProjected) {
+  const fs::path dir = testing::MakeTempDir();
+  const splat::GaussianModel model = GaussiansOfTheTruth();
+  splat::WriteInriaPly(dir / "point_cloud.ply", model);
+  EvaluateOptions o = BaseOptions(dir / "run");
+  o.model = dir / "point_cloud.ply";  // detected: no --representation needed
+  o.projection_metric = "1-ncc";
+  const EvaluateResult result = RunEvaluate(o);
+  EXPECT_EQ(result.exit_code, ExitCode::kOk);
+  EXPECT_EQ(result.evaluated_images, static_cast<size_t>(kViews));
+  // The rendering is the rasterizer's, written as PNG.
+  const scene::View& view = Files().scene.views[2];
+  Image expected =
+      splat::RenderGaussians(model, Files().scene.CameraOf(view), view.cam_from_world).color;
+  io::WritePng(dir / "expected.png", expected);
+  const fs::path rendered = dir / "run/folds/fold_00/renders" / fs::path(view.name).filename();
+  EXPECT_EQ(ReadFileToString(rendered), ReadFileToString(dir / "expected.png"));
+  // Completeness and metrics: compare with the render mask alpha >= 0.5, by hand.
+  const Image render = io::ReadImage(rendered);
+  Mask render_mask(render.width(), render.height(), 1);
+  size_t covered = 0;
+  for (int y = 0; y < render.height(); ++y) {
+    for (int x = 0; x < render.width(); ++x) {
+      render_mask.at(x, y) = render.at(x, y, 3) >= 0.5f ? 255 : 0;
+      covered += render.at(x, y, 3) >= 0.5f;
+    }
+  }
+  ASSERT_GT(covered, 0u);
+  ASSERT_LT(covered, static_cast<size_t>(render.width() * render.height()));
+  compare::CompareOptions compare_options;
+  compare_options.metrics = o.metrics;
+  compare::CompareWorkspace workspace;
+  const compare::ImageResult by_hand = compare::ComparePhotoAndRender(
+      compare_options, "x", view.image_path, rendered, io::ReadImage(view.image_path), render,
+      nullptr, &render_mask, dir, &workspace);
+  const auto measured = Measurements(dir / "run/per_image.csv");
+  const std::string stem = fs::path(view.name).stem().string();
+  EXPECT_EQ(measured.at(stem)[1], io::CsvNumber(by_hand.completeness.value));
+  EXPECT_EQ(measured.at(stem)[2], io::CsvNumber(by_hand.metrics[0].mean));
+  EXPECT_GT(by_hand.completeness.value, 0.5);
+  // The error on the Gaussians: the model's file with a float "error" added.
+  const std::string projected = ReadFileToString(dir / "run/projected/1-ncc.ply");
+  EXPECT_THAT(projected, HasSubstr("property float rot_3\nproperty float error\nend_header"));
+  EXPECT_EQ(splat::ReadGaussians(dir / "run/projected/1-ncc.ply").size(), model.size());
+
+  // A stricter --min-alpha counts fewer pixels as the model's.
+  EvaluateOptions strict = o;
+  strict.out = dir / "strict";
+  strict.min_alpha = 0.99;
+  strict.projection_metric = "none";
+  EXPECT_LT(RunEvaluate(strict).completeness_over_images.mean,
+            result.completeness_over_images.mean);
+  // Gaussians cannot be coloured; a mesh is no Gaussian model.
+  EvaluateOptions coloured = o;
+  coloured.out = dir / "coloured";
+  coloured.colorize = true;
+  coloured.scheme = "kfold:2";
+  const EvaluateResult coloured_result = RunEvaluate(coloured);
+  EXPECT_EQ(coloured_result.exit_code, ExitCode::kIncomplete);
+  EXPECT_THAT(coloured_result.folds[0].message,
+              HasSubstr("point_cloud.ply: holds 3D Gaussians; --colorize and model defects need "
+                        "a mesh"));
+  EvaluateOptions forced = BaseOptions(dir / "forced");
+  forced.model = Files().truth;
+  forced.representation = "gaussians";
+  const EvaluateResult forced_result = RunEvaluate(forced);
+  EXPECT_EQ(forced_result.exit_code, ExitCode::kIncomplete);
+  EXPECT_THAT(forced_result.folds[0].message,
+              HasSubstr("truth.ply: PLY vertices have no Gaussian properties"));
 }
 
 TEST(EvaluateTest, ReconstructCommandGetsQuotedPlaceholdersAndIsResumed) {

@@ -325,8 +325,8 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
       const bool ok = in && comma1 == ',' && comma2 == ',' && (in >> std::ws).eof() &&
                       std::all_of(rgb.begin(), rgb.end(), [](float c) { return c >= 0 && c <= 1; });
       if (!ok) {
-        throw UsageError(fmt::format(
-            "{}: '{}' is not black, white or R,G,B with each in [0, 1]", source, text));
+        throw UsageError(
+            fmt::format("{}: '{}' is not black, white or R,G,B with each in [0, 1]", source, text));
       }
     }
     o->background = rgb;
@@ -513,8 +513,8 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["point-radius"] = o.point_radius;
   j["point-neighbors"] = o.point_neighbors;
   j["gaussian-mode"] = o.gaussian_mode;
-  j["background"] = fmt::format("{:g},{:g},{:g}", o.background[0], o.background[1],
-                                o.background[2]);
+  j["background"] =
+      fmt::format("{:g},{:g},{:g}", o.background[0], o.background[1], o.background[2]);
   j["min-alpha"] = o.min_alpha;
   j["out"] = o.out.string();
   j["jobs"] = o.jobs;

@@ -64,6 +64,8 @@
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/render/render_model.h"
 #include "rephoto/scene/scene.h"
+#include "rephoto/splat/gaussians.h"
+#include "rephoto/splat/rasterize.h"
 
 namespace rephoto::project {
 
@@ -140,6 +142,18 @@ ProjectResult ProjectErrors(const mesh::Mesh& model, const std::vector<ProjectVi
 // are the ones projected onto.
 ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<ProjectView>& views,
                             const ProjectOptions& options);
+
+// 3D Gaussian splatting models (splat/gaussians.h): per Gaussian, the mean error of the views'
+// error images weighted by the Gaussian's blending weight alpha * T at each pixel
+// (splat::AccumulateGaussianErrors; pixels whose error is NaN count for nothing), NaN for a
+// Gaussian no view saw; `seen` (optional) receives how many were seen. Each error image must
+// have 1 channel and its camera's size (Error naming it otherwise). The Gaussians are rendered
+// with `options` (mode, background), as they were for the errors. Write the result with
+// splat::WriteGaussiansWithScalar (every property of the model's file kept, "error" added).
+std::vector<float> ProjectErrorsOntoGaussians(const splat::GaussianModel& model,
+                                              const std::vector<ProjectView>& views,
+                                              const splat::GaussianRenderOptions& options,
+                                              size_t* seen = nullptr);
 
 // The colour (8-bit RGB) of one error value for the range [low, high] (see the file comment);
 // NaN gives the unseen grey.
