@@ -1,6 +1,7 @@
 #include "rephoto/metrics/kernels.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
 
@@ -65,6 +66,56 @@ const uint8_t* WindowValidityRows::Row(int y) {
   RowFromCounts(column_invalid_.data(), width_, r, span_.data(), span_.data() + width_,
                 row_.data());
   return row_.data();
+}
+
+void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>* scratch) {
+  const int w = image.width(), channels = image.channels();
+  first = std::max(first, 0);
+  end = std::min(end, image.height());
+  if (image.floats() && channels == 3) {
+    base_ = image.floats();
+    first_ = 0;
+    stride_ = static_cast<ptrdiff_t>(3) * w;
+    return;
+  }
+  const size_t values = static_cast<size_t>(std::max(0, end - first)) * 3 * w;
+  if (scratch->size() < values) scratch->resize(values);
+  float* out = scratch->data();
+  if (image.bytes()) {
+    // The float io::ReadImage makes of each 8-bit value (a division, not a multiplication by
+    // 1/255, so that the bits are the same).
+    static const auto kTable = [] {
+      std::array<float, 256> table{};
+      for (int v = 0; v < 256; ++v) table[v] = static_cast<float>(v) / 255.f;
+      return table;
+    }();
+    for (int y = first; y < end; ++y) {
+      const uint8_t* in = image.bytes() + static_cast<size_t>(y) * w * channels;
+      float* o = out + static_cast<size_t>(y - first) * 3 * w;
+      if (channels == 3) {
+        for (int i = 0; i < 3 * w; ++i) o[i] = kTable[in[i]];
+      } else {
+        for (int x = 0; x < w; ++x) {
+          o[3 * x] = kTable[in[channels * x]];
+          o[3 * x + 1] = kTable[in[channels * x + 1]];
+          o[3 * x + 2] = kTable[in[channels * x + 2]];
+        }
+      }
+    }
+  } else {
+    for (int y = first; y < end; ++y) {
+      const float* in = image.floats() + static_cast<size_t>(y) * w * channels;
+      float* o = out + static_cast<size_t>(y - first) * 3 * w;
+      for (int x = 0; x < w; ++x) {
+        o[3 * x] = in[channels * x];
+        o[3 * x + 1] = in[channels * x + 1];
+        o[3 * x + 2] = in[channels * x + 2];
+      }
+    }
+  }
+  base_ = out;
+  first_ = first;
+  stride_ = static_cast<ptrdiff_t>(3) * w;
 }
 
 std::vector<float> FilterWeights(int radius, double sigma) {
