@@ -336,12 +336,10 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
   const ImageT<P>& photo_rgb = ColourOf(photo, &photo_grey, &ws->photo_alpha, &photo_has_alpha);
   Mask photo_valid;
   if (photo_mask && photo_has_alpha) {
-    photo_valid = metrics::PhotoValidity(photo_rgb, metrics::CombineMasks(*photo_mask,
-                                                                        ws->photo_alpha),
-                                         options.exposure);
+    photo_valid = metrics::PhotoValidity(
+        photo_rgb, metrics::CombineMasks(*photo_mask, ws->photo_alpha), options.exposure);
   } else {
-    const Mask& user_mask =
-        photo_mask ? *photo_mask : (photo_has_alpha ? ws->photo_alpha : Mask());
+    const Mask& user_mask = photo_mask ? *photo_mask : (photo_has_alpha ? ws->photo_alpha : Mask());
     photo_valid = metrics::PhotoValidity(photo_rgb, user_mask, options.exposure);
   }
 

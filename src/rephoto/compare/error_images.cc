@@ -48,8 +48,8 @@ std::vector<uint8_t> ExrHeader(int width, int height) {
   i32(2);  // FLOAT
   const uint8_t linear_and_reserved[4] = {0, 0, 0, 0};
   bytes(linear_and_reserved, 4);
-  i32(1);  // x sampling
-  i32(1);  // y sampling
+  i32(1);          // x sampling
+  i32(1);          // y sampling
   h.push_back(0);  // end of the channel list
   attribute("compression", "compression", 1);
   h.push_back(0);  // none
@@ -92,8 +92,7 @@ ErrorExrWriter::ErrorExrWriter(const fs::path& path, int width, int height)
   temporary_ = path;
   temporary_ += ".tmp-" + std::to_string(::getpid());
   fd_ = ::open(temporary_.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  REPHOTO_CHECK(fd_ >= 0, "{}: cannot open for writing: {}", path.string(),
-                std::strerror(errno));
+  REPHOTO_CHECK(fd_ >= 0, "{}: cannot open for writing: {}", path.string(), std::strerror(errno));
   std::vector<uint8_t> head = ExrHeader(width, height);
   const uint64_t table = head.size();
   data_offset_ = table + 8 * static_cast<uint64_t>(height);

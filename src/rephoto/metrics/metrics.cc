@@ -585,9 +585,9 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
   auto out = [&](Metric m) { return rows[static_cast<int>(m)]; };
   BandSums sums;
   if (e.Wants(Metric::kOneMinusNcc) || e.Wants(Metric::kZssd) || e.Wants(Metric::kCensus)) {
-    sums.window = WindowBand(in, e.options.window, e.options.ncc_flat_threshold,
-                             out(Metric::kOneMinusNcc), out(Metric::kZssd), out(Metric::kCensus),
-                             y0, y1);
+    sums.window =
+        WindowBand(in, e.options.window, e.options.ncc_flat_threshold, out(Metric::kOneMinusNcc),
+                   out(Metric::kZssd), out(Metric::kCensus), y0, y1);
   }
   if (e.Wants(Metric::kCbCr) || e.Wants(Metric::kPsnr)) {
     sums.pixel = PixelBand(in, out(Metric::kCbCr), out(Metric::kPsnr), y0, y1);
@@ -596,8 +596,8 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
     sums.ssim = SsimBand(in, e.ssim, out(Metric::kSsim), out(Metric::kDssim), y0, y1);
   }
   if (e.Wants(Metric::kIcid)) {
-    sums.icid = internal::IcidBand(in, e.options.icid_window, e.icid_weights, out(Metric::kIcid),
-                                   y0, y1);
+    sums.icid =
+        internal::IcidBand(in, e.options.icid_window, e.icid_weights, out(Metric::kIcid), y0, y1);
   }
   return sums;
 }
@@ -635,8 +635,8 @@ void CheckInputs(const RgbView& photo, const RgbView& rephoto, const Mask& valid
                 "metrics: need 3-channel RGB images, got {} (photo) and {} (rendering) channels",
                 photo.channels(), rephoto.channels());
   REPHOTO_CHECK(photo.width() == rephoto.width() && photo.height() == rephoto.height(),
-                "metrics: photo is {}x{} but the rendering is {}x{}", photo.width(),
-                photo.height(), rephoto.width(), rephoto.height());
+                "metrics: photo is {}x{} but the rendering is {}x{}", photo.width(), photo.height(),
+                rephoto.width(), rephoto.height());
   REPHOTO_CHECK(valid.empty() || (valid.width() == photo.width() &&
                                   valid.height() == photo.height() && valid.channels() == 1),
                 "metrics: validity mask is {}x{}x{} but the images are {}x{}", valid.width(),

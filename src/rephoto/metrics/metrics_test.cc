@@ -560,14 +560,12 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
     for (int c = 0; c < 3; ++c) rephoto.data()[3 * i + c] = rephoto_rgba.data()[4 * i + c];
   }
   const Mask valid = RandomMask(rng, w, h, 0.995);
-  for (const MetricOptions& options : {MetricOptions{}, MetricOptions{.window = 5,
-                                                                      .ssim_gaussian = false,
-                                                                      .ssim_window = 7}}) {
+  for (const MetricOptions& options :
+       {MetricOptions{}, MetricOptions{.window = 5, .ssim_gaussian = false, .ssim_window = 7}}) {
     const auto expected = ComputeMetrics(photo, rephoto, valid, AllMetrics(), options);
     ExpectSameResults(ComputeInBands(photo, rephoto, valid, AllMetrics(), options), expected);
     ExpectSameResults(ComputeInBands(photo8, rephoto8, valid, AllMetrics(), options), expected);
-    ExpectSameResults(ComputeInBands(photo, rephoto_rgba, valid, AllMetrics(), options),
-                      expected);
+    ExpectSameResults(ComputeInBands(photo, rephoto_rgba, valid, AllMetrics(), options), expected);
   }
   // A subset in another order, and no mask.
   const std::vector<Metric> some = {Metric::kPsnr, Metric::kCensus, Metric::kDssim};
