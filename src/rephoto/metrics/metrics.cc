@@ -41,11 +41,30 @@ T* Scratch(std::vector<T>& buffer, size_t size) {
 
 constexpr int kBoxQuantities = 9;
 
-// Splits an interleaved RGB row into three planes.
+typedef float V8f __attribute__((vector_size(32)));
+
+// Splits an interleaved RGB row into three planes. Eight pixels at a time by shuffles (the
+// compiler's stride-3 loop was a sixth of census's time); pure data movement.
 REPHOTO_SIMD_CLONES
 void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, float* __restrict c1,
                   float* __restrict c2) {
-  for (int x = 0; x < w; ++x) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    V8f a, b, c;
+    __builtin_memcpy(&a, rgb + 3 * x, 32);
+    __builtin_memcpy(&b, rgb + 3 * x + 8, 32);
+    __builtin_memcpy(&c, rgb + 3 * x + 16, 32);
+    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+    const V8f r = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
+    const V8f g = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
+    const V8f bl = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    __builtin_memcpy(c0 + x, &r, 32);
+    __builtin_memcpy(c1 + x, &g, 32);
+    __builtin_memcpy(c2 + x, &bl, 32);
+  }
+  for (; x < w; ++x) {
     c0[x] = rgb[3 * x];
     c1[x] = rgb[3 * x + 1];
     c2[x] = rgb[3 * x + 2];
