@@ -28,9 +28,13 @@
 // census compares float luma exactly; ssim/dssim filter in float (separable, values shifted by
 // -0.5 to reduce cancellation): per-pixel values agree with a double-precision reference to
 // ~2e-5 and the means with scikit-image to ~1e-6 (tests). Costs do not depend on the window
-// size except for the separable Gaussian (2 x window taps). Work is split over bands of image
-// rows (ParallelFor); partial sums are added in band order, so results do not depend on the
-// thread count. Row kernels have AVX-512 / AVX2 / baseline variants picked at run time; they
+// size except for the separable Gaussian (2 x window taps). Work is split over bands of 32 image
+// rows (ParallelFor), each band going through all requested metrics while its rows are in
+// cache (8-bit inputs are converted to floats there, once per band); partial sums are added in
+// band order, so results do not depend on the thread count nor on whether the error images are
+// whole (ComputeMetrics) or handed over in bands (ComputeMetricsInBands). iCID's Lab
+// conversion uses a table for 8-bit values and glibc's cube root written out (icid.cc), both
+// bit-identical to the library calls they replace. Row kernels have AVX-512 / AVX2 / baseline variants picked at run time; they
 // agree bit for bit except the SSIM filters, which use FMA where available (last-bit
 // differences between CPUs). Identical images give exactly 0 (ssim exactly 1, psnr +inf).
 // Pixels with a non-finite value (NaN, infinity) in either image are treated as invalid.
