@@ -380,12 +380,14 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
           std::make_unique<ErrorExrWriter>(error_folder / (stem(metric) + ".exr"), width, height));
     }
   }
-  metrics::ComputeMetricsInBands(
-      photo_rgb, render_view, valid, options.metrics, options.metric_options,
-      [&](int y0, int y1, std::span<const float* const> rows) {
-        for (size_t i = 0; i < exrs.size(); ++i) exrs[i]->WriteRows(y0, y1, rows[i]);
-      },
-      &ws->results);
+  metrics::ErrorBandSink sink;
+  if (!exrs.empty()) {
+    sink = [&](int y0, int y1, std::span<const float* const> rows) {
+      for (size_t i = 0; i < exrs.size(); ++i) exrs[i]->WriteRows(y0, y1, rows[i]);
+    };
+  }
+  metrics::ComputeMetricsInBands(photo_rgb, render_view, valid, options.metrics,
+                                 options.metric_options, sink, &ws->results);
   for (const metrics::MetricResult& metric : ws->results) {
     result.metrics.push_back({metric.mean, metric.evaluated});
   }

@@ -601,6 +601,25 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
   p.Load(e.photo, first, end, &photo_scratch);
   q.Load(e.rephoto, first, end, &rephoto_scratch);
   const Inputs in{p, q, e.valid, e.width, e.height};
+  // Without rows to keep (a null sink), each band writes its error rows into per-thread scratch
+  // that stays in cache instead of streaming them to memory.
+  ErrorRows local[8];
+  const ErrorRows* local_rows[8] = {};
+  if (rows == nullptr) {
+    thread_local UninitVector<float> scratch;
+    const size_t band = static_cast<size_t>(y1 - y0) * e.width;
+    int count = 0;
+    for (bool want : e.want) count += want;
+    if (scratch.size() < count * band) scratch.resize(count * band);
+    size_t offset = 0;
+    for (int m = 0; m < 8; ++m) {
+      if (!e.want[m]) continue;
+      local[m] = ErrorRows{scratch.data() + offset, static_cast<int>(y0), e.width};
+      local_rows[m] = &local[m];
+      offset += band;
+    }
+    rows = local_rows;
+  }
   auto out = [&](Metric m) { return rows[static_cast<int>(m)]; };
   BandSums sums;
   if (e.Wants(Metric::kOneMinusNcc) || e.Wants(Metric::kZssd) || e.Wants(Metric::kCensus)) {
@@ -868,6 +887,13 @@ void ComputeMetricsInBands(const RgbView& photo, const RgbView& rephoto, const M
   PrepareResults(metrics, results);
   for (MetricResult& res : *results) res.error = Image();
   const int w = e.width;
+  if (!sink) {  // nothing to hand over: no band buffers
+    BandSums sums;
+    bool first = true;
+    RunBands(e, nullptr, 0, e.height, &sums, &first);
+    Finish(sums, results);
+    return;
+  }
   // Band buffers, kept by the calling thread for its next pairs (first touch is costly).
   thread_local std::vector<UninitVector<float>> buffers;
   if (buffers.size() < metrics.size()) buffers.resize(metrics.size());

@@ -147,7 +147,8 @@ using ErrorBandSink = std::function<void(int y0, int y1, std::span<const float* 
 // ComputeMetrics without whole error images: the rows of the error images are handed to `sink`
 // band by band (a few hundred rows at a time) as they are made, and the error images of
 // `results` are left empty; means and counts are bit-identical to ComputeMetrics'. Working
-// memory is a few bands of rows, independent of the image height. Inputs may be float or 8-bit,
+// memory is a few bands of rows, independent of the image height. An empty `sink` (nullptr)
+// computes only the means and counts (error rows stay in per-thread scratch, in cache). Inputs may be float or 8-bit,
 // RGB or RGBA (see RgbView); `valid` as for ComputeMetrics. Non-finite input values: as
 // ComputeMetrics (invalid pixels), at the cost of a copy of the float inputs that have any.
 void ComputeMetricsInBands(const RgbView& photo, const RgbView& rephoto, const Mask& valid,

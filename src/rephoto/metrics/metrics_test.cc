@@ -567,6 +567,16 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
     ExpectSameResults(ComputeInBands(photo8, rephoto8, valid, AllMetrics(), options), expected);
     ExpectSameResults(ComputeInBands(photo, rephoto_rgba, valid, AllMetrics(), options), expected);
   }
+  // Without a sink: the same means and counts.
+  {
+    std::vector<MetricResult> means_only;
+    ComputeMetricsInBands(photo8, rephoto8, valid, AllMetrics(), {}, nullptr, &means_only);
+    const auto expected = ComputeMetrics(photo, rephoto, valid, AllMetrics());
+    for (size_t m = 0; m < means_only.size(); ++m) {
+      EXPECT_EQ(std::memcmp(&means_only[m].mean, &expected[m].mean, sizeof(double)), 0);
+      EXPECT_EQ(means_only[m].evaluated, expected[m].evaluated);
+    }
+  }
   // A subset in another order, and no mask.
   const std::vector<Metric> some = {Metric::kPsnr, Metric::kCensus, Metric::kDssim};
   ExpectSameResults(ComputeInBands(photo8, rephoto8, {}, some),
