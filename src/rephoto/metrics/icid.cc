@@ -62,8 +62,15 @@ void DecodeRow(const float* rgb, int w, double* linear) {
 // of glibc 2.36 (Debian 12; 30 million values checked, and the icid test); iCID then no longer
 // depends on the libm it is linked with. Garbage (but no trap) for other x.
 inline double CbrtPositive(double x) {
+  // Integers are handled as exact doubles and moved in and out of exponent fields with 2^52
+  // (adding 2^52 puts a small integer in the low mantissa bits), so that the loops around
+  // this vectorise on every target (no int64 division or conversion, no branches).
+  constexpr double kTwo52 = 4503599627370496.0;
   const uint64_t bits = std::bit_cast<uint64_t>(x);
-  const int xe = static_cast<int>((bits >> 52) & 0x7ff) - 1022;
+  // frexp: x = xm * 2^xe, xm in [0.5, 1).
+  const double xe =
+      std::bit_cast<double>(((bits >> 52) & 0x7ff) | std::bit_cast<uint64_t>(kTwo52)) - kTwo52 -
+      1022.0;
   const double xm = std::bit_cast<double>((bits & 0x800fffffffffffffull) | (uint64_t{1022} << 52));
   const double u =
       (0.354895765043919860 +
@@ -76,19 +83,24 @@ inline double CbrtPositive(double x) {
           xm)) *
         xm));
   const double t2 = u * u * u;
-  // factor[2 + xe % 3] of glibc, with C's remainder of negative xe (in -2..0).
-  const int m = xe % 3;
-  const double factor = m == -2   ? 1.0 / 1.5874010519681994748
-                        : m == -1 ? 1.0 / 1.2599210498948731648
-                        : m == 0  ? 1.0
-                        : m == 1  ? 1.2599210498948731648
-                                  : 1.5874010519681994748;
+  const double q = std::trunc(xe / 3.0);  // C's xe / 3 (exact for these small integers)
+  const double m = xe - 3.0 * q;          // C's xe % 3, in -2..2
+  // glibc's factor[2 + xe % 3].
+  double factor = 1.0;
+  factor = m == -2.0 ? 1.0 / 1.5874010519681994748 : factor;
+  factor = m == -1.0 ? 1.0 / 1.2599210498948731648 : factor;
+  factor = m == 1.0 ? 1.2599210498948731648 : factor;
+  factor = m == 2.0 ? 1.5874010519681994748 : factor;
   const double ym = u * (t2 + 2.0 * xm) / (2.0 * t2 + xm) * factor;
-  return ym * std::bit_cast<double>(static_cast<uint64_t>(1023 + xe / 3) << 52);
+  // ldexp(ym, q): 2^q built in the exponent field.
+  const uint64_t exponent = std::bit_cast<uint64_t>(q + 1023.0 + kTwo52) & 0x7ff;
+  return ym * std::bit_cast<double>(exponent << 52);
 }
 
+// Both branches computed, then selected: no control flow in the loop.
 inline double LabFFast(double t) {
-  return t > 0.008856 ? CbrtPositive(t) : 7.787 * t + 16.0 / 116.0;
+  const double root = CbrtPositive(t), linear = 7.787 * t + 16.0 / 116.0;
+  return t > 0.008856 ? root : linear;
 }
 
 // CIELAB of planar linear RGB, the arithmetic of SrgbToLab.
@@ -105,30 +117,40 @@ inline void LinearToLab(double rl, double gl, double bl, double& l, double& a, d
 // Per-pixel quantities that get window-averaged.
 enum Quantity { kL1, kL2, kC1, kC2, kL1L1, kL2L2, kC1C1, kC2C2, kL1L2, kC1C2, kHue, kCount };
 
-// The kCount quantities of a row from the planar linear RGB of photo (1) and rendering (2).
+// The kCount quantities of a row from the planar linear RGB of photo (1) and rendering (2), one
+// __restrict pointer per output plane (through an array of pointers the loop did not vectorise).
 REPHOTO_SIMD_CLONES
-void IcidQuantities(const double* __restrict linear1, const double* __restrict linear2, int w,
-                    double* const* __restrict out) {
+void IcidQuantitiesRow(const double* __restrict linear1, const double* __restrict linear2, int w,
+                       double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
+                       double* __restrict o_c2, double* __restrict o_l1l1,
+                       double* __restrict o_l2l2, double* __restrict o_c1c1,
+                       double* __restrict o_c2c2, double* __restrict o_l1l2,
+                       double* __restrict o_c1c2, double* __restrict o_hue) {
   for (int x = 0; x < w; ++x) {
     double l1, a1, b1, l2, a2, b2;
     LinearToLab(linear1[x], linear1[w + x], linear1[2 * w + x], l1, a1, b1);
     LinearToLab(linear2[x], linear2[w + x], linear2[2 * w + x], l2, a2, b2);
     const double chroma1 = std::sqrt(a1 * a1 + b1 * b1), chroma2 = std::sqrt(a2 * a2 + b2 * b2);
     const double da = a1 - a2, db = b1 - b2, dc = chroma1 - chroma2;
-    out[kL1][x] = l1;
-    out[kL2][x] = l2;
-    out[kC1][x] = chroma1;
-    out[kC2][x] = chroma2;
-    out[kL1L1][x] = l1 * l1;
-    out[kL2L2][x] = l2 * l2;
+    o_l1[x] = l1;
+    o_l2[x] = l2;
+    o_c1[x] = chroma1;
+    o_c2[x] = chroma2;
+    o_l1l1[x] = l1 * l1;
+    o_l2l2[x] = l2 * l2;
     // chroma^2 rather than a^2 + b^2 (equal up to rounding), so that the variance and the
     // covariance terms are computed from the very same products.
-    out[kC1C1][x] = chroma1 * chroma1;
-    out[kC2C2][x] = chroma2 * chroma2;
-    out[kL1L2][x] = l1 * l2;
-    out[kC1C2][x] = chroma1 * chroma2;
-    out[kHue][x] = std::sqrt(std::max(0.0, da * da + db * db - dc * dc));
+    o_c1c1[x] = chroma1 * chroma1;
+    o_c2c2[x] = chroma2 * chroma2;
+    o_l1l2[x] = l1 * l2;
+    o_c1c2[x] = chroma1 * chroma2;
+    o_hue[x] = std::sqrt(std::max(0.0, da * da + db * db - dc * dc));
   }
+}
+
+void IcidQuantities(const double* linear1, const double* linear2, int w, double* const* out) {
+  IcidQuantitiesRow(linear1, linear2, w, out[kL1], out[kL2], out[kC1], out[kC2], out[kL1L1],
+                    out[kL2L2], out[kC1C1], out[kC2C2], out[kL1L2], out[kC1C2], out[kHue]);
 }
 
 // v[x] = sum over k of weights[k] * src[x + k * stride], added in order of k. One loop per tap so
