@@ -26,34 +26,60 @@ double SrgbDecode(double c) {
 
 double LabF(double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116.0; }
 
-// SrgbDecode of a float: a table lookup when the value is that of an 8-bit sample (v / 255,
-// the values of nearly every photo and rendering), else the formula; the same result either way.
-double SrgbDecodeFast(float c) {
-  struct Table {
-    float value[256];
-    double decoded[256];
-  };
-  static const Table table = [] {
-    Table t;
+// SrgbDecode of the values of 8-bit samples (v / 255, the values of nearly every photo and
+// rendering), by table.
+struct SrgbTable {
+  float value[256];
+  double decoded[256];
+};
+const SrgbTable& DecodeTable() {
+  static const SrgbTable table = [] {
+    SrgbTable t;
     for (int k = 0; k < 256; ++k) {
       t.value[k] = static_cast<float>(k) / 255.f;
       t.decoded[k] = SrgbDecode(t.value[k]);
     }
     return t;
   }();
-  if (c >= 0.f && c <= 1.f) {
-    const int k = static_cast<int>(c * 255.f + 0.5f);
-    if (table.value[k] == c) return table.decoded[k];
-  }
-  return SrgbDecode(c);
+  return table;
 }
 
-// Planar linear RGB (r[0..w), g[w..2w), b[2w..3w)) of an interleaved sRGB row.
+// The table entry nearest to c, in [0, 255] for any c (NaN: 0).
+inline int TableIndex(float c) {
+  const float v = c >= 0.f ? (c <= 1.f ? c : 1.f) : 0.f;
+  return static_cast<int>(v * 255.f + 0.5f);
+}
+
+// linear[i] = SrgbDecode(c[i]) by table for the n values that are 8-bit values; returns how
+// many are not (their linear[i] is to be computed by the formula). No branches: vectorises.
+REPHOTO_SIMD_CLONES
+int DecodeByTable(const float* __restrict c, int n, const SrgbTable& table,
+                  double* __restrict linear) {
+  int misses = 0;
+  for (int i = 0; i < n; ++i) {
+    const int k = TableIndex(c[i]);
+    linear[i] = table.decoded[k];
+    misses += table.value[k] != c[i];
+  }
+  return misses;
+}
+
+// Planar linear RGB (r[0..w), g[w..2w), b[2w..3w)) of an interleaved sRGB row: by table, then
+// the formula for values that are not 8-bit values; the same values as SrgbDecode everywhere.
 void DecodeRow(const float* rgb, int w, double* linear) {
+  thread_local std::vector<float> planar;
+  planar.resize(3 * static_cast<size_t>(w));
   for (int x = 0; x < w; ++x) {
-    linear[x] = SrgbDecodeFast(rgb[3 * x]);
-    linear[w + x] = SrgbDecodeFast(rgb[3 * x + 1]);
-    linear[2 * w + x] = SrgbDecodeFast(rgb[3 * x + 2]);
+    planar[x] = rgb[3 * x];
+    planar[w + x] = rgb[3 * x + 1];
+    planar[2 * w + x] = rgb[3 * x + 2];
+  }
+  const SrgbTable& table = DecodeTable();
+  if (DecodeByTable(planar.data(), 3 * w, table, linear) == 0) return;
+  for (int i = 0; i < 3 * w; ++i) {
+    const float c = planar[i];
+    const int k = TableIndex(c);
+    if (table.value[k] != c) linear[i] = SrgbDecode(c);
   }
 }
 
