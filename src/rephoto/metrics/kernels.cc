@@ -1,7 +1,6 @@
 #include "rephoto/metrics/kernels.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <utility>
 
@@ -68,6 +67,27 @@ const uint8_t* WindowValidityRows::Row(int y) {
   return row_.data();
 }
 
+namespace {
+
+// The float io::ReadImage makes of each 8-bit value: a division, not a multiplication by
+// 1/255, so that the bits are the same.
+REPHOTO_SIMD_CLONES
+void BytesToFloats(const uint8_t* __restrict in, int n, float* __restrict out) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(in[i]) / 255.f;
+}
+
+// The same for RGBA pixels, alpha dropped.
+REPHOTO_SIMD_CLONES
+void RgbaBytesToFloats(const uint8_t* __restrict in, int w, float* __restrict out) {
+  for (int x = 0; x < w; ++x) {
+    out[3 * x] = static_cast<float>(in[4 * x]) / 255.f;
+    out[3 * x + 1] = static_cast<float>(in[4 * x + 1]) / 255.f;
+    out[3 * x + 2] = static_cast<float>(in[4 * x + 2]) / 255.f;
+  }
+}
+
+}  // namespace
+
 void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>* scratch) {
   const int w = image.width(), channels = image.channels();
   first = std::max(first, 0);
@@ -82,24 +102,13 @@ void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>*
   if (scratch->size() < values) scratch->resize(values);
   float* out = scratch->data();
   if (image.bytes()) {
-    // The float io::ReadImage makes of each 8-bit value (a division, not a multiplication by
-    // 1/255, so that the bits are the same).
-    static const auto kTable = [] {
-      std::array<float, 256> table{};
-      for (int v = 0; v < 256; ++v) table[v] = static_cast<float>(v) / 255.f;
-      return table;
-    }();
     for (int y = first; y < end; ++y) {
       const uint8_t* in = image.bytes() + static_cast<size_t>(y) * w * channels;
       float* o = out + static_cast<size_t>(y - first) * 3 * w;
       if (channels == 3) {
-        for (int i = 0; i < 3 * w; ++i) o[i] = kTable[in[i]];
+        BytesToFloats(in, 3 * w, o);
       } else {
-        for (int x = 0; x < w; ++x) {
-          o[3 * x] = kTable[in[channels * x]];
-          o[3 * x + 1] = kTable[in[channels * x + 1]];
-          o[3 * x + 2] = kTable[in[channels * x + 2]];
-        }
+        RgbaBytesToFloats(in, w, o);
       }
     }
   } else {
