@@ -4,6 +4,10 @@
 //   build-*/bench/rephoto_bench_metrics --benchmark_repetitions=5
 //     --benchmark_report_aggregates_only=true
 //
+// The *BytesInBands cases run the same metrics on the pair rounded to 8 bits (RGB photo, RGBA
+// rendering) through ComputeMetricsInBands, as `rephoto compare` does for JPEG/PNG files; older
+// builds have no such cases: compare them with the float cases of an older binary run in turns.
+//
 // Images, masks and result buffers are allocated and touched once, outside the timed loop (the
 // first touch of fresh pages costs ~10 us per 4 KiB page on the target machines and would
 // otherwise dominate).
@@ -13,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <span>
 #include <utility>
 
 #include "rephoto/core/parallel.h"
@@ -26,6 +31,9 @@ using rephoto::metrics::Metric;
 
 struct Pair {
   Image photo, rephoto;
+  // The same pair as 8-bit files hold it (the rendering rounded to 8 bits), RGBA rendering:
+  // what `rephoto compare` gives ComputeMetricsInBands for JPEG photos and PNG renderings.
+  rephoto::Image8 photo8, rephoto8;
   Mask valid;
   std::vector<rephoto::metrics::MetricResult> results;
 };
@@ -57,6 +65,17 @@ Pair& GetPair(int width, int height) {
       }
     }
   }
+  p.photo8 = rephoto::Image8(width, height, 3);
+  p.rephoto8 = rephoto::Image8(width, height, 4);
+  for (size_t i = 0; i < p.photo.pixel_count(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      p.photo8.data()[3 * i + c] =
+          static_cast<uint8_t>(std::lround(p.photo.data()[3 * i + c] * 255));
+      p.rephoto8.data()[4 * i + c] =
+          static_cast<uint8_t>(std::lround(p.rephoto.data()[3 * i + c] * 255));
+    }
+    p.rephoto8.data()[4 * i + 3] = 255;
+  }
   return p;
 }
 
@@ -69,6 +88,24 @@ void Run(benchmark::State& state, const std::vector<Metric>& metrics) {
   rephoto::metrics::ComputeMetrics(p.photo, p.rephoto, p.valid, metrics, options, &p.results);
   for (auto _ : state) {
     rephoto::metrics::ComputeMetrics(p.photo, p.rephoto, p.valid, metrics, options, &p.results);
+    benchmark::DoNotOptimize(p.results.data());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(width) * height);
+}
+
+// ComputeMetricsInBands on the 8-bit pair without a sink: the metric work of
+// `rephoto compare --no-error-images` on a JPEG photo and a PNG rendering.
+void RunBytesInBands(benchmark::State& state, const std::vector<Metric>& metrics) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  Pair& p = GetPair(width, height);
+  rephoto::metrics::MetricOptions options;
+  const rephoto::metrics::ErrorBandSink sink;  // none: means only, as without error images
+  rephoto::metrics::ComputeMetricsInBands(p.photo8, p.rephoto8, p.valid, metrics, options, sink,
+                                          &p.results);
+  for (auto _ : state) {
+    rephoto::metrics::ComputeMetricsInBands(p.photo8, p.rephoto8, p.valid, metrics, options, sink,
+                                            &p.results);
     benchmark::DoNotOptimize(p.results.data());
   }
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(width) * height);
@@ -110,6 +147,31 @@ REPHOTO_METRIC_BENCH(Census, Metric::kCensus);
 REPHOTO_METRIC_BENCH(Psnr, Metric::kPsnr);
 REPHOTO_METRIC_BENCH(Ssim, Metric::kSsim);
 REPHOTO_METRIC_BENCH(Icid, Metric::kIcid);
+
+// The same metrics on the 8-bit pair through ComputeMetricsInBands (the compare path).
+void BigSize(benchmark::internal::Benchmark* b) {
+  b->Args({4000, 3000})->UseRealTime()->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+}
+const std::vector<Metric> kPaperSet = {Metric::kOneMinusNcc, Metric::kCbCr, Metric::kZssd,
+                                       Metric::kDssim, Metric::kCensus};
+void BM_SetBytesInBands(benchmark::State& state) { RunBytesInBands(state, kPaperSet); }
+BENCHMARK(BM_SetBytesInBands)->Apply(BigSize);
+void BM_SetBytesInBandsOneThread(benchmark::State& state) {
+  rephoto::ThreadLimit limit(1);
+  RunBytesInBands(state, kPaperSet);
+}
+BENCHMARK(BM_SetBytesInBandsOneThread)->Apply(BigSize);
+#define REPHOTO_BYTES_BENCH(name, metric)                                                     \
+  void BM_##name##BytesInBandsOneThread(benchmark::State& state) {                            \
+    rephoto::ThreadLimit limit(1);                                                            \
+    RunBytesInBands(state, {metric});                                                         \
+  }                                                                                           \
+  BENCHMARK(BM_##name##BytesInBandsOneThread)->Apply(BigSize);                                \
+  void BM_##name##BytesInBands(benchmark::State& state) { RunBytesInBands(state, {metric}); } \
+  BENCHMARK(BM_##name##BytesInBands)->Apply(BigSize)
+REPHOTO_BYTES_BENCH(Census, Metric::kCensus);
+REPHOTO_BYTES_BENCH(Dssim, Metric::kDssim);
+REPHOTO_BYTES_BENCH(Icid, Metric::kIcid);
 
 }  // namespace
 

@@ -22,6 +22,7 @@
 #include <set>
 #include <thread>
 
+#include "rephoto/compare/error_images.h"
 #include "rephoto/compare/resample.h"
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/file.h"
@@ -88,34 +89,20 @@ void ColourErrorImage(const Image& error, float low, float high, std::vector<uin
                 error.channels());
   REPHOTO_CHECK(low != high, "ColourErrorImage: empty range [{}, {}]", low, high);
   rgba->resize(error.pixel_count() * 4);
-  uint8_t* out = rgba->data();
-  const float* in = error.data();
-  const float scale = 1.f / (high - low);
   ParallelFor(0, static_cast<int64_t>(error.pixel_count()), 1 << 15, [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) {
-      const float v = in[i];
-      uint8_t* px = out + 4 * i;
-      if (std::isnan(v)) {
-        px[0] = px[1] = px[2] = px[3] = 0;
-        continue;
-      }
-      const auto colour = JetColor((v - low) * scale);
-      for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(colour[c] * 255.f + 0.5f);
-      px[3] = 255;
-    }
+    ColourErrorValues(error.data() + b, static_cast<size_t>(e - b), low, high,
+                      rgba->data() + 4 * b);
   });
 }
 
 // Buffers reused from pair to pair by the comparison itself.
 struct CompareWorkspace::Buffers {
-  Image photo_rgb;
-  Image render_rgb;
+  Image render_rgb;  // a rendering to be resized, as RGB floats
   Image render_resized;
   Mask photo_alpha;
-  Mask render_alpha;
   Mask render_valid_resized;
   std::vector<metrics::MetricResult> results;
-  tbb::enumerable_thread_specific<std::vector<uint8_t>> rgba;
+  std::vector<uint8_t> rgba;
 };
 
 CompareWorkspace::CompareWorkspace() : buffers(std::make_unique<Buffers>()) {}
@@ -137,8 +124,14 @@ struct PlannedPair {
 // The decoded files of one pair; two of these alternate so that one can be filled while the
 // other is compared.
 struct PairImages {
+  // 8-bit files (JPEG, 8-bit PNG) are kept as stored, 4 times smaller than floats; the
+  // metrics convert their rows band by band. Others (16-bit PNG, EXR, PFM) are floats.
   Image photo;
+  Image8 photo8;
+  bool photo_is_8bit = false;
   Image render;
+  Image8 render8;
+  bool render_is_8bit = false;
   Mask render_mask;
   Mask photo_mask;
 };
@@ -243,53 +236,80 @@ std::vector<PlannedPair> PlanPairs(const CompareOptions& options, const Pairing&
 }
 
 void LoadPair(const PlannedPair& pair, PairImages* images) {
-  auto check = [](const fs::path& path, const Image& image, const io::ImageHeader& header) {
+  auto check = [](const fs::path& path, const auto& image, const io::ImageHeader& header) {
     REPHOTO_CHECK(image.width() == header.width && image.height() == header.height,
                   "{}: decoded size {}x{} differs from the header's {}", path.string(),
                   image.width(), image.height(), SizeText(header));
   };
-  io::ReadImage(pair.files.photo, &images->photo);
-  check(pair.files.photo, images->photo, pair.photo_header);
-  io::ReadImage(pair.files.render, &images->render);
-  check(pair.files.render, images->render, pair.render_header);
+  images->photo_is_8bit = io::ReadImage8(pair.files.photo, &images->photo8, &images->photo);
+  if (images->photo_is_8bit) {
+    check(pair.files.photo, images->photo8, pair.photo_header);
+  } else {
+    check(pair.files.photo, images->photo, pair.photo_header);
+  }
+  images->render_is_8bit = io::ReadImage8(pair.files.render, &images->render8, &images->render);
+  if (images->render_is_8bit) {
+    check(pair.files.render, images->render8, pair.render_header);
+  } else {
+    check(pair.files.render, images->render, pair.render_header);
+  }
   if (!pair.render_mask.empty()) io::ReadMask(pair.render_mask, &images->render_mask);
   if (!pair.photo_mask.empty()) io::ReadMask(pair.photo_mask, &images->photo_mask);
 }
 
-// RGB view of `image`: the image itself when it has 3 channels, else grey replicated or alpha
-// dropped into `rgb`. When the image has alpha (2 or 4 channels), `alpha_valid` receives
-// alpha > 0 and true is returned.
-const Image& SplitColour(const Image& image, Image* rgb, Mask* alpha_valid, bool* has_alpha) {
+// The colour of `image` for the metrics: the image itself when it has 3 or 4 channels (the
+// metrics ignore a fourth), else grey replicated into `rgb`. When `alpha_valid` is given and the
+// image has alpha (2 or 4 channels), it receives alpha > 0 and true is returned.
+template <typename T>
+const ImageT<T>& ColourOf(const ImageT<T>& image, ImageT<T>* rgb, Mask* alpha_valid,
+                          bool* has_alpha) {
   const int channels = image.channels();
-  *has_alpha = channels == 2 || channels == 4;
-  if (*has_alpha) alpha_valid->Resize(image.width(), image.height(), 1);
-  if (channels == 3) return image;
   REPHOTO_CHECK(channels >= 1 && channels <= 4, "unsupported channel count {}", channels);
-  rgb->Resize(image.width(), image.height(), 3);
+  *has_alpha = alpha_valid != nullptr && (channels == 2 || channels == 4);
+  if (*has_alpha) alpha_valid->Resize(image.width(), image.height(), 1);
   const bool grey = channels <= 2;
+  if (grey) rgb->Resize(image.width(), image.height(), 3);
+  if (!grey && !*has_alpha) return image;
   ParallelFor(0, static_cast<int64_t>(image.pixel_count()), 1 << 15, [&](int64_t b, int64_t e) {
-    const float* in = image.data();
-    float* out = rgb->data();
+    const T* in = image.data();
+    T* out = grey ? rgb->data() : nullptr;
     uint8_t* alpha = *has_alpha ? alpha_valid->data() : nullptr;
     for (int64_t i = b; i < e; ++i) {
-      const float* px = in + i * channels;
-      out[3 * i] = px[0];
-      out[3 * i + 1] = grey ? px[0] : px[1];
-      out[3 * i + 2] = grey ? px[0] : px[2];
-      if (alpha) alpha[i] = px[channels - 1] > 0.f ? 1 : 0;
+      const T* px = in + i * channels;
+      if (out) out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = px[0];
+      if (alpha) alpha[i] = px[channels - 1] > T(0) ? 1 : 0;
     }
   });
-  return *rgb;
+  return grey ? *rgb : image;
 }
 
-}  // namespace
+// RGB floats of `image` (alpha dropped, grey replicated) in `rgb`, the values io::ReadImage
+// gives for the same file when `image` holds 8-bit samples.
+template <typename T>
+void ToFloatRgb(const ImageT<T>& image, Image* rgb) {
+  const int channels = image.channels();
+  rgb->Resize(image.width(), image.height(), 3);
+  ParallelFor(0, static_cast<int64_t>(image.pixel_count()), 1 << 15, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const T* px = image.data() + i * channels;
+      for (int c = 0; c < 3; ++c) {
+        const T v = px[channels <= 2 ? 0 : c];
+        if constexpr (std::is_same_v<T, uint8_t>) {
+          rgb->data()[3 * i + c] = static_cast<float>(v) / 255.f;
+        } else {
+          rgb->data()[3 * i + c] = v;
+        }
+      }
+    }
+  });
+}
 
-ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::string& name,
-                                  const fs::path& photo_path, const fs::path& render_path,
-                                  const Image& photo, const Image& render, const Mask* photo_mask,
-                                  const Mask* render_mask, const fs::path& error_folder,
-                                  CompareWorkspace* workspace) {
-  Workspace* ws = workspace->buffers.get();
+// ComparePhotoAndRender for float (Image) or 8-bit (Image8) photos and renderings.
+template <typename P, typename R>
+ImageResult CompareImages(const CompareOptions& options, const std::string& name,
+                          const fs::path& photo_path, const fs::path& render_path,
+                          const ImageT<P>& photo, const ImageT<R>& render, const Mask* photo_mask,
+                          const Mask* render_mask, const fs::path& error_folder, Workspace* ws) {
   if (!options.resize) {
     REPHOTO_CHECK(photo.SameSize(render),
                   "{}: rendering is {}x{} but its photo {} is {}x{} (--resize rescales "
@@ -314,26 +334,28 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
 
   // Photo validity: user mask AND photo alpha, then exposure.
   bool photo_has_alpha = false;
-  const Image& photo_rgb = SplitColour(photo, &ws->photo_rgb, &ws->photo_alpha, &photo_has_alpha);
-  Mask user_mask;
+  thread_local ImageT<P> photo_grey;
+  const ImageT<P>& photo_rgb = ColourOf(photo, &photo_grey, &ws->photo_alpha, &photo_has_alpha);
+  Mask photo_valid;
   if (photo_mask && photo_has_alpha) {
-    user_mask = metrics::CombineMasks(*photo_mask, ws->photo_alpha);
-  } else if (photo_mask) {
-    user_mask = *photo_mask;
-  } else if (photo_has_alpha) {
-    user_mask = ws->photo_alpha;
+    photo_valid = metrics::PhotoValidity(
+        photo_rgb, metrics::CombineMasks(*photo_mask, ws->photo_alpha), options.exposure);
+  } else {
+    const Mask& user_mask = photo_mask ? *photo_mask : (photo_has_alpha ? ws->photo_alpha : Mask());
+    photo_valid = metrics::PhotoValidity(photo_rgb, user_mask, options.exposure);
   }
-  const Mask photo_valid = metrics::PhotoValidity(photo_rgb, user_mask, options.exposure);
 
   // Rendering validity (alpha / black / explicit mask) at the rendering's own size.
-  bool render_has_alpha = false;
-  const Image* render_rgb =
-      &SplitColour(render, &ws->render_rgb, &ws->render_alpha, &render_has_alpha);
   Mask render_valid = metrics::RephotoValidity(render, render_mask ? *render_mask : Mask());
+  bool render_has_alpha = false;
+  thread_local ImageT<R> render_grey;
+  const ImageT<R>* render_rgb = &ColourOf(render, &render_grey, nullptr, &render_has_alpha);
+  metrics::RgbView render_view(*render_rgb);
   if (!render.SameSize(photo)) {
-    ResizeImage(*render_rgb, width, height, &ws->render_resized);
+    ToFloatRgb(render, &ws->render_rgb);
+    ResizeImage(ws->render_rgb, width, height, &ws->render_resized);
     ResizeMask(render_valid, width, height, &ws->render_valid_resized);
-    render_rgb = &ws->render_resized;
+    render_view = metrics::RgbView(ws->render_resized);
     std::swap(render_valid, ws->render_valid_resized);
     result.resized = true;
   }
@@ -341,32 +363,56 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
   result.completeness =
       metrics::ComputeCompleteness(photo_valid, render_valid, options.metric_options.window);
   const Mask valid = metrics::CombineMasks(photo_valid, render_valid);
-  metrics::ComputeMetrics(photo_rgb, *render_rgb, valid, options.metrics, options.metric_options,
-                          &ws->results);
+  photo_valid = Mask();
+  if (result.resized) {
+    std::swap(render_valid, ws->render_valid_resized);  // keep the buffer
+  } else {
+    render_valid = Mask();
+  }
+
+  // The error images are written while they are made: EXR rows band by band, then each PNG
+  // from its EXR's rows read back, one at a time, so that no whole error image is held.
+  std::vector<std::unique_ptr<ErrorExrWriter>> exrs;
+  const auto stem = [&](metrics::Metric metric) {
+    return fmt::format("{}.{}", name, metrics::MetricName(metric));
+  };
+  if (options.write_error_images) {
+    for (metrics::Metric metric : options.metrics) {
+      exrs.push_back(
+          std::make_unique<ErrorExrWriter>(error_folder / (stem(metric) + ".exr"), width, height));
+    }
+  }
+  metrics::ErrorBandSink sink;
+  if (!exrs.empty()) {
+    sink = [&](int y0, int y1, std::span<const float* const> rows) {
+      for (size_t i = 0; i < exrs.size(); ++i) exrs[i]->WriteRows(y0, y1, rows[i]);
+    };
+  }
+  metrics::ComputeMetricsInBands(photo_rgb, render_view, valid, options.metrics,
+                                 options.metric_options, sink, &ws->results);
   for (const metrics::MetricResult& metric : ws->results) {
     result.metrics.push_back({metric.mean, metric.evaluated});
   }
-  if (result.resized) std::swap(render_valid, ws->render_valid_resized);  // keep the buffer
-
-  if (options.write_error_images) {
-    // One task per file: EXR and PNG encoders are single-threaded.
-    const int64_t files = static_cast<int64_t>(ws->results.size()) * 2;
-    ParallelFor(0, files, 1, [&](int64_t b, int64_t e) {
-      for (int64_t task = b; task < e; ++task) {
-        const metrics::MetricResult& metric = ws->results[static_cast<size_t>(task / 2)];
-        const std::string stem = fmt::format("{}.{}", name, metrics::MetricName(metric.metric));
-        if (task % 2 == 0) {
-          io::WriteExr(error_folder / (stem + ".exr"), metric.error);
-        } else {
-          std::vector<uint8_t>& rgba = ws->rgba.local();
-          const auto [low, high] = ErrorColourRange(metric.metric);
-          ColourErrorImage(metric.error, low, high, &rgba);
-          io::WritePng8(error_folder / (stem + ".png"), rgba, width, height, 4);
-        }
-      }
-    });
+  for (size_t i = 0; i < exrs.size(); ++i) {
+    const metrics::Metric metric = options.metrics[i];
+    const auto [low, high] = ErrorColourRange(metric);
+    WriteErrorPng(*exrs[i], width, height, low, high, error_folder / (stem(metric) + ".png"),
+                  &ws->rgba);
+    exrs[i]->Commit();
+    exrs[i].reset();
   }
   return result;
+}
+
+}  // namespace
+
+ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::string& name,
+                                  const fs::path& photo_path, const fs::path& render_path,
+                                  const Image& photo, const Image& render, const Mask* photo_mask,
+                                  const Mask* render_mask, const fs::path& error_folder,
+                                  CompareWorkspace* workspace) {
+  return CompareImages(options, name, photo_path, render_path, photo, render, photo_mask,
+                       render_mask, error_folder, workspace->buffers.get());
 }
 
 namespace {
@@ -374,10 +420,19 @@ namespace {
 ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
                         const PairImages& images, const fs::path& error_folder,
                         CompareWorkspace* workspace) {
-  return ComparePhotoAndRender(
-      options, pair.files.name, pair.files.photo, pair.files.render, images.photo, images.render,
-      pair.photo_mask.empty() ? nullptr : &images.photo_mask,
-      pair.render_mask.empty() ? nullptr : &images.render_mask, error_folder, workspace);
+  const Mask* photo_mask = pair.photo_mask.empty() ? nullptr : &images.photo_mask;
+  const Mask* render_mask = pair.render_mask.empty() ? nullptr : &images.render_mask;
+  Workspace* ws = workspace->buffers.get();
+  const auto run = [&](const auto& photo, const auto& render) {
+    return CompareImages(options, pair.files.name, pair.files.photo, pair.files.render, photo,
+                         render, photo_mask, render_mask, error_folder, ws);
+  };
+  if (images.photo_is_8bit) {
+    return images.render_is_8bit ? run(images.photo8, images.render8)
+                                 : run(images.photo8, images.render);
+  }
+  return images.render_is_8bit ? run(images.photo, images.render8)
+                               : run(images.photo, images.render);
 }
 
 // ------------------------------------------------------------------------------- outputs

@@ -1,7 +1,9 @@
 #include "rephoto/metrics/icid.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -24,8 +26,228 @@ double SrgbDecode(double c) {
 
 double LabF(double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116.0; }
 
+// SrgbDecode of the values of 8-bit samples (v / 255, the values of nearly every photo and
+// rendering), by table.
+struct SrgbTable {
+  float value[256];
+  double decoded[256];
+};
+const SrgbTable& DecodeTable() {
+  static const SrgbTable table = [] {
+    SrgbTable t;
+    for (int k = 0; k < 256; ++k) {
+      t.value[k] = static_cast<float>(k) / 255.f;
+      t.decoded[k] = SrgbDecode(t.value[k]);
+    }
+    return t;
+  }();
+  return table;
+}
+
+// The table entry nearest to c, in [0, 255] for any c (NaN: 0).
+inline int TableIndex(float c) {
+  const float v = c >= 0.f ? (c <= 1.f ? c : 1.f) : 0.f;
+  return static_cast<int>(v * 255.f + 0.5f);
+}
+
+// linear[i] = SrgbDecode(c[i]) by table for the n values that are 8-bit values; returns how
+// many are not (their linear[i] is to be computed by the formula). No branches: vectorises.
+REPHOTO_SIMD_CLONES
+int DecodeByTable(const float* __restrict c, int n, const SrgbTable& table,
+                  double* __restrict linear) {
+  int misses = 0;
+  for (int i = 0; i < n; ++i) {
+    const int k = TableIndex(c[i]);
+    linear[i] = table.decoded[k];
+    misses += table.value[k] != c[i];
+  }
+  return misses;
+}
+
+// Planar linear RGB (r[0..w), g[w..2w), b[2w..3w)) of an interleaved sRGB row: by table, then
+// the formula for values that are not 8-bit values; the same values as SrgbDecode everywhere.
+void DecodeRow(const float* rgb, int w, double* linear) {
+  thread_local std::vector<float> planar;
+  planar.resize(3 * static_cast<size_t>(w));
+  for (int x = 0; x < w; ++x) {
+    planar[x] = rgb[3 * x];
+    planar[w + x] = rgb[3 * x + 1];
+    planar[2 * w + x] = rgb[3 * x + 2];
+  }
+  const SrgbTable& table = DecodeTable();
+  if (DecodeByTable(planar.data(), 3 * w, table, linear) == 0) return;
+  for (int i = 0; i < 3 * w; ++i) {
+    const float c = planar[i];
+    const int k = TableIndex(c);
+    if (table.value[k] != c) linear[i] = SrgbDecode(c);
+  }
+}
+
+// The cube root of glibc's dbl-64 s_cbrt.c (frexp, a degree-6 polynomial, one Halley step,
+// ldexp), written out for positive normal x so that it vectorises. Bit-identical to std::cbrt
+// of glibc 2.36 (Debian 12; 30 million values checked, and the icid test); iCID then no longer
+// depends on the libm it is linked with. Garbage (but no trap) for other x.
+inline double CbrtPositive(double x) {
+  // Integers are handled as exact doubles and moved in and out of exponent fields with 2^52
+  // (adding 2^52 puts a small integer in the low mantissa bits), so that the loops around
+  // this vectorise on every target (no int64 division or conversion, no branches).
+  constexpr double kTwo52 = 4503599627370496.0;
+  const uint64_t bits = std::bit_cast<uint64_t>(x);
+  // frexp: x = xm * 2^xe, xm in [0.5, 1).
+  const double xe =
+      std::bit_cast<double>(((bits >> 52) & 0x7ff) | std::bit_cast<uint64_t>(kTwo52)) - kTwo52 -
+      1022.0;
+  const double xm = std::bit_cast<double>((bits & 0x800fffffffffffffull) | (uint64_t{1022} << 52));
+  const double u =
+      (0.354895765043919860 +
+       ((1.50819193781584896 +
+         ((-2.11499494167371287 +
+           ((2.44693122563534430 +
+             ((-1.83469277483613086 + (0.784932344976639262 - 0.145263899385486377 * xm) * xm) *
+              xm)) *
+            xm)) *
+          xm)) *
+        xm));
+  const double t2 = u * u * u;
+  const double q = std::trunc(xe / 3.0);  // C's xe / 3 (exact for these small integers)
+  const double m = xe - 3.0 * q;          // C's xe % 3, in -2..2
+  // glibc's factor[2 + xe % 3].
+  double factor = 1.0;
+  factor = m == -2.0 ? 1.0 / 1.5874010519681994748 : factor;
+  factor = m == -1.0 ? 1.0 / 1.2599210498948731648 : factor;
+  factor = m == 1.0 ? 1.2599210498948731648 : factor;
+  factor = m == 2.0 ? 1.5874010519681994748 : factor;
+  const double ym = u * (t2 + 2.0 * xm) / (2.0 * t2 + xm) * factor;
+  // ldexp(ym, q): 2^q built in the exponent field.
+  const uint64_t exponent = std::bit_cast<uint64_t>(q + 1023.0 + kTwo52) & 0x7ff;
+  return ym * std::bit_cast<double>(exponent << 52);
+}
+
+// Both branches computed, then selected: no control flow in the loop.
+inline double LabFFast(double t) {
+  const double root = CbrtPositive(t), linear = 7.787 * t + 16.0 / 116.0;
+  return t > 0.008856 ? root : linear;
+}
+
+// CIELAB of planar linear RGB, the arithmetic of SrgbToLab.
+inline void LinearToLab(double rl, double gl, double bl, double& l, double& a, double& b) {
+  const double x = (0.412453 * rl + 0.357580 * gl + 0.180423 * bl) / 0.95047;
+  const double y = 0.212671 * rl + 0.715160 * gl + 0.072169 * bl;
+  const double z = (0.019334 * rl + 0.119193 * gl + 0.950227 * bl) / 1.08883;
+  const double fx = LabFFast(x), fy = LabFFast(y), fz = LabFFast(z);
+  l = 116.0 * fy - 16.0;
+  a = 500.0 * (fx - fy);
+  b = 200.0 * (fy - fz);
+}
+
 // Per-pixel quantities that get window-averaged.
 enum Quantity { kL1, kL2, kC1, kC2, kL1L1, kL2L2, kC1C1, kC2C2, kL1L2, kC1C2, kHue, kCount };
+
+// The kCount quantities of a row from the planar linear RGB of photo (1) and rendering (2), one
+// __restrict pointer per output plane (through an array of pointers the loop did not vectorise).
+REPHOTO_SIMD_CLONES
+void IcidQuantitiesRow(const double* __restrict linear1, const double* __restrict linear2, int w,
+                       double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
+                       double* __restrict o_c2, double* __restrict o_l1l1,
+                       double* __restrict o_l2l2, double* __restrict o_c1c1,
+                       double* __restrict o_c2c2, double* __restrict o_l1l2,
+                       double* __restrict o_c1c2, double* __restrict o_hue) {
+  for (int x = 0; x < w; ++x) {
+    double l1, a1, b1, l2, a2, b2;
+    LinearToLab(linear1[x], linear1[w + x], linear1[2 * w + x], l1, a1, b1);
+    LinearToLab(linear2[x], linear2[w + x], linear2[2 * w + x], l2, a2, b2);
+    const double chroma1 = std::sqrt(a1 * a1 + b1 * b1), chroma2 = std::sqrt(a2 * a2 + b2 * b2);
+    const double da = a1 - a2, db = b1 - b2, dc = chroma1 - chroma2;
+    o_l1[x] = l1;
+    o_l2[x] = l2;
+    o_c1[x] = chroma1;
+    o_c2[x] = chroma2;
+    o_l1l1[x] = l1 * l1;
+    o_l2l2[x] = l2 * l2;
+    // chroma^2 rather than a^2 + b^2 (equal up to rounding), so that the variance and the
+    // covariance terms are computed from the very same products.
+    o_c1c1[x] = chroma1 * chroma1;
+    o_c2c2[x] = chroma2 * chroma2;
+    o_l1l2[x] = l1 * l2;
+    o_c1c2[x] = chroma1 * chroma2;
+    o_hue[x] = std::sqrt(std::max(0.0, da * da + db * db - dc * dc));
+  }
+}
+
+void IcidQuantities(const double* linear1, const double* linear2, int w, double* const* out) {
+  IcidQuantitiesRow(linear1, linear2, w, out[kL1], out[kL2], out[kC1], out[kC2], out[kL1L1],
+                    out[kL2L2], out[kC1C1], out[kC2C2], out[kL1L2], out[kC1C2], out[kHue]);
+}
+
+// v[x] = sum over k of weights[k] * src[x + k * stride], added in order of k. One loop per tap so
+// that the x loop vectorises; the order of the additions per value is the one of a plain loop.
+REPHOTO_SIMD_CLONES
+void IcidVertical(const double* __restrict src, size_t stride, const double* __restrict weights,
+                  int taps, int w, double* __restrict v) {
+  for (int x = 0; x < w; ++x) v[x] = weights[0] * src[x];
+  for (int k = 1; k < taps; ++k) {
+    const double wk = weights[k];
+    const double* __restrict s = src + static_cast<size_t>(k) * stride;
+    for (int x = 0; x < w; ++x) v[x] += wk * s[x];
+  }
+}
+
+// f[x] = 0 + sum over k in [0, 2r] of weights[k] * v[x - r + k], for x in [r, w - r).
+REPHOTO_SIMD_CLONES
+void IcidHorizontal(const double* __restrict v, const double* __restrict weights, int r, int w,
+                    double* __restrict f) {
+  for (int x = r; x < w - r; ++x) f[x] = 0.0;
+  for (int k = 0; k <= 2 * r; ++k) {
+    const double wk = weights[k];
+    const double* __restrict s = v - r + k;
+    for (int x = r; x < w - r; ++x) f[x] += wk * s[x];
+  }
+}
+
+// The error 1 - (product of the seven terms) of every x in [r, w - r) from the filtered planes
+// (kCount planes of w values), whether or not the window is valid (selected afterwards).
+REPHOTO_SIMD_CLONES
+void IcidFormula(const double* __restrict filtered, int w, int r, float* __restrict out) {
+  auto plane = [&](int q) { return filtered + static_cast<size_t>(q) * w; };
+  const double* __restrict l1 = plane(kL1);
+  const double* __restrict l2 = plane(kL2);
+  const double* __restrict c1 = plane(kC1);
+  const double* __restrict c2 = plane(kC2);
+  const double* __restrict l1l1 = plane(kL1L1);
+  const double* __restrict l2l2 = plane(kL2L2);
+  const double* __restrict c1c1 = plane(kC1C1);
+  const double* __restrict c2c2 = plane(kC2C2);
+  const double* __restrict l1l2 = plane(kL1L2);
+  const double* __restrict c1c2 = plane(kC1C2);
+  const double* __restrict hue = plane(kHue);
+  for (int x = r; x < w - r; ++x) {
+    const double mu_l1 = l1[x], mu_l2 = l2[x];
+    const double mu_c1 = c1[x], mu_c2 = c2[x];
+    const double var_l1 = std::max(0.0, l1l1[x] - mu_l1 * mu_l1);
+    const double var_l2 = std::max(0.0, l2l2[x] - mu_l2 * mu_l2);
+    const double var_c1 = std::max(0.0, c1c1[x] - mu_c1 * mu_c1);
+    const double var_c2 = std::max(0.0, c2c2[x] - mu_c2 * mu_c2);
+    // sqrt(a * b) rather than sqrt(a) * sqrt(b): exact when a == b.
+    const double sd_l12 = std::sqrt(var_l1 * var_l2);
+    const double sd_c12 = std::sqrt(var_c1 * var_c2);
+    const double cov_l = std::min(std::abs(l1l2[x] - mu_l1 * mu_l2), sd_l12);
+    const double cov_c = std::min(std::abs(c1c2[x] - mu_c1 * mu_c2), sd_c12);
+    const double dl = mu_l1 - mu_l2, dc = mu_c1 - mu_c2, dh = hue[x];
+    const double lightness_difference = 1.0 / (0.002 * dl * dl + 1.0);
+    // 10 + (a + b), not 10 + a + b: with identical images a == b and the numerator 10 + 2a
+    // rounds once, so the term is exactly 1 (two roundings could differ by an ulp).
+    const double lightness_contrast = (10.0 + 2.0 * sd_l12) / (10.0 + (var_l1 + var_l2));
+    const double lightness_structure = (10.0 + cov_l) / (10.0 + sd_l12);
+    const double chroma_difference = 1.0 / (0.002 * dc * dc + 1.0);
+    const double hue_difference = 1.0 / (0.002 * dh * dh + 1.0);
+    const double chroma_contrast = (10.0 + 2.0 * sd_c12) / (10.0 + (var_c1 + var_c2));
+    const double chroma_structure = (10.0 + cov_c) / (10.0 + sd_c12);
+    const double similarity = lightness_difference * lightness_contrast * lightness_structure *
+                              lightness_structure * lightness_structure * chroma_difference *
+                              hue_difference * chroma_contrast * chroma_structure;
+    out[x] = static_cast<float>(std::clamp(1.0 - similarity, 0.0, 1.0));
+  }
+}
 
 }  // namespace
 
@@ -41,117 +263,88 @@ void SrgbToLab(float r, float g, float b, double lab[3]) {
   lab[2] = 200.0 * (fy - fz);
 }
 
+namespace internal {
+
+MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& weights,
+                  const ErrorRows* error, int64_t y0, int64_t y1) {
+  const int w = in.width, h = in.height, r = window / 2;
+  MeanSums band_sums;
+  for (int64_t y = y0; y < y1; ++y) {
+    if (y < r || y >= h - r || w < window) FillNaN(error->row(static_cast<int>(y)), w);
+  }
+  const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
+  if (c0 >= c1 || w < window) return band_sums;
+  const int rows = static_cast<int>(c1 - c0) + 2 * r;
+  const size_t plane = static_cast<size_t>(rows) * w;
+  // Quantity planes for source rows [c0 - r, c1 + r), then one filtered row per quantity.
+  thread_local std::vector<double> buffer;
+  if (buffer.size() < kCount * plane + 2 * kCount * static_cast<size_t>(w)) {
+    buffer.resize(kCount * plane + 2 * kCount * static_cast<size_t>(w));
+  }
+  double* planes = buffer.data();
+  double* vertical = planes + kCount * plane;
+  double* filtered = vertical + kCount * static_cast<size_t>(w);
+  thread_local std::vector<float> value_buffer;
+  if (value_buffer.size() < static_cast<size_t>(w)) value_buffer.resize(w);
+  float* values = value_buffer.data();
+  thread_local std::vector<double> linear_buffer;
+  if (linear_buffer.size() < 6 * static_cast<size_t>(w)) linear_buffer.resize(6 * w);
+  double* linear1 = linear_buffer.data();
+  double* linear2 = linear1 + 3 * w;
+  for (int j = 0; j < rows; ++j) {
+    const int y = static_cast<int>(c0) - r + j;
+    DecodeRow(in.photo.row(y), w, linear1);
+    DecodeRow(in.rephoto.row(y), w, linear2);
+    double* row_planes[kCount];
+    for (int q = 0; q < kCount; ++q) {
+      row_planes[q] = planes + q * plane + static_cast<size_t>(j) * w;
+    }
+    IcidQuantities(linear1, linear2, w, row_planes);
+  }
+  WindowValidityRows validity(in.valid, w, h, r);
+  for (int64_t y = c0; y < c1; ++y) {
+    const int j0 = static_cast<int>(y - c0);
+    for (int q = 0; q < kCount; ++q) {
+      double* v = vertical + static_cast<size_t>(q) * w;
+      const double* src = planes + q * plane + static_cast<size_t>(j0) * w;
+      IcidVertical(src, w, weights.data(), 2 * r + 1, w, v);
+      IcidHorizontal(v, weights.data(), r, w, filtered + static_cast<size_t>(q) * w);
+    }
+    IcidFormula(filtered, w, r, values);
+    const uint8_t* ok = validity.Row(static_cast<int>(y));
+    float* out = error->row(static_cast<int>(y));
+    double s = 0;
+    size_t n = 0;
+    for (int x = 0; x < w; ++x) {
+      if (x < r || x >= w - r || !ok[x]) {
+        out[x] = kNaN;
+        continue;
+      }
+      out[x] = values[x];
+      s += out[x];
+      ++n;
+    }
+    band_sums.sum[0] += s;
+    band_sums.count[0] += n;
+  }
+  return band_sums;
+}
+
+}  // namespace internal
+
 void ComputeIcid(const Image& photo, const Image& rephoto, const Mask& valid,
                  const IcidOptions& options, Image* error, double* mean, size_t* evaluated) {
-  const int w = photo.width(), h = photo.height(), r = options.window / 2;
-  const std::vector<float> wf = internal::FilterWeights(r, options.sigma);
+  const int w = photo.width(), h = photo.height();
+  const std::vector<float> wf = internal::FilterWeights(options.window / 2, options.sigma);
   const std::vector<double> weights(wf.begin(), wf.end());
+  internal::RgbRows p, q;
+  std::vector<float> unused;
+  p.Load(photo, 0, h, &unused);
+  q.Load(rephoto, 0, h, &unused);
+  const internal::BandInputs in{p, q, valid, w, h};
+  const internal::ErrorRows rows{error->data(), 0, w};
   const MeanSums sums = ParallelSum<MeanSums>(0, h, kBandRows, [&](int64_t y0, int64_t y1) {
-    MeanSums band_sums;
-    for (int64_t y = y0; y < y1; ++y) {
-      if (y < r || y >= h - r || w < options.window) FillNaN(error->row(static_cast<int>(y)), w);
-    }
-    const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
-    if (c0 >= c1 || w < options.window) return band_sums;
-    const int rows = static_cast<int>(c1 - c0) + 2 * r;
-    const size_t plane = static_cast<size_t>(rows) * w;
-    // Quantity planes for source rows [c0 - r, c1 + r), then one filtered row per quantity.
-    thread_local std::vector<double> buffer;
-    if (buffer.size() < kCount * plane + 2 * kCount * static_cast<size_t>(w)) {
-      buffer.resize(kCount * plane + 2 * kCount * static_cast<size_t>(w));
-    }
-    double* planes = buffer.data();
-    double* vertical = planes + kCount * plane;
-    double* filtered = vertical + kCount * static_cast<size_t>(w);
-    for (int j = 0; j < rows; ++j) {
-      const int y = static_cast<int>(c0) - r + j;
-      const float* p = photo.row(y);
-      const float* q = rephoto.row(y);
-      for (int x = 0; x < w; ++x) {
-        double lab1[3], lab2[3];
-        SrgbToLab(p[3 * x], p[3 * x + 1], p[3 * x + 2], lab1);
-        SrgbToLab(q[3 * x], q[3 * x + 1], q[3 * x + 2], lab2);
-        const double c1sq = lab1[1] * lab1[1] + lab1[2] * lab1[2];
-        const double c2sq = lab2[1] * lab2[1] + lab2[2] * lab2[2];
-        const double chroma1 = std::sqrt(c1sq), chroma2 = std::sqrt(c2sq);
-        const double da = lab1[1] - lab2[1], db = lab1[2] - lab2[2], dc = chroma1 - chroma2;
-        const size_t i = static_cast<size_t>(j) * w + x;
-        planes[kL1 * plane + i] = lab1[0];
-        planes[kL2 * plane + i] = lab2[0];
-        planes[kC1 * plane + i] = chroma1;
-        planes[kC2 * plane + i] = chroma2;
-        planes[kL1L1 * plane + i] = lab1[0] * lab1[0];
-        planes[kL2L2 * plane + i] = lab2[0] * lab2[0];
-        // chroma^2 rather than a^2 + b^2 (equal up to rounding), so that the variance and the
-        // covariance terms are computed from the very same products.
-        planes[kC1C1 * plane + i] = chroma1 * chroma1;
-        planes[kC2C2 * plane + i] = chroma2 * chroma2;
-        planes[kL1L2 * plane + i] = lab1[0] * lab2[0];
-        planes[kC1C2 * plane + i] = chroma1 * chroma2;
-        planes[kHue * plane + i] = std::sqrt(std::max(0.0, da * da + db * db - dc * dc));
-      }
-    }
-    WindowValidityRows validity(valid, w, h, r);
-    for (int64_t y = c0; y < c1; ++y) {
-      const int j0 = static_cast<int>(y - c0);
-      for (int q = 0; q < kCount; ++q) {
-        double* v = vertical + static_cast<size_t>(q) * w;
-        const double* src = planes + q * plane + static_cast<size_t>(j0) * w;
-        for (int x = 0; x < w; ++x) v[x] = weights[0] * src[x];
-        for (int k = 1; k <= 2 * r; ++k) {
-          const double wk = weights[k];
-          const double* s = src + static_cast<size_t>(k) * w;
-          for (int x = 0; x < w; ++x) v[x] += wk * s[x];
-        }
-        double* f = filtered + static_cast<size_t>(q) * w;
-        for (int x = r; x < w - r; ++x) {
-          double s = 0;
-          for (int k = 0; k <= 2 * r; ++k) s += weights[k] * v[x - r + k];
-          f[x] = s;
-        }
-      }
-      const uint8_t* ok = validity.Row(static_cast<int>(y));
-      float* out = error->row(static_cast<int>(y));
-      auto at = [&](int q, int x) { return filtered[static_cast<size_t>(q) * w + x]; };
-      double s = 0;
-      size_t n = 0;
-      for (int x = 0; x < w; ++x) {
-        if (x < r || x >= w - r || !ok[x]) {
-          out[x] = kNaN;
-          continue;
-        }
-        const double mu_l1 = at(kL1, x), mu_l2 = at(kL2, x);
-        const double mu_c1 = at(kC1, x), mu_c2 = at(kC2, x);
-        const double var_l1 = std::max(0.0, at(kL1L1, x) - mu_l1 * mu_l1);
-        const double var_l2 = std::max(0.0, at(kL2L2, x) - mu_l2 * mu_l2);
-        const double var_c1 = std::max(0.0, at(kC1C1, x) - mu_c1 * mu_c1);
-        const double var_c2 = std::max(0.0, at(kC2C2, x) - mu_c2 * mu_c2);
-        // sqrt(a * b) rather than sqrt(a) * sqrt(b): exact when a == b.
-        const double sd_l12 = std::sqrt(var_l1 * var_l2);
-        const double sd_c12 = std::sqrt(var_c1 * var_c2);
-        const double cov_l = std::min(std::abs(at(kL1L2, x) - mu_l1 * mu_l2), sd_l12);
-        const double cov_c = std::min(std::abs(at(kC1C2, x) - mu_c1 * mu_c2), sd_c12);
-        const double dl = mu_l1 - mu_l2, dc = mu_c1 - mu_c2, dh = at(kHue, x);
-        const double lightness_difference = 1.0 / (0.002 * dl * dl + 1.0);
-        // 10 + (a + b), not 10 + a + b: with identical images a == b and the numerator 10 + 2a
-        // rounds once, so the term is exactly 1 (two roundings could differ by an ulp).
-        const double lightness_contrast = (10.0 + 2.0 * sd_l12) / (10.0 + (var_l1 + var_l2));
-        const double lightness_structure = (10.0 + cov_l) / (10.0 + sd_l12);
-        const double chroma_difference = 1.0 / (0.002 * dc * dc + 1.0);
-        const double hue_difference = 1.0 / (0.002 * dh * dh + 1.0);
-        const double chroma_contrast = (10.0 + 2.0 * sd_c12) / (10.0 + (var_c1 + var_c2));
-        const double chroma_structure = (10.0 + cov_c) / (10.0 + sd_c12);
-        const double similarity = lightness_difference * lightness_contrast * lightness_structure *
-                                  lightness_structure * lightness_structure * chroma_difference *
-                                  hue_difference * chroma_contrast * chroma_structure;
-        out[x] = static_cast<float>(std::clamp(1.0 - similarity, 0.0, 1.0));
-        s += out[x];
-        ++n;
-      }
-      band_sums.sum[0] += s;
-      band_sums.count[0] += n;
-    }
-    return band_sums;
+    return internal::IcidBand(in, options.window, weights, &rows, y0, y1);
   });
   *evaluated = sums.count[0];
   *mean = sums.count[0] ? sums.sum[0] / static_cast<double>(sums.count[0])

@@ -67,6 +67,66 @@ const uint8_t* WindowValidityRows::Row(int y) {
   return row_.data();
 }
 
+namespace {
+
+// The float io::ReadImage makes of each 8-bit value: a division, not a multiplication by
+// 1/255, so that the bits are the same.
+REPHOTO_SIMD_CLONES
+void BytesToFloats(const uint8_t* __restrict in, int n, float* __restrict out) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(in[i]) / 255.f;
+}
+
+// The same for RGBA pixels, alpha dropped.
+REPHOTO_SIMD_CLONES
+void RgbaBytesToFloats(const uint8_t* __restrict in, int w, float* __restrict out) {
+  for (int x = 0; x < w; ++x) {
+    out[3 * x] = static_cast<float>(in[4 * x]) / 255.f;
+    out[3 * x + 1] = static_cast<float>(in[4 * x + 1]) / 255.f;
+    out[3 * x + 2] = static_cast<float>(in[4 * x + 2]) / 255.f;
+  }
+}
+
+}  // namespace
+
+void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>* scratch) {
+  const int w = image.width(), channels = image.channels();
+  first = std::max(first, 0);
+  end = std::min(end, image.height());
+  if (image.floats() && channels == 3) {
+    base_ = image.floats();
+    first_ = 0;
+    stride_ = static_cast<ptrdiff_t>(3) * w;
+    return;
+  }
+  const size_t values = static_cast<size_t>(std::max(0, end - first)) * 3 * w;
+  if (scratch->size() < values) scratch->resize(values);
+  float* out = scratch->data();
+  if (image.bytes()) {
+    for (int y = first; y < end; ++y) {
+      const uint8_t* in = image.bytes() + static_cast<size_t>(y) * w * channels;
+      float* o = out + static_cast<size_t>(y - first) * 3 * w;
+      if (channels == 3) {
+        BytesToFloats(in, 3 * w, o);
+      } else {
+        RgbaBytesToFloats(in, w, o);
+      }
+    }
+  } else {
+    for (int y = first; y < end; ++y) {
+      const float* in = image.floats() + static_cast<size_t>(y) * w * channels;
+      float* o = out + static_cast<size_t>(y - first) * 3 * w;
+      for (int x = 0; x < w; ++x) {
+        o[3 * x] = in[channels * x];
+        o[3 * x + 1] = in[channels * x + 1];
+        o[3 * x + 2] = in[channels * x + 2];
+      }
+    }
+  }
+  base_ = out;
+  first_ = first;
+  stride_ = static_cast<ptrdiff_t>(3) * w;
+}
+
 std::vector<float> FilterWeights(int radius, double sigma) {
   std::vector<double> w(static_cast<size_t>(2 * radius + 1));
   double total = 0;

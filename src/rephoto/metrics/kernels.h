@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "rephoto/core/image.h"
+#include "rephoto/metrics/metrics.h"
 
 // Row kernels are compiled three times, for AVX-512 (x86-64-v4), AVX2+FMA (x86-64-v3) and the
 // baseline, and the loader picks one at start-up. Floating-point contraction is off for this
@@ -39,6 +40,42 @@ struct MeanSums {
     return *this;
   }
 };
+
+// Interleaved float RGB rows [first, end) of an RgbView: pointers into the image itself when it
+// is float RGB, else the rows converted into per-thread scratch (8-bit v -> float(v) / 255.f,
+// alpha dropped). Rows outside the image are not available.
+class RgbRows {
+ public:
+  void Load(const RgbView& image, int first, int end, std::vector<float>* scratch);
+  const float* row(int y) const { return base_ + static_cast<ptrdiff_t>(y - first_) * stride_; }
+
+ private:
+  const float* base_ = nullptr;
+  int first_ = 0;
+  ptrdiff_t stride_ = 0;
+};
+
+// Where a band's error rows go: row(y) for the band's rows (a whole image with first = 0, or a
+// band buffer whose first row is image row `first`).
+struct ErrorRows {
+  float* data = nullptr;
+  int first = 0;
+  int width = 0;
+  float* row(int y) const { return data + static_cast<ptrdiff_t>(y - first) * width; }
+};
+
+// The photo/rendering rows of a band and the joint validity.
+struct BandInputs {
+  const RgbRows& photo;
+  const RgbRows& rephoto;
+  const Mask& valid;  // may be empty
+  int width;
+  int height;
+};
+
+// iCID of the output rows [y0, y1) (icid.cc); needs source rows [y0 - r, y1 + r).
+MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& weights,
+                  const ErrorRows* error, int64_t y0, int64_t y1);
 
 // Produces, for consecutive centre rows y, the row of window validity: out[x] = 1 where the
 // (2r+1)^2 window centred at (x, y) is inside the image and all valid. `valid` may be empty

@@ -28,15 +28,22 @@
 // census compares float luma exactly; ssim/dssim filter in float (separable, values shifted by
 // -0.5 to reduce cancellation): per-pixel values agree with a double-precision reference to
 // ~2e-5 and the means with scikit-image to ~1e-6 (tests). Costs do not depend on the window
-// size except for the separable Gaussian (2 x window taps). Work is split over bands of image
-// rows (ParallelFor); partial sums are added in band order, so results do not depend on the
-// thread count. Row kernels have AVX-512 / AVX2 / baseline variants picked at run time; they
+// size except for the separable Gaussian (2 x window taps). Work is split over bands of 32 image
+// rows (ParallelFor), each band going through all requested metrics while its rows are in
+// cache (8-bit inputs are converted to floats there, once per band); partial sums are added in
+// band order, so results do not depend on the thread count nor on whether the error images are
+// whole (ComputeMetrics) or handed over in bands (ComputeMetricsInBands). iCID's Lab
+// conversion uses a table for 8-bit values and glibc's cube root written out (icid.cc), both
+// bit-identical to the library calls they replace. Row kernels have AVX-512 / AVX2 / baseline variants picked at run time; they
 // agree bit for bit except the SSIM filters, which use FMA where available (last-bit
 // differences between CPUs). Identical images give exactly 0 (ssim exactly 1, psnr +inf).
 // Pixels with a non-finite value (NaN, infinity) in either image are treated as invalid.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -102,6 +109,51 @@ std::vector<MetricResult> ComputeMetrics(const Image& photo, const Image& rephot
 void ComputeMetrics(const Image& photo, const Image& rephoto, const Mask& valid,
                     const std::vector<Metric>& metrics, const MetricOptions& options,
                     std::vector<MetricResult>* results);
+
+// Read-only view of the colour of an image for ComputeMetricsInBands: 3 (RGB) or 4 (RGBA, the
+// alpha is ignored) channels, either floats in [0,1] (Image) or 8-bit samples as stored in a
+// file (Image8; the sample v stands for static_cast<float>(v) / 255.f, exactly the float that
+// io::ReadImage returns for it, so both give bit-identical results). The image must outlive
+// the view.
+class RgbView {
+ public:
+  RgbView(const Image& image)  // NOLINT(google-explicit-constructor): a view of the image
+      : floats_(image.data()),
+        width_(image.width()),
+        height_(image.height()),
+        channels_(image.channels()) {}
+  RgbView(const Image8& image)  // NOLINT(google-explicit-constructor)
+      : bytes_(image.data()),
+        width_(image.width()),
+        height_(image.height()),
+        channels_(image.channels()) {}
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int channels() const { return channels_; }
+  const float* floats() const { return floats_; }  // null for an 8-bit image
+  const uint8_t* bytes() const { return bytes_; }  // null for a float image
+
+ private:
+  const float* floats_ = nullptr;
+  const uint8_t* bytes_ = nullptr;
+  int width_ = 0, height_ = 0, channels_ = 0;
+};
+
+// Receives the error rows [y0, y1) of every requested metric: errors[i] holds (y1 - y0) rows
+// of width floats of metrics[i]'s error image (valid only during the call). Called on the
+// calling thread, for consecutive bands from the top row to the bottom one.
+using ErrorBandSink = std::function<void(int y0, int y1, std::span<const float* const> errors)>;
+
+// ComputeMetrics without whole error images: the rows of the error images are handed to `sink`
+// band by band (a few hundred rows at a time) as they are made, and the error images of
+// `results` are left empty; means and counts are bit-identical to ComputeMetrics'. Working
+// memory is a few bands of rows, independent of the image height. An empty `sink` (nullptr)
+// computes only the means and counts (error rows stay in per-thread scratch, in cache). Inputs may be float or 8-bit,
+// RGB or RGBA (see RgbView); `valid` as for ComputeMetrics. Non-finite input values: as
+// ComputeMetrics (invalid pixels), at the cost of a copy of the float inputs that have any.
+void ComputeMetricsInBands(const RgbView& photo, const RgbView& rephoto, const Mask& valid,
+                           const std::vector<Metric>& metrics, const MetricOptions& options,
+                           const ErrorBandSink& sink, std::vector<MetricResult>* results);
 
 // One metric (convenience wrapper of ComputeMetrics).
 MetricResult ComputeMetric(Metric metric, const Image& photo, const Image& rephoto,

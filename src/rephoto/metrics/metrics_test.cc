@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <random>
@@ -488,6 +489,108 @@ TEST(Metrics, NonFinitePixelsAreInvalid) {
     EXPECT_EQ(got[m].evaluated, expected[m].evaluated);
     EXPECT_NEAR(got[m].mean, expected[m].mean, 1e-6);
   }
+}
+
+// Error images gathered from ComputeMetricsInBands' sink, one per metric.
+std::vector<MetricResult> ComputeInBands(const RgbView& photo, const RgbView& rephoto,
+                                         const Mask& valid, const std::vector<Metric>& metrics,
+                                         const MetricOptions& options = {}) {
+  const int w = photo.width(), h = photo.height();
+  std::vector<Image> errors(metrics.size(), Image(w, h, 1, -7.0f));
+  int next_row = 0;
+  std::vector<MetricResult> results;
+  ComputeMetricsInBands(
+      photo, rephoto, valid, metrics, options,
+      [&](int y0, int y1, std::span<const float* const> rows) {
+        EXPECT_EQ(y0, next_row);  // consecutive bands, top to bottom
+        next_row = y1;
+        for (size_t m = 0; m < rows.size(); ++m) {
+          std::copy(rows[m], rows[m] + static_cast<size_t>(y1 - y0) * w, errors[m].row(y0));
+        }
+      },
+      &results);
+  EXPECT_EQ(next_row, h);
+  for (size_t m = 0; m < results.size(); ++m) {
+    EXPECT_TRUE(results[m].error.empty());
+    results[m].error = std::move(errors[m]);
+  }
+  return results;
+}
+
+void ExpectSameResults(const std::vector<MetricResult>& got,
+                       const std::vector<MetricResult>& expected) {
+  ASSERT_EQ(got.size(), expected.size());
+  for (size_t m = 0; m < got.size(); ++m) {
+    SCOPED_TRACE(std::string(MetricName(got[m].metric)));
+    EXPECT_EQ(got[m].metric, expected[m].metric);
+    EXPECT_EQ(got[m].evaluated, expected[m].evaluated);
+    // Bit-identical means (NaN compares by its bits).
+    EXPECT_EQ(std::memcmp(&got[m].mean, &expected[m].mean, sizeof(double)), 0)
+        << got[m].mean << " vs " << expected[m].mean;
+    ASSERT_EQ(got[m].error.size(), expected[m].error.size());
+    EXPECT_EQ(std::memcmp(got[m].error.data(), expected[m].error.data(),
+                          expected[m].error.size() * sizeof(float)),
+              0);
+  }
+}
+
+TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
+  auto rng = testing::MakeRng();
+  // Taller than one sink band (256 rows), with a partial last band.
+  const int w = 97, h = 601;
+  Image8 photo8(w, h, 3), rephoto8(w, h, 4);
+  std::uniform_int_distribution<int> byte(0, 255);
+  for (size_t i = 0; i < photo8.size(); ++i) photo8.data()[i] = static_cast<uint8_t>(byte(rng));
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        // Correlated with the photo so that the windows are not all noise.
+        const int v = photo8.at(x, y, c) / 2 + byte(rng) / 2;
+        rephoto8.at(x, y, c) = static_cast<uint8_t>(v);
+      }
+      rephoto8.at(x, y, 3) = static_cast<uint8_t>(byte(rng));
+    }
+  }
+  Image photo(w, h, 3), rephoto(w, h, 3), rephoto_rgba(w, h, 4);
+  for (size_t i = 0; i < photo.size(); ++i) photo.data()[i] = photo8.data()[i] / 255.f;
+  for (size_t i = 0; i < rephoto_rgba.size(); ++i) {
+    rephoto_rgba.data()[i] = rephoto8.data()[i] / 255.f;
+  }
+  for (size_t i = 0; i < rephoto.pixel_count(); ++i) {
+    for (int c = 0; c < 3; ++c) rephoto.data()[3 * i + c] = rephoto_rgba.data()[4 * i + c];
+  }
+  const Mask valid = RandomMask(rng, w, h, 0.995);
+  for (const MetricOptions& options :
+       {MetricOptions{}, MetricOptions{.window = 5, .ssim_gaussian = false, .ssim_window = 7}}) {
+    const auto expected = ComputeMetrics(photo, rephoto, valid, AllMetrics(), options);
+    ExpectSameResults(ComputeInBands(photo, rephoto, valid, AllMetrics(), options), expected);
+    ExpectSameResults(ComputeInBands(photo8, rephoto8, valid, AllMetrics(), options), expected);
+    ExpectSameResults(ComputeInBands(photo, rephoto_rgba, valid, AllMetrics(), options), expected);
+  }
+  // Without a sink: the same means and counts.
+  {
+    std::vector<MetricResult> means_only;
+    ComputeMetricsInBands(photo8, rephoto8, valid, AllMetrics(), {}, nullptr, &means_only);
+    const auto expected = ComputeMetrics(photo, rephoto, valid, AllMetrics());
+    for (size_t m = 0; m < means_only.size(); ++m) {
+      EXPECT_EQ(std::memcmp(&means_only[m].mean, &expected[m].mean, sizeof(double)), 0);
+      EXPECT_EQ(means_only[m].evaluated, expected[m].evaluated);
+    }
+  }
+  // A subset in another order, and no mask.
+  const std::vector<Metric> some = {Metric::kPsnr, Metric::kCensus, Metric::kDssim};
+  ExpectSameResults(ComputeInBands(photo8, rephoto8, {}, some),
+                    ComputeMetrics(photo, rephoto, {}, some));
+}
+
+TEST(Metrics, BandsTreatNonFinitePixelsAsComputeMetricsDoes) {
+  auto rng = testing::MakeRng();
+  const Image photo = RandomImage(rng, 40, 300);
+  Image broken = RandomImage(rng, 40, 300);
+  broken.at(20, 15, 1) = std::numeric_limits<float>::quiet_NaN();
+  broken.at(3, 270, 0) = std::numeric_limits<float>::infinity();
+  ExpectSameResults(ComputeInBands(photo, broken, {}, AllMetrics()),
+                    ComputeMetrics(photo, broken, {}, AllMetrics()));
 }
 
 TEST(Metrics, SmallImagesAndBadInput) {

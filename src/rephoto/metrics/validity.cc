@@ -13,9 +13,13 @@ namespace {
 
 constexpr int64_t kRowGrain = 64;
 
-}  // namespace
+// The float value a sample stands for: itself, or v / 255 for 8-bit samples (as io reads them).
+inline float Value(float v) { return v; }
+inline float Value(uint8_t v) { return static_cast<float>(v) / 255.f; }
 
-Mask PhotoValidity(const Image& photo, const Mask& user_mask, const ExposureOptions& options) {
+template <typename T>
+Mask PhotoValidityOf(const ImageT<T>& photo, const Mask& user_mask,
+                     const ExposureOptions& options) {
   REPHOTO_CHECK(photo.channels() >= 1, "PhotoValidity: photo has no channels");
   if (!user_mask.empty()) {
     REPHOTO_CHECK(user_mask.SameSize(photo) && user_mask.channels() == 1,
@@ -33,13 +37,13 @@ Mask PhotoValidity(const Image& photo, const Mask& user_mask, const ExposureOpti
   Mask valid(width, photo.height(), 1);
   ParallelFor(0, photo.height(), kRowGrain, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
-      const float* row = photo.row(static_cast<int>(y));
+      const T* row = photo.row(static_cast<int>(y));
       uint8_t* out = valid.row(static_cast<int>(y));
       const uint8_t* user = user_mask.empty() ? nullptr : user_mask.row(static_cast<int>(y));
       for (int x = 0; x < width; ++x) {
         bool ok = user == nullptr || user[x] != 0;
         for (int c = 0; c < colour; ++c) {
-          const float v = row[static_cast<size_t>(x) * channels + c];
+          const float v = Value(row[static_cast<size_t>(x) * channels + c]);
           // NaN fails both comparisons and counts as ill-exposed.
           ok = ok && v > dark && v < saturated;
         }
@@ -50,7 +54,8 @@ Mask PhotoValidity(const Image& photo, const Mask& user_mask, const ExposureOpti
   return valid;
 }
 
-Mask RephotoValidity(const Image& rephoto, const Mask& explicit_mask) {
+template <typename T>
+Mask RephotoValidityOf(const ImageT<T>& rephoto, const Mask& explicit_mask) {
   if (!explicit_mask.empty()) {
     REPHOTO_CHECK(explicit_mask.SameSize(rephoto) && explicit_mask.channels() == 1,
                   "RephotoValidity: mask is {}x{}x{} but the rendering is {}x{} (need 1 channel, "
@@ -70,22 +75,37 @@ Mask RephotoValidity(const Image& rephoto, const Mask& explicit_mask) {
   Mask valid(width, rephoto.height(), 1);
   ParallelFor(0, rephoto.height(), kRowGrain, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
-      const float* row = rephoto.row(static_cast<int>(y));
+      const T* row = rephoto.row(static_cast<int>(y));
       uint8_t* out = valid.row(static_cast<int>(y));
       for (int x = 0; x < width; ++x) {
-        const float* px = row + static_cast<size_t>(x) * channels;
+        const T* px = row + static_cast<size_t>(x) * channels;
         bool ok;
         if (has_alpha) {
-          ok = px[channels - 1] > 0.0f;
+          ok = Value(px[channels - 1]) > 0.0f;
         } else {
           ok = false;
-          for (int c = 0; c < colour; ++c) ok = ok || px[c] != 0.0f;
+          for (int c = 0; c < colour; ++c) ok = ok || Value(px[c]) != 0.0f;
         }
         out[x] = ok ? 1 : 0;
       }
     }
   });
   return valid;
+}
+
+}  // namespace
+
+Mask PhotoValidity(const Image& photo, const Mask& user_mask, const ExposureOptions& options) {
+  return PhotoValidityOf(photo, user_mask, options);
+}
+Mask PhotoValidity(const Image8& photo, const Mask& user_mask, const ExposureOptions& options) {
+  return PhotoValidityOf(photo, user_mask, options);
+}
+Mask RephotoValidity(const Image& rephoto, const Mask& explicit_mask) {
+  return RephotoValidityOf(rephoto, explicit_mask);
+}
+Mask RephotoValidity(const Image8& rephoto, const Mask& explicit_mask) {
+  return RephotoValidityOf(rephoto, explicit_mask);
 }
 
 Mask CombineMasks(const Mask& a, const Mask& b) {

@@ -25,10 +25,14 @@ struct ExposureOptions {
 // Photo validity from its colour channels (first three; a single grey channel is allowed),
 // ANDed with `user_mask` when that is not empty (same size required; throws Error otherwise).
 Mask PhotoValidity(const Image& photo, const Mask& user_mask, const ExposureOptions& options = {});
+// Same for 8-bit samples as stored in a file (v stands for v / 255, as io::ReadImage converts
+// it): the same mask as PhotoValidity of the float image.
+Mask PhotoValidity(const Image8& photo, const Mask& user_mask, const ExposureOptions& options = {});
 
 // Rephoto validity: alpha > 0 if the image has 2 or 4 channels, else not all colour channels 0.
 // `explicit_mask`, when not empty, is used instead.
 Mask RephotoValidity(const Image& rephoto, const Mask& explicit_mask = {});
+Mask RephotoValidity(const Image8& rephoto, const Mask& explicit_mask = {});
 
 // Per-pixel AND of two masks of the same size.
 Mask CombineMasks(const Mask& a, const Mask& b);
