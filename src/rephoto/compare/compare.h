@@ -1,4 +1,5 @@
 // `rephoto compare`: photos against renderings of the same views, by file stem.
+// The files it writes, their columns and units: docs/run-folder.md.
 //
 // Inputs
 //   photos/       the photos (PNG, JPEG, EXR, PFM; see io/image_io.h).

@@ -1,4 +1,5 @@
 // `rephoto evaluate`: virtual rephotography end to end (paper Section 3.1): split the photos,
+// The run folder it writes (files, columns, units, schemas): docs/run-folder.md.
 // obtain each fold's reconstruction from its training photos, rephotograph it at the fold's
 // held-out cameras, compare with the photos, aggregate per image / fold / dataset, project the
 // error onto the model and write a report. The run directory layout is the contract in

@@ -1,4 +1,5 @@
 // A run folder has one writer and one owner.
+// The run folder contract (files, columns, units): docs/run-folder.md.
 //
 // Every command that writes a run folder (`compare --out`, `evaluate --out`, `sweep`'s output
 // folder) opens it through OpenRunFolder, which
