@@ -1,5 +1,4 @@
 // `rephoto compare`: photos against renderings of the same views, by file stem.
-// The files it writes, their columns and units: docs/run-folder.md.
 //
 // Inputs
 //   photos/       the photos (PNG, JPEG, EXR, PFM; see io/image_io.h).
@@ -51,6 +50,8 @@
 // time. Peak RSS on one 4000x3000 JPEG/RGBA-PNG pair: ~34 bytes per pixel with all metrics and
 // error images (mostly the PNG encoder's buffers), ~15 without error images; with several
 // pairs the next pair decoded meanwhile adds ~9 (42 with all metrics and error images).
+//
+// The files it writes, their columns and units: docs/run-folder.md.
 #pragma once
 
 #include <filesystem>

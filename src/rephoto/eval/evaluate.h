@@ -1,5 +1,4 @@
 // `rephoto evaluate`: virtual rephotography end to end (paper Section 3.1): split the photos,
-// The run folder it writes (files, columns, units, schemas): docs/run-folder.md.
 // obtain each fold's reconstruction from its training photos, rephotograph it at the fold's
 // held-out cameras, compare with the photos, aggregate per image / fold / dataset, project the
 // error onto the model and write a report. The run directory layout is the contract in
@@ -117,6 +116,8 @@
 //   cache/         file hashes and downscaled photos (safe to delete: only costs time; a sweep
 //                  shares SWEEP/cache among its settings instead, EvaluateOptions::cache_dir).
 // Outputs of an earlier run with another split (folds, test views) are removed.
+//
+// The run folder it writes (files, columns, units, schemas): docs/run-folder.md.
 #pragma once
 
 #include <array>
