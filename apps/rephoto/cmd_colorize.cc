@@ -17,6 +17,7 @@
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/colorize.h"
+#include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/split/split.h"
 #include "scene_args.h"
@@ -59,14 +60,7 @@ CommandRunner SetupColorize(CLI::App& app) {
       }
       REPHOTO_CHECK(!views.empty(), "{}: none of the scene's photos exists on disk", args->scene);
     } else {
-      std::map<std::string, size_t> by_name;
-      for (size_t v = 0; v < scene.views.size(); ++v) by_name[scene.views[v].name] = v;
-      for (const std::string& name : split::ReadImageList(args->images)) {
-        const auto it = by_name.find(name);
-        REPHOTO_CHECK(it != by_name.end(), "{}: image '{}' is not in the scene", args->images,
-                      name);
-        views.push_back(it->second);
-      }
+      views = scene::ViewIndices(scene, split::ReadImageList(args->images), args->images);
     }
     const mesh::Mesh mesh = mesh::ReadMesh(args->mesh);
     const auto start = std::chrono::steady_clock::now();

@@ -20,6 +20,7 @@
 #include "rephoto/ibr/depth_map_io.h"
 #include "rephoto/ibr/image_based_renderer.h"
 #include "rephoto/ibr/training_views.h"
+#include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/split/split.h"
 #include "scene_args.h"
@@ -43,14 +44,7 @@ std::vector<size_t> ViewsOf(const scene::Scene& scene, const std::string& list) 
     for (size_t v = 0; v < scene.views.size(); ++v) out.push_back(v);
     return out;
   }
-  std::map<std::string, size_t> by_name;
-  for (size_t v = 0; v < scene.views.size(); ++v) by_name[scene.views[v].name] = v;
-  for (const std::string& name : split::ReadImageList(list)) {
-    const auto it = by_name.find(name);
-    REPHOTO_CHECK(it != by_name.end(), "{}: image '{}' is not in the scene", list, name);
-    out.push_back(it->second);
-  }
-  return out;
+  return scene::ViewIndices(scene, split::ReadImageList(list), list);
 }
 
 CommandRunner SetupDepth(CLI::App& app) {

@@ -99,8 +99,7 @@ CommandRunner SetupProject(CLI::App& app) {
       options.fixed_range = std::make_pair(args->range[0], args->range[1]);
     }
     if (const auto metric = metrics::ParseMetric(args->metric)) {
-      const auto [low, high] = compare::ErrorColourRange(*metric);
-      options.higher_is_better = low > high;  // ssim: the error image is a similarity
+      options.higher_is_better = metrics::ErrorImageHigherIsBetter(*metric);
     }
 
     const auto start = std::chrono::steady_clock::now();

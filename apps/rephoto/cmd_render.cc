@@ -40,6 +40,7 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
+#include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/splat/rasterize.h"
@@ -102,15 +103,7 @@ std::vector<size_t> TrainingIndices(const scene::Scene& scene, const std::string
       begin = end + 1;
     }
   }
-  std::map<std::string, size_t> by_name;
-  for (size_t v = 0; v < scene.views.size(); ++v) by_name[scene.views[v].name] = v;
-  std::vector<size_t> indices;
-  for (const std::string& name : names) {
-    const auto it = by_name.find(name);
-    REPHOTO_CHECK(it != by_name.end(), "--training {}: image '{}' is not in the scene", value,
-                  name);
-    indices.push_back(it->second);
-  }
+  const std::vector<size_t> indices = scene::ViewIndices(scene, names, "--training " + value);
   REPHOTO_CHECK(!indices.empty(), "--training {}: no images", value);
   return indices;
 }
@@ -123,14 +116,7 @@ std::vector<size_t> SelectViews(const scene::Scene& scene, const std::string& li
     for (size_t v = 0; v < scene.views.size(); ++v) selected.push_back(v);
     return selected;
   }
-  std::map<std::string, size_t> by_name;
-  for (size_t v = 0; v < scene.views.size(); ++v) by_name[scene.views[v].name] = v;
-  for (const std::string& name : split::ReadImageList(list)) {
-    const auto it = by_name.find(name);
-    REPHOTO_CHECK(it != by_name.end(), "{}: image '{}' is not in the scene", list, name);
-    selected.push_back(it->second);
-  }
-  return selected;
+  return scene::ViewIndices(scene, split::ReadImageList(list), list);
 }
 
 // Output names, one per view; throws Error when two views map to the same name.

@@ -1785,7 +1785,7 @@ void Evaluation::ProjectOnto(const fs::path& model_path, const std::string& mode
   }
   project::ProjectOptions options;
   options.backfaces = o_.backfaces;
-  options.higher_is_better = metric == metrics::Metric::kSsim;
+  options.higher_is_better = metrics::ErrorImageHigherIsBetter(metric);
   options.model_options.point_radius = o_.point_radius;
   options.model_options.point_radius_neighbors = o_.point_neighbors;
   options.model_options.load_textures = false;

@@ -563,6 +563,8 @@ std::vector<Metric> ParseMetricList(std::string_view list) {
 
 bool HigherIsBetter(Metric metric) { return metric == Metric::kPsnr || metric == Metric::kSsim; }
 
+bool ErrorImageHigherIsBetter(Metric metric) { return metric == Metric::kSsim; }
+
 namespace {
 
 // Everything a band needs, set up once per call.

@@ -63,8 +63,13 @@ std::optional<Metric> ParseMetric(std::string_view name);
 std::vector<Metric> ParseMetricList(std::string_view list);
 // All metrics in the order of the table above.
 const std::vector<Metric>& AllMetrics();
-// True when a larger value is better (psnr, ssim); false for errors.
+// True when a larger value is better (psnr, ssim); false for errors. The one definition: the
+// tables, reports and rankings all ask this.
 bool HigherIsBetter(Metric metric);
+// True when a larger value of the metric's per-pixel error image is better: ssim's holds the
+// similarity; psnr's holds the squared error (lower is better) although psnr itself is higher
+// is better; every other metric's holds its error.
+bool ErrorImageHigherIsBetter(Metric metric);
 
 struct MetricOptions {
   // Window side for 1-ncc, zssd and census (odd, >= 3).

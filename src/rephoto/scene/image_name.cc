@@ -1,6 +1,7 @@
 #include "rephoto/scene/image_name.h"
 
 #include <filesystem>
+#include <map>
 #include <set>
 
 #include "rephoto/core/error.h"
@@ -52,6 +53,21 @@ std::string CheckedImageName(std::string_view raw, std::string_view where) {
   }
   if (name.empty()) refuse("names no file");
   return name;
+}
+
+std::vector<size_t> ViewIndices(const Scene& scene, const std::vector<std::string>& names,
+                                std::string_view source) {
+  std::map<std::string, size_t, std::less<>> by_name;
+  for (size_t v = 0; v < scene.views.size(); ++v) by_name.emplace(scene.views[v].name, v);
+  std::vector<size_t> indices;
+  indices.reserve(names.size());
+  for (const std::string& raw : names) {
+    const std::string name = CheckedImageName(raw, source);
+    const auto it = by_name.find(name);
+    REPHOTO_CHECK(it != by_name.end(), "{}: image '{}' is not in the scene", source, name);
+    indices.push_back(it->second);
+  }
+  return indices;
 }
 
 std::vector<std::string> OutputStems(const Scene& scene) {

@@ -33,6 +33,12 @@ namespace rephoto::scene {
 // The name in normal form, or throws Error "<where>: image name '<raw>' <why>" (see above).
 std::string CheckedImageName(std::string_view raw, std::string_view where);
 
+// Indices into scene.views of the views named in `names`, in that order (names from a list file
+// or an option; checked and normalised by the rule above first). Throws Error "<source>: image
+// '<name>' is not in the scene" for a name no view has.
+std::vector<size_t> ViewIndices(const Scene& scene, const std::vector<std::string>& names,
+                                std::string_view source);
+
 // The stems under which rephoto writes a view's files (renders/<stem>.png, errors/<stem>.*),
 // one per view in scene order, distinct within the scene:
 //   - the file name without extension ("images/a.jpg" -> "a") when those are distinct;

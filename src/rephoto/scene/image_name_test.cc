@@ -126,5 +126,15 @@ TEST(ImageName, OutputStemsAreDistinct) {
             (std::vector<std::string>{"d/a.jpg", "d/a.png"}));
 }
 
+TEST(ImageName, ViewIndicesByNameInTheGivenOrder) {
+  const Scene scene = SceneOf({"a.png", "sub/b.png", "c.png"});
+  EXPECT_EQ(ViewIndices(scene, {"c.png", "./sub/b.png", "a.png"}, "list.txt"),
+            (std::vector<size_t>{2, 1, 0}));
+  EXPECT_EQ(ErrorOf([&] { ViewIndices(scene, {"d.png"}, "list.txt"); }),
+            "list.txt: image 'd.png' is not in the scene");
+  EXPECT_THAT(ErrorOf([&] { ViewIndices(scene, {"../a.png"}, "list.txt"); }),
+              HasSubstr("contains '..'"));
+}
+
 }  // namespace
 }  // namespace rephoto::scene
