@@ -51,8 +51,8 @@ double Mean(const std::vector<double>& values) {
   return sum / static_cast<double>(values.size());
 }
 
-nlohmann::json Number(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+nlohmann::ordered_json Number(double value) {
+  return std::isfinite(value) ? nlohmann::ordered_json(value) : nlohmann::ordered_json(nullptr);
 }
 
 }  // namespace
@@ -148,11 +148,11 @@ GeometryResult EvaluateGeometry(const mesh::Mesh& input_model, const mesh::Mesh&
 void WriteGeometryJson(const GeometryResult& result, const GeometryOptions& options,
                        const std::string& model_path, const std::string& reference_path,
                        const std::filesystem::path& path) {
-  nlohmann::json json;
+  nlohmann::ordered_json json;
   json["version"] = 1;
   json["accuracy"] = Number(result.accuracy);
   json["accuracy_fraction"] = result.accuracy_fraction;
-  nlohmann::json tolerances = nlohmann::json::array();
+  nlohmann::ordered_json tolerances = nlohmann::ordered_json::array();
   for (const ToleranceResult& r : result.tolerances) {
     tolerances.push_back({{"tolerance", r.tolerance},
                           {"completeness", Number(r.completeness)},
@@ -181,7 +181,7 @@ void WriteGeometryJson(const GeometryResult& result, const GeometryOptions& opti
   } else {
     json["crop"] = nullptr;
   }
-  nlohmann::json transform = nlohmann::json::array();
+  nlohmann::ordered_json transform = nlohmann::ordered_json::array();
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) transform.push_back(options.model_from_input(r, c));
   }
