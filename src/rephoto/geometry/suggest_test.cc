@@ -5,6 +5,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/geometry/shapes.h"
+#include "rephoto/synth/demo_scene.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::geometry {
@@ -119,6 +120,41 @@ TEST(SuggestTest, SuggestionsLookAtTheUnseenSide) {
   const SuggestResult by_error = SuggestViews(model, all_round, TestCamera(), errors, options);
   EXPECT_LT(by_error.suggestions[0].cam_from_world.Center().x(), -2.0);
   EXPECT_THROW(SuggestViews(model, scene, TestCamera(), {1.0f}, options), Error);
+}
+
+// The demo scene (synth/demo_scene.h: an object on a ground plane, cameras on a ring), coarse,
+// photographed from one half of the ring only: the suggestions must see most of the surface
+// those photos miss (the object's far side and the ground behind it).
+TEST(SuggestTest, DemoSceneFromOneSide) {
+  synth::DemoSceneOptions demo;
+  demo.image_width = 320;
+  demo.image_height = 240;
+  demo.camera_count = 16;
+  demo.ground_cells = 60;
+  demo.object_bands = 60;
+  const render::RenderModel model(synth::MakeDemoMesh(demo));
+  scene::Scene scene = synth::MakeDemoScene(demo, "images");
+  const std::array<Eigen::Vector3f, 2> box = mesh::BoundingBox(model.mesh());
+  const Eigen::Vector3d target = 0.5 * (box[0].cast<double>() + box[1].cast<double>());
+  std::vector<scene::View> one_side;
+  for (const scene::View& view : scene.views) {
+    if (view.cam_from_world.Center().x() > target.x()) one_side.push_back(view);
+  }
+  ASSERT_GE(one_side.size(), 4u);
+  ASSERT_LT(one_side.size(), scene.views.size());
+  scene.views = one_side;
+  SuggestOptions options;
+  options.count = 3;
+  const SuggestResult result =
+      SuggestViews(model, scene, scene.cameras.begin()->second, {}, options);
+  const double covered = result.unobserved_area_covered / result.unobserved_area;
+  std::printf(
+      "demo scene, %zu photos from one side: %.1f %% of the surface unseen; the 3 "
+      "suggestions see %.1f %% of it\n",
+      one_side.size(), 100 * result.unobserved_area / result.total_area, 100 * covered);
+  EXPECT_GT(result.unobserved_area, 0.05 * result.total_area);
+  EXPECT_GT(covered, 0.7);
+  EXPECT_LT(result.suggestions[0].cam_from_world.Center().x(), target.x());
 }
 
 }  // namespace
