@@ -1,4 +1,5 @@
 #include "rephoto/compare/compare.h"
+#include "rephoto/compare/compat_compare.h"
 
 #include <signal.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -289,6 +290,9 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
                                   const Image& photo, const Image& render, const Mask* photo_mask,
                                   const Mask* render_mask, const fs::path& error_folder,
                                   CompareWorkspace* workspace) {
+  if (options.compat) {
+    return CompareCompat(options, *options.compat, name, photo_path, render_path, photo, render);
+  }
   Workspace* ws = workspace->buffers.get();
   if (!options.resize) {
     REPHOTO_CHECK(photo.SameSize(render),
