@@ -31,8 +31,9 @@ class CMakeBuild(build_ext):
         build_dir = Path(os.environ.get("REPHOTO_BUILD_DIR", ROOT / "build" / "python-ext"))
         if not build_dir.is_absolute():
             build_dir = ROOT / build_dir
+        # The real interpreter, not the venv link: the build folder outlives venvs.
         configure = ["cmake", "-S", str(ROOT), "-B", str(build_dir),
-                     "-DREPHOTO_BUILD_PYTHON=ON", f"-DPython_EXECUTABLE={sys.executable}"]
+                     "-DREPHOTO_BUILD_PYTHON=ON", f"-DPython_EXECUTABLE={os.path.realpath(sys.executable)}"]
         if not (build_dir / "CMakeCache.txt").exists():
             configure += ["-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release",
                           "-DREPHOTO_BUILD_TESTS=OFF", "-DREPHOTO_BUILD_BENCHMARKS=OFF"]
