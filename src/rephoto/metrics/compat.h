@@ -16,8 +16,8 @@
 //   SSIM  structural_similarity_index_measure(data_range=1): the same Gaussian window, the
 //         images reflect-padded by 5 (torch "reflect": mirrored without repeating the edge
 //         pixel), variances clamped at 0, the map averaged over every pixel and channel.
-//   Older torchmetrics (< 0.11) cropped the 5-pixel border instead; that equals
-//   ssim_gaussian of metrics.h on an all-valid mask.
+//   Earlier torchmetrics releases cropped the 5-pixel border instead (not reproduced here);
+//   that equals the Gaussian ssim of metrics.h with every pixel valid.
 //
 // Ground truth with alpha: both tools composite RGBA ground truth over the background colour
 // the model was trained with (3dgs: --white_background, else black; nerfstudio: the model's
