@@ -119,14 +119,22 @@ void ConvertColour(const ArrayView& v, Image* rgb, Mask* alpha) {
   if (has_alpha) alpha->Resize(v.width, v.height, 1);
   else *alpha = Mask();
   const bool grey = v.channels <= 2;
-  const bool packed_rgb_float = std::is_same_v<T, float> && v.channels == 3 &&
-                                v.stride_c == 4 && v.stride_x == 12;
+  // Packed RGB rows (C-contiguous or row-padded): one vectorisable loop per row.
+  const bool packed_rgb = v.channels == 3 && v.stride_c == static_cast<py::ssize_t>(sizeof(T)) &&
+                          v.stride_x == static_cast<py::ssize_t>(3 * sizeof(T));
   ParallelFor(0, v.height, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       const char* row = v.data + y * v.stride_y;
       float* out = rgb->row(static_cast<int>(y));
-      if (packed_rgb_float) {  // the one case that is a plain copy
-        std::memcpy(out, row, static_cast<size_t>(v.width) * 12);
+      if (packed_rgb) {
+        const size_t n = static_cast<size_t>(v.width) * 3;
+        if constexpr (std::is_same_v<T, float>) {
+          std::memcpy(out, row, n * sizeof(float));  // the one case that is a plain copy
+        } else {
+          const T* in = reinterpret_cast<const T*>(row);  // numpy aligns its buffers
+          constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
+          for (size_t i = 0; i < n; ++i) out[i] = static_cast<float>(in[i]) / kMax;
+        }
         continue;
       }
       uint8_t* a = has_alpha ? alpha->row(static_cast<int>(y)) : nullptr;
