@@ -87,3 +87,35 @@ def test_scene_and_run_errors(tmp_path):
         rephoto.evaluate(scene=tmp_path, no_such_setting=1, out=tmp_path / "o")
     with pytest.raises(rephoto.Error, match="no per_image.csv"):
         rephoto.load_run(tmp_path)
+
+
+def write_inria_ply(path, positions, colour_dc, opacity_logit, log_scale):
+    """A 3DGS (graphdeco) PLY with SH degree 0: x y z nx ny nz f_dc_0..2 opacity scale_0..2
+    rot_0..3, binary little endian, as train.py writes it."""
+    names = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
+             "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
+    rows = []
+    for p in positions:
+        rows.append([*p, 0, 0, 0, *colour_dc, opacity_logit, *([log_scale] * 3), 1, 0, 0, 0])
+    data = np.asarray(rows, dtype="<f4")
+    header = "ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % len(rows)
+    header += "".join(f"property float {n}\n" for n in names) + "end_header\n"
+    with open(path, "wb") as f:
+        f.write(header.encode())
+        f.write(data.tobytes())
+
+
+def test_gaussians_render(tmp_path):
+    path = tmp_path / "point_cloud.ply"
+    write_inria_ply(path, [(0, 0, 4)], colour_dc=(1.0, 0.0, -1.0), opacity_logit=4.0,
+                    log_scale=np.log(0.3))
+    model = rephoto.load_model(path)
+    assert model.kind == "gaussians"
+    camera = rephoto.Camera("PINHOLE", 64, 48, [60, 60, 32, 24])
+    rgba, depth = model.render(camera, cam_from_world=np.eye(4), background=(0, 0, 1))
+    assert rgba.shape == (48, 64, 4)
+    centre, corner = rgba[24, 32], rgba[0, 0]
+    assert centre[3] > 0.9 and corner[3] < 0.05
+    assert centre[0] > centre[2]  # red-ish Gaussian (SH DC) in the middle
+    assert corner[2] == pytest.approx(1.0, abs=0.05)  # blue background at the corner
+    assert depth[24, 32] == pytest.approx(4.0, rel=1e-3)
