@@ -8,7 +8,10 @@ or 4 (RGBA); dtype uint8 (v / 255), uint16 (v / 65535) or float32 (values in [0,
 they are). Any strides (slices, transposes) are accepted. Because the library's image type owns
 its memory, each input image is converted once into it in one parallel pass (float32 RGB
 C-contiguous: a plain copy); nothing else is copied. Returned images (error maps, renderings)
-are float32 arrays that take over the library's buffers without a copy.
+are float32 arrays that take over the library's buffers without a copy. Each thread that calls
+:func:`compare` keeps its last working buffers (converted images, masks, error images not
+returned) for the next call, as the CLI does from pair to pair: touching fresh memory costs
+more than the metrics of a small image.
 
 Errors raise :class:`rephoto.Error` (a ``RuntimeError``) with the one-line message of the CLI;
 bad arguments raise :class:`rephoto.UsageError`, which is both a ``rephoto.Error`` and a
