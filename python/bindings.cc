@@ -116,8 +116,10 @@ template <typename T>
 void ConvertColour(const ArrayView& v, Image* rgb, Mask* alpha) {
   rgb->Resize(v.width, v.height, 3);
   const bool has_alpha = v.channels == 2 || v.channels == 4;
-  if (has_alpha) alpha->Resize(v.width, v.height, 1);
-  else *alpha = Mask();
+  if (has_alpha)
+    alpha->Resize(v.width, v.height, 1);
+  else
+    *alpha = Mask();
   const bool grey = v.channels <= 2;
   // Packed RGB rows (C-contiguous or row-padded): one vectorisable loop per row.
   const bool packed_rgb = v.channels == 3 && v.stride_c == static_cast<py::ssize_t>(sizeof(T)) &&
@@ -152,9 +154,12 @@ void ConvertColour(const ArrayView& v, Image* rgb, Mask* alpha) {
 
 void ToColour(const ArrayView& v, Image* rgb, Mask* alpha) {
   switch (v.sample) {
-    case Sample::kUint8: return ConvertColour<uint8_t>(v, rgb, alpha);
-    case Sample::kUint16: return ConvertColour<uint16_t>(v, rgb, alpha);
-    case Sample::kFloat32: return ConvertColour<float>(v, rgb, alpha);
+    case Sample::kUint8:
+      return ConvertColour<uint8_t>(v, rgb, alpha);
+    case Sample::kUint16:
+      return ConvertColour<uint16_t>(v, rgb, alpha);
+    case Sample::kFloat32:
+      return ConvertColour<float>(v, rgb, alpha);
   }
 }
 
@@ -177,9 +182,12 @@ void ConvertAll(const ArrayView& v, Image* image) {
 
 void ToImage(const ArrayView& v, Image* image) {
   switch (v.sample) {
-    case Sample::kUint8: return ConvertAll<uint8_t>(v, image);
-    case Sample::kUint16: return ConvertAll<uint16_t>(v, image);
-    case Sample::kFloat32: return ConvertAll<float>(v, image);
+    case Sample::kUint8:
+      return ConvertAll<uint8_t>(v, image);
+    case Sample::kUint16:
+      return ConvertAll<uint16_t>(v, image);
+    case Sample::kFloat32:
+      return ConvertAll<float>(v, image);
   }
 }
 
@@ -206,14 +214,17 @@ py::array ToNumpy(Image&& image) {
 
 std::vector<metrics::Metric> MetricList(const py::object& metrics) {
   if (metrics.is_none()) return metrics::AllMetrics();
-  if (py::isinstance<py::str>(metrics)) return metrics::ParseMetricList(metrics.cast<std::string>());
+  if (py::isinstance<py::str>(metrics))
+    return metrics::ParseMetricList(metrics.cast<std::string>());
   std::vector<metrics::Metric> list;
   for (const py::handle& item : metrics) {
     const std::string name = py::str(item);
     const std::optional<metrics::Metric> metric = metrics::ParseMetric(name);
     if (!metric) {
-      throw UsageError(fmt::format("unknown metric '{}' (1-ncc, cb+cr, zssd, dssim, census, "
-                                   "icid, psnr, ssim)", name));
+      throw UsageError(
+          fmt::format("unknown metric '{}' (1-ncc, cb+cr, zssd, dssim, census, "
+                      "icid, psnr, ssim)",
+                      name));
     }
     list.push_back(*metric);
   }
@@ -253,7 +264,8 @@ py::dict Compare(const py::object& photo_object, const py::object& render_object
                       render.height, photo.width, photo.height);
   std::optional<ArrayView> mask, render_mask;
   if (!mask_object.is_none()) mask = ViewImage(mask_object, "mask", true);
-  if (!render_mask_object.is_none()) render_mask = ViewImage(render_mask_object, "render_mask", true);
+  if (!render_mask_object.is_none())
+    render_mask = ViewImage(render_mask_object, "render_mask", true);
   for (const std::optional<ArrayView>* m : {&mask, &render_mask}) {
     REPHOTO_CHECK_USAGE(!*m || ((*m)->width == photo.width && (*m)->height == photo.height),
                         "{} is {}x{} but photo is {}x{}", m == &mask ? "mask" : "render_mask",
@@ -268,7 +280,8 @@ py::dict Compare(const py::object& photo_object, const py::object& render_object
     REPHOTO_CHECK_USAGE(preset.has_value(), "compat: '{}' is not 3dgs or nerfstudio", *compat);
     REPHOTO_CHECK_USAGE(!mask && !render_mask, "compat {}: masks do not exist in this mode",
                         *compat);
-    if (metrics_object.is_none()) options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+    if (metrics_object.is_none())
+      options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
     options.compat = preset;
     options.compat_background = background;
     Image photo_image, render_image, squared_error, ssim_map;
@@ -289,8 +302,8 @@ py::dict Compare(const py::object& photo_object, const py::object& render_object
     }
     if (error_images) {
       for (metrics::Metric metric : options.metrics) {
-        errors[std::string(metrics::MetricName(metric)).c_str()] =
-            ToNumpy(metric == metrics::Metric::kPsnr ? std::move(squared_error) : std::move(ssim_map));
+        errors[std::string(metrics::MetricName(metric)).c_str()] = ToNumpy(
+            metric == metrics::Metric::kPsnr ? std::move(squared_error) : std::move(ssim_map));
       }
     }
     out["evaluated"] = evaluated;
@@ -424,7 +437,8 @@ py::dict Split(const py::object& scene_or_names, const std::string& scheme_text,
                std::optional<uint64_t> seed) {
   std::vector<std::string> names;
   if (py::isinstance<PyScene>(scene_or_names)) {
-    for (const PyView& view : scene_or_names.cast<const PyScene&>().views) names.push_back(view.name);
+    for (const PyView& view : scene_or_names.cast<const PyScene&>().views)
+      names.push_back(view.name);
   } else {
     for (const py::handle& item : scene_or_names) names.push_back(py::str(item));
   }
@@ -452,7 +466,7 @@ py::dict Split(const py::object& scene_or_names, const std::string& scheme_text,
 
 struct Model {
   std::filesystem::path path;
-  std::unique_ptr<render::RenderModel> mesh;     // mesh or point cloud
+  std::unique_ptr<render::RenderModel> mesh;  // mesh or point cloud
   std::unique_ptr<splat::GaussianModel> gaussians;
 };
 
@@ -465,8 +479,8 @@ std::shared_ptr<Model> LoadModel(const std::filesystem::path& path, float point_
   } else {
     render::ModelOptions options;
     if (point_radius > 0) options.point_radius = point_radius;
-    model->mesh = std::make_unique<render::RenderModel>(mesh::ReadMesh(path), options,
-                                                        path.string());
+    model->mesh =
+        std::make_unique<render::RenderModel>(mesh::ReadMesh(path), options, path.string());
   }
   return model;
 }
@@ -531,8 +545,8 @@ eval::SettingValue ToSetting(const py::handle& value, const std::string& name) {
 std::filesystem::path Evaluate(const py::kwargs& kwargs) {
   eval::EvaluateOptions options;
   if (kwargs.contains("config")) {
-    eval::LoadConfigFile(std::filesystem::path(std::string(py::str(
-                             py::module_::import("os").attr("fspath")(kwargs["config"])))),
+    eval::LoadConfigFile(std::filesystem::path(std::string(
+                             py::str(py::module_::import("os").attr("fspath")(kwargs["config"])))),
                          &options);
   }
   for (const auto& [key, value] : kwargs) {
@@ -565,9 +579,10 @@ double CliPairSeconds(const py::object& photo_object, const py::object& render_o
   double best = 1e300;
   for (int i = 0; i < repeats; ++i) {
     const auto start = std::chrono::steady_clock::now();
-    compare::ComparePhotoAndRender(options, "x", "photo", "render", photo, render, nullptr,
-                                   nullptr, {}, &workspace);
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    compare::ComparePhotoAndRender(options, "x", "photo", "render", photo, render, nullptr, nullptr,
+                                   {}, &workspace);
+    best = std::min(
+        best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
   return best;
 }
@@ -607,35 +622,39 @@ PYBIND11_MODULE(_rephoto, m) {
 
   m.def("compare", &Compare, py::arg("photo"), py::arg("render"), py::arg("mask") = py::none(),
         py::arg("metrics") = py::none(), py::arg("render_mask") = py::none(),
-        py::arg("error_images") = false, py::arg("window") = 9,
-        py::arg("ssim_mode") = "gaussian", py::arg("dark") = 0.0f, py::arg("saturated") = 1.0f,
-        py::arg("compat") = py::none(), py::arg("background") = std::array<float, 3>{0, 0, 0});
+        py::arg("error_images") = false, py::arg("window") = 9, py::arg("ssim_mode") = "gaussian",
+        py::arg("dark") = 0.0f, py::arg("saturated") = 1.0f, py::arg("compat") = py::none(),
+        py::arg("background") = std::array<float, 3>{0, 0, 0});
   m.def("metric_names", [] {
     std::vector<std::string> names;
-    for (metrics::Metric metric : metrics::AllMetrics()) names.emplace_back(metrics::MetricName(metric));
+    for (metrics::Metric metric : metrics::AllMetrics())
+      names.emplace_back(metrics::MetricName(metric));
     return names;
   });
 
   py::class_<camera::Camera>(m, "Camera")
-      .def(py::init([](const std::string& model, int width, int height, std::vector<double> params) {
-             camera::Camera c;
-             const auto parsed = camera::ParseCameraModel(model);
-             REPHOTO_CHECK_USAGE(parsed.has_value(), "camera model '{}' is unknown", model);
-             c.model = *parsed;
-             c.width = width;
-             c.height = height;
-             c.params = std::move(params);
-             c.Validate("camera");
-             return c;
-           }),
-           py::arg("model"), py::arg("width"), py::arg("height"), py::arg("params"))
-      .def_property_readonly("model", [](const camera::Camera& c) { return std::string(camera::CameraModelName(c.model)); })
+      .def(
+          py::init([](const std::string& model, int width, int height, std::vector<double> params) {
+            camera::Camera c;
+            const auto parsed = camera::ParseCameraModel(model);
+            REPHOTO_CHECK_USAGE(parsed.has_value(), "camera model '{}' is unknown", model);
+            c.model = *parsed;
+            c.width = width;
+            c.height = height;
+            c.params = std::move(params);
+            c.Validate("camera");
+            return c;
+          }),
+          py::arg("model"), py::arg("width"), py::arg("height"), py::arg("params"))
+      .def_property_readonly(
+          "model",
+          [](const camera::Camera& c) { return std::string(camera::CameraModelName(c.model)); })
       .def_readonly("width", &camera::Camera::width)
       .def_readonly("height", &camera::Camera::height)
       .def_readonly("params", &camera::Camera::params)
       .def("__repr__", [](const camera::Camera& c) {
-        return fmt::format("Camera({}, {}x{}, {} params)", camera::CameraModelName(c.model), c.width,
-                           c.height, c.params.size());
+        return fmt::format("Camera({}, {}x{}, {} params)", camera::CameraModelName(c.model),
+                           c.width, c.height, c.params.size());
       });
 
   py::class_<PyView>(m, "View")
@@ -647,10 +666,11 @@ PYBIND11_MODULE(_rephoto, m) {
       .def_property_readonly("width", [](const PyView& v) { return v.camera.width; })
       .def_property_readonly("height", [](const PyView& v) { return v.camera.height; })
       .def_property_readonly("cam_from_world", [](const PyView& v) { return PoseMatrix(v.pose); })
-      .def_property_readonly("center", [](const PyView& v) {
-        const Eigen::Vector3d c = v.pose.Center();
-        return std::vector<double>{c.x(), c.y(), c.z()};
-      })
+      .def_property_readonly("center",
+                             [](const PyView& v) {
+                               const Eigen::Vector3d c = v.pose.Center();
+                               return std::vector<double>{c.x(), c.y(), c.z()};
+                             })
       .def("__repr__", [](const PyView& v) {
         return fmt::format("View('{}', {}x{} {})", v.name, v.camera.width, v.camera.height,
                            camera::CameraModelName(v.camera.model));
@@ -664,23 +684,25 @@ PYBIND11_MODULE(_rephoto, m) {
       .def_property_readonly("cameras", [](const PyScene& s) { return s.scene.cameras; })
       .def_property_readonly("point_count", [](const PyScene& s) { return s.scene.points.size(); })
       .def("__len__", [](const PyScene& s) { return s.views.size(); })
-      .def("__getitem__", [](const PyScene& s, py::object key) -> PyView {
-        if (py::isinstance<py::int_>(key)) {
-          py::ssize_t i = key.cast<py::ssize_t>();
-          const py::ssize_t n = static_cast<py::ssize_t>(s.views.size());
-          if (i < 0) i += n;
-          if (i < 0 || i >= n) throw py::index_error("view index out of range");
-          return s.views[static_cast<size_t>(i)];
-        }
-        const std::string name = py::str(key);
-        for (const PyView& v : s.views) {
-          if (v.name == name) return v;
-        }
-        throw py::key_error(name);
-      })
+      .def("__getitem__",
+           [](const PyScene& s, py::object key) -> PyView {
+             if (py::isinstance<py::int_>(key)) {
+               py::ssize_t i = key.cast<py::ssize_t>();
+               const py::ssize_t n = static_cast<py::ssize_t>(s.views.size());
+               if (i < 0) i += n;
+               if (i < 0 || i >= n) throw py::index_error("view index out of range");
+               return s.views[static_cast<size_t>(i)];
+             }
+             const std::string name = py::str(key);
+             for (const PyView& v : s.views) {
+               if (v.name == name) return v;
+             }
+             throw py::key_error(name);
+           })
       .def("__repr__", [](const PyScene& s) {
         return fmt::format("Scene({} views, {} cameras, {} points, {} from {})", s.views.size(),
-                           s.scene.cameras.size(), s.scene.points.size(), s.format, s.source.string());
+                           s.scene.cameras.size(), s.scene.points.size(), s.format,
+                           s.source.string());
       });
 
   m.def("read_scene", &ReadScene, py::arg("path"), py::arg("format") = py::none(),
@@ -689,11 +711,14 @@ PYBIND11_MODULE(_rephoto, m) {
 
   py::class_<Model, std::shared_ptr<Model>>(m, "Model")
       .def_readonly("path", &Model::path)
-      .def_property_readonly("kind", [](const Model& model) -> std::string {
-        if (model.gaussians) return "gaussians";
-        return model.mesh->representation() == render::Representation::kPointCloud ? "point_cloud"
-                                                                                   : "mesh";
-      })
+      .def_property_readonly("kind",
+                             [](const Model& model) -> std::string {
+                               if (model.gaussians) return "gaussians";
+                               return model.mesh->representation() ==
+                                              render::Representation::kPointCloud
+                                          ? "point_cloud"
+                                          : "mesh";
+                             })
       .def("render", &Render, py::arg("view"), py::arg("cam_from_world") = py::none(),
            py::arg("spp") = 4, py::arg("seed") = 0, py::arg("backfaces") = true,
            py::arg("background") = std::array<float, 3>{0, 0, 0},

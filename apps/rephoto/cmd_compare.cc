@@ -98,9 +98,13 @@ CommandRunner SetupCompare(CLI::App& app) {
       options.metric_options.ssim_window = 7;
     }
     options.write_error_images = !args->no_error_images;
+    REPHOTO_CHECK_USAGE(args->compat_background.empty() || !args->compat.empty(),
+                        "--compat-background needs --compat");
     if (!args->compat.empty()) {
       options.compat = metrics::ParseCompatPreset(args->compat);
-      if (args->metrics == "all") options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+      if (args->metrics == "all") {
+        options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+      }
       compare::CheckCompatMetrics(*options.compat, options.metrics);
       if (!args->compat_background.empty()) {
         options.compat_background = {args->compat_background[0], args->compat_background[1],

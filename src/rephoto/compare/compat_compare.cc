@@ -45,8 +45,8 @@ ImageResult CompareCompat(const CompareOptions& options, metrics::CompatPreset p
   result.width = photo.width();
   result.height = photo.height();
   const Mask all_valid(photo.width(), photo.height(), 1, 1);
-  result.completeness = metrics::ComputeCompleteness(
-      all_valid, metrics::RephotoValidity(render), options.metric_options.window);
+  result.completeness = metrics::ComputeCompleteness(all_valid, metrics::RephotoValidity(render),
+                                                     options.metric_options.window);
   for (metrics::Metric metric : options.metrics) {
     result.metrics.push_back(
         {metric == metrics::Metric::kPsnr ? values.psnr : values.ssim, values.pixels});

@@ -139,8 +139,7 @@ CompatResult ComputeCompatMetrics(CompatPreset preset, const Image& photo, const
           for (int x = 0; x < width; ++x) {
             double m[5] = {0, 0, 0, 0, 0};
             for (int k = 0; k <= 2 * kRadius; ++k) {
-              const double* in =
-                  h.data() + (static_cast<size_t>(y - y0 + k) * width + x) * 5;
+              const double* in = h.data() + (static_cast<size_t>(y - y0 + k) * width + x) * 5;
               for (int q = 0; q < 5; ++q) m[q] += w[k] * in[q];
             }
             const double mu_x = m[0], mu_y = m[1];
