@@ -503,7 +503,10 @@ std::string SummaryJsonText(const CompareOptions& options, const CompareResult& 
                      {"dark_threshold", options.exposure.dark_threshold},
                      {"saturated_threshold", options.exposure.saturated_threshold},
                      {"resize", options.resize},
-                     {"error_images", options.write_error_images}};
+                     {"error_images", options.write_error_images},
+                     {"compat", options.compat ? Json(metrics::CompatPresetName(*options.compat))
+                                               : Json()}};
+  if (options.compat) j["parameters"]["compat_background"] = options.compat_background;
   size_t missing_render = 0, missing_photo = 0, resized = 0;
   for (const MissingImage& m : result.missing) {
     (m.missing == Missing::kRender ? missing_render : missing_photo)++;
