@@ -13,6 +13,8 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev libxxhash-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-skimage python3-numpy python3-scipy
+  python3-dev python3-pybind11 pybind11-dev python3-pytest python3-venv python3-pip
+  python3-setuptools python3-wheel python3-pandas python3-matplotlib
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   chromium
 )

@@ -1,6 +1,7 @@
 // rephoto compare --photos DIR --renders DIR [--masks DIR] [--photo-masks DIR]
 //                 [--metrics a,b,...|all] [--window N] [--ssim-mode gaussian|skimage]
-//                 [--dark T] [--saturated T] [--resize] [--no-error-images] --out RUN_DIR
+//                 [--dark T] [--saturated T] [--resize] [--no-error-images]
+//                 [--compat 3dgs|nerfstudio [--compat-background R,G,B]] --out RUN_DIR
 // Parses options into compare::CompareOptions and calls compare::RunCompare (see
 // src/rephoto/compare/compare.h for inputs, outputs and exit codes).
 #include <fmt/format.h>
@@ -8,9 +9,11 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "command.h"
 #include "rephoto/compare/compare.h"
+#include "rephoto/compare/compat_compare.h"
 #include "rephoto/core/error.h"
 #include "rephoto/metrics/metrics.h"
 
@@ -23,6 +26,8 @@ struct CompareArguments {
   std::string ssim_mode = "gaussian";
   bool no_error_images = false;
   bool no_prefetch = false;
+  std::string compat;
+  std::vector<float> compat_background;
 };
 
 std::string FormatValue(double value) {
@@ -72,6 +77,16 @@ CommandRunner SetupCompare(CLI::App& app) {
                "Do not write errors/<name>.<metric>.exr/.png");
   app.add_flag("--no-prefetch", args->no_prefetch,
                "Do not decode the next pair while comparing the current one");
+  app.add_option("--compat", args->compat,
+                 "Compute psnr and ssim as 3dgs (graphdeco metrics.py: zero-padded SSIM) or "
+                 "nerfstudio (ns-eval/torchmetrics) do, for comparison with papers: no masks, "
+                 "every pixel; photos with alpha composited over --compat-background")
+      ->check(CLI::IsMember({"3dgs", "nerfstudio"}));
+  app.add_option("--compat-background", args->compat_background,
+                 "Background R,G,B in [0,1] for --compat (the colour the model was trained "
+                 "with: 1,1,1 for 3dgs --white_background; default black)")
+      ->delimiter(',')
+      ->expected(3);
   app.add_option("--out", o.out, "Run folder for per_image.csv, summary.json and errors/")
       ->required();
 
@@ -83,6 +98,20 @@ CommandRunner SetupCompare(CLI::App& app) {
       options.metric_options.ssim_window = 7;
     }
     options.write_error_images = !args->no_error_images;
+    REPHOTO_CHECK_USAGE(args->compat_background.empty() || !args->compat.empty(),
+                        "--compat-background needs --compat");
+    if (!args->compat.empty()) {
+      options.compat = metrics::ParseCompatPreset(args->compat);
+      if (args->metrics == "all") {
+        options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+      }
+      compare::CheckCompatMetrics(*options.compat, options.metrics);
+      if (!args->compat_background.empty()) {
+        options.compat_background = {args->compat_background[0], args->compat_background[1],
+                                     args->compat_background[2]};
+      }
+      options.write_error_images = false;  // no error images in compat mode
+    }
     options.prefetch = !args->no_prefetch;
     const compare::CompareResult result = compare::RunCompare(options);
 

@@ -1,4 +1,5 @@
 #include "rephoto/compare/compare.h"
+#include "rephoto/compare/compat_compare.h"
 
 #include <signal.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -304,12 +305,30 @@ void ToFloatRgb(const ImageT<T>& image, Image* rgb) {
   });
 }
 
+// The image as float values in [0, 1] (8-bit samples / 255); a float image as it is.
+template <typename T>
+const Image& AsFloatImage(const ImageT<T>& image, Image* scratch) {
+  if constexpr (std::is_same_v<T, float>) {
+    return image;
+  } else {
+    *scratch = Image(image.width(), image.height(), image.channels());
+    const size_t n = static_cast<size_t>(image.width()) * image.height() * image.channels();
+    for (size_t i = 0; i < n; ++i) scratch->data()[i] = static_cast<float>(image.data()[i]) / 255.f;
+    return *scratch;
+  }
+}
+
 // ComparePhotoAndRender for float (Image) or 8-bit (Image8) photos and renderings.
 template <typename P, typename R>
 ImageResult CompareImages(const CompareOptions& options, const std::string& name,
                           const fs::path& photo_path, const fs::path& render_path,
                           const ImageT<P>& photo, const ImageT<R>& render, const Mask* photo_mask,
                           const Mask* render_mask, const fs::path& error_folder, Workspace* ws) {
+  if (options.compat) {  // the numbers other tools publish (compat_compare.h)
+    Image photo_float, render_float;
+    return CompareCompat(options, *options.compat, name, photo_path, render_path,
+                         AsFloatImage(photo, &photo_float), AsFloatImage(render, &render_float));
+  }
   if (!options.resize) {
     REPHOTO_CHECK(photo.SameSize(render),
                   "{}: rendering is {}x{} but its photo {} is {}x{} (--resize rescales "
@@ -554,7 +573,10 @@ std::string SummaryJsonText(const CompareOptions& options, const CompareResult& 
                      {"dark_threshold", options.exposure.dark_threshold},
                      {"saturated_threshold", options.exposure.saturated_threshold},
                      {"resize", options.resize},
-                     {"error_images", options.write_error_images}};
+                     {"error_images", options.write_error_images},
+                     {"compat", options.compat ? Json(metrics::CompatPresetName(*options.compat))
+                                               : Json()}};
+  if (options.compat) j["parameters"]["compat_background"] = options.compat_background;
   size_t missing_render = 0, missing_photo = 0, resized = 0;
   for (const MissingImage& m : result.missing) {
     (m.missing == Missing::kRender ? missing_render : missing_photo)++;

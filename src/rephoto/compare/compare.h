@@ -54,7 +54,9 @@
 // The files it writes, their columns and units: docs/run-folder.md.
 #pragma once
 
+#include <array>
 #include <filesystem>
+#include <optional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -64,6 +66,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/image.h"
 #include "rephoto/core/stats.h"
+#include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/metrics/validity.h"
 
@@ -81,6 +84,11 @@ struct CompareOptions {
   bool resize = false;                    // rescale renderings to their photo's size
   bool write_error_images = true;         // errors/*.exr and *.png
   bool prefetch = true;                   // decode the next pair while comparing the current
+  // --compat: compare as graphdeco's metrics.py or nerfstudio's ns-eval do (compat_compare.h:
+  // no masks, psnr and ssim only, no error images); photos with alpha are composited over
+  // compat_background (RGB in [0,1]).
+  std::optional<metrics::CompatPreset> compat;
+  std::array<float, 3> compat_background = {0, 0, 0};
 
   // Throws Error on invalid settings (missing folders are reported by RunCompare).
   void Check() const;

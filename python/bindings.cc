@@ -1,0 +1,730 @@
+// pybind11 module rephoto._rephoto: the library's own functions for Python (python/rephoto/
+// __init__.py adds load_run and the pandas tables). Conventions:
+// - Images from numpy: H x W (grey) or H x W x C with C in {1, 2, 3, 4}, dtype uint8 (v/255),
+//   uint16 (v/65535) or float32 (as is; [0,1] expected), any strides. The library's Image owns
+//   its memory (core/image.h), so every input is converted once, in one parallel pass that also
+//   splits off alpha: float32 is copied, integers are scaled. No other copy is made.
+// - Images to numpy (error images, renderings): the library's buffers are moved into the
+//   returned arrays (no copy), float32, H x W or H x W x C.
+// - The GIL is released around every conversion and library call that touches pixels, files
+//   or models, so Python threads run them concurrently.
+// - rephoto::Error -> rephoto.Error (RuntimeError); rephoto::UsageError and bad arguments ->
+//   rephoto.UsageError (both rephoto.Error and ValueError); messages are the CLI's lines.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <chrono>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "rephoto/compare/compare.h"
+#include "rephoto/compare/compat_compare.h"
+#include "rephoto/core/error.h"
+#include "rephoto/core/image.h"
+#include "rephoto/core/parallel.h"
+#include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/settings.h"
+#include "rephoto/mesh/read_mesh.h"
+#include "rephoto/metrics/compat.h"
+#include "rephoto/metrics/metrics.h"
+#include "rephoto/metrics/validity.h"
+#include "rephoto/render/render.h"
+#include "rephoto/render/render_model.h"
+#include "rephoto/scene/read_scene.h"
+#include "rephoto/splat/gaussians.h"
+#include "rephoto/splat/rasterize.h"
+#include "rephoto/split/split.h"
+
+namespace py = pybind11;
+
+namespace rephoto::python {
+namespace {
+
+// ------------------------------------------------------------------------------ arrays
+
+enum class Sample { kUint8, kUint16, kFloat32 };
+
+// A numpy image as seen by the converters: pointer, shape and byte strides. Holds a reference
+// to the array so that the pointer stays valid while the GIL is released.
+struct ArrayView {
+  py::array array;
+  const char* data = nullptr;
+  Sample sample = Sample::kFloat32;
+  int height = 0, width = 0, channels = 1;
+  py::ssize_t stride_y = 0, stride_x = 0, stride_c = 0;
+};
+
+ArrayView ViewImage(const py::handle& object, const char* what, bool is_mask = false) {
+  py::array array = py::array::ensure(object);
+  if (!array) throw UsageError(fmt::format("{}: expected a numpy array", what));
+  ArrayView v;
+  v.array = array;
+  const py::dtype dtype = array.dtype();
+  const char kind = dtype.kind();
+  if (is_mask && (kind == 'b' || (kind == 'u' && dtype.itemsize() == 1))) {
+    v.sample = Sample::kUint8;
+  } else if (kind == 'u' && dtype.itemsize() == 1) {
+    v.sample = Sample::kUint8;
+  } else if (kind == 'u' && dtype.itemsize() == 2) {
+    v.sample = Sample::kUint16;
+  } else if (kind == 'f' && dtype.itemsize() == 4) {
+    v.sample = Sample::kFloat32;
+  } else {
+    throw UsageError(fmt::format("{}: dtype {} is not supported ({})", what,
+                                 std::string(py::str(py::object(dtype))),
+                                 is_mask ? "bool or uint8" : "uint8, uint16 or float32"));
+  }
+  const int ndim = static_cast<int>(array.ndim());
+  if (ndim != 2 && !(ndim == 3 && !is_mask)) {
+    throw UsageError(fmt::format("{}: expected {} array, got {} dimensions", what,
+                                 is_mask ? "an H x W" : "an H x W or H x W x C", ndim));
+  }
+  v.height = static_cast<int>(array.shape(0));
+  v.width = static_cast<int>(array.shape(1));
+  v.channels = ndim == 3 ? static_cast<int>(array.shape(2)) : 1;
+  if (v.channels < 1 || v.channels > 4) {
+    throw UsageError(fmt::format("{}: {} channels (1 to 4 supported: grey, grey+alpha, RGB, RGBA)",
+                                 what, v.channels));
+  }
+  if (v.height == 0 || v.width == 0) throw UsageError(fmt::format("{}: empty image", what));
+  v.data = static_cast<const char*>(array.data());
+  v.stride_y = array.strides(0);
+  v.stride_x = array.strides(1);
+  v.stride_c = ndim == 3 ? array.strides(2) : 0;
+  return v;
+}
+
+template <typename T>
+float Scaled(const char* p) {
+  T value;
+  std::memcpy(&value, p, sizeof(T));
+  // Divisions, as io/image_io.cc does: v * (1/255) differs in the last bit for some v.
+  if constexpr (std::is_same_v<T, uint8_t>) return static_cast<float>(value) / 255.f;
+  if constexpr (std::is_same_v<T, uint16_t>) return static_cast<float>(value) / 65535.f;
+  if constexpr (std::is_same_v<T, float>) return value;
+}
+
+// Colour as 3-channel RGB (grey replicated, values scaled to [0,1]) and, for 2 or 4 channels,
+// alpha > 0 into `alpha` (else `alpha` is left empty). Call without the GIL.
+template <typename T>
+void ConvertColour(const ArrayView& v, Image* rgb, Mask* alpha) {
+  rgb->Resize(v.width, v.height, 3);
+  const bool has_alpha = v.channels == 2 || v.channels == 4;
+  if (has_alpha)
+    alpha->Resize(v.width, v.height, 1);
+  else
+    *alpha = Mask();
+  const bool grey = v.channels <= 2;
+  // Packed RGB rows (C-contiguous or row-padded): one vectorisable loop per row.
+  const bool packed_rgb = v.channels == 3 && v.stride_c == static_cast<py::ssize_t>(sizeof(T)) &&
+                          v.stride_x == static_cast<py::ssize_t>(3 * sizeof(T));
+  ParallelFor(0, v.height, 16, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      const char* row = v.data + y * v.stride_y;
+      float* out = rgb->row(static_cast<int>(y));
+      if (packed_rgb) {
+        const size_t n = static_cast<size_t>(v.width) * 3;
+        if constexpr (std::is_same_v<T, float>) {
+          std::memcpy(out, row, n * sizeof(float));  // the one case that is a plain copy
+        } else {
+          const T* in = reinterpret_cast<const T*>(row);  // numpy aligns its buffers
+          constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
+          for (size_t i = 0; i < n; ++i) out[i] = static_cast<float>(in[i]) / kMax;
+        }
+        continue;
+      }
+      uint8_t* a = has_alpha ? alpha->row(static_cast<int>(y)) : nullptr;
+      for (int x = 0; x < v.width; ++x) {
+        const char* px = row + x * v.stride_x;
+        const float c0 = Scaled<T>(px);
+        out[3 * x] = c0;
+        out[3 * x + 1] = grey ? c0 : Scaled<T>(px + v.stride_c);
+        out[3 * x + 2] = grey ? c0 : Scaled<T>(px + 2 * v.stride_c);
+        if (a) a[x] = Scaled<T>(px + (v.channels - 1) * v.stride_c) > 0.f ? 1 : 0;
+      }
+    }
+  });
+}
+
+void ToColour(const ArrayView& v, Image* rgb, Mask* alpha) {
+  switch (v.sample) {
+    case Sample::kUint8:
+      return ConvertColour<uint8_t>(v, rgb, alpha);
+    case Sample::kUint16:
+      return ConvertColour<uint16_t>(v, rgb, alpha);
+    case Sample::kFloat32:
+      return ConvertColour<float>(v, rgb, alpha);
+  }
+}
+
+// All channels kept (for compat mode, where alpha is composited, not a mask).
+template <typename T>
+void ConvertAll(const ArrayView& v, Image* image) {
+  image->Resize(v.width, v.height, v.channels);
+  ParallelFor(0, v.height, 16, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      const char* row = v.data + y * v.stride_y;
+      float* out = image->row(static_cast<int>(y));
+      for (int x = 0; x < v.width; ++x) {
+        for (int c = 0; c < v.channels; ++c) {
+          out[x * v.channels + c] = Scaled<T>(row + x * v.stride_x + c * v.stride_c);
+        }
+      }
+    }
+  });
+}
+
+void ToImage(const ArrayView& v, Image* image) {
+  switch (v.sample) {
+    case Sample::kUint8:
+      return ConvertAll<uint8_t>(v, image);
+    case Sample::kUint16:
+      return ConvertAll<uint16_t>(v, image);
+    case Sample::kFloat32:
+      return ConvertAll<float>(v, image);
+  }
+}
+
+// Non-zero = valid.
+void ToMask(const ArrayView& v, Mask* mask) {
+  mask->Resize(v.width, v.height, 1);
+  for (int y = 0; y < v.height; ++y) {
+    const char* row = v.data + y * v.stride_y;
+    uint8_t* out = mask->row(y);
+    for (int x = 0; x < v.width; ++x) out[x] = row[x * v.stride_x] != 0 ? 1 : 0;
+  }
+}
+
+// Moves `image` into a float32 numpy array without copying its pixels.
+py::array ToNumpy(Image&& image) {
+  auto* owner = new Image(std::move(image));
+  py::capsule free(owner, [](void* p) { delete static_cast<Image*>(p); });
+  const py::ssize_t h = owner->height(), w = owner->width(), c = owner->channels();
+  if (c == 1) return py::array_t<float>({h, w}, {w * 4, py::ssize_t(4)}, owner->data(), free);
+  return py::array_t<float>({h, w, c}, {w * c * 4, c * 4, py::ssize_t(4)}, owner->data(), free);
+}
+
+// ------------------------------------------------------------------------------ compare
+
+std::vector<metrics::Metric> MetricList(const py::object& metrics) {
+  if (metrics.is_none()) return metrics::AllMetrics();
+  if (py::isinstance<py::str>(metrics))
+    return metrics::ParseMetricList(metrics.cast<std::string>());
+  std::vector<metrics::Metric> list;
+  for (const py::handle& item : metrics) {
+    const std::string name = py::str(item);
+    const std::optional<metrics::Metric> metric = metrics::ParseMetric(name);
+    if (!metric) {
+      throw UsageError(
+          fmt::format("unknown metric '{}' (1-ncc, cb+cr, zssd, dssim, census, "
+                      "icid, psnr, ssim)",
+                      name));
+    }
+    list.push_back(*metric);
+  }
+  return list;
+}
+
+// Buffers reused from call to call on the same thread (first touch of fresh pages is costly).
+struct ThreadBuffers {
+  Image photo_rgb, render_rgb;
+  Mask photo_alpha, render_alpha, user_mask, render_mask;
+  std::vector<metrics::MetricResult> results;
+};
+
+py::dict Compare(const py::object& photo_object, const py::object& render_object,
+                 const py::object& mask_object, const py::object& metrics_object,
+                 const py::object& render_mask_object, bool error_images, int window,
+                 const std::string& ssim_mode, float dark, float saturated,
+                 const std::optional<std::string>& compat, std::array<float, 3> background) {
+  compare::CompareOptions options;
+  options.metrics = MetricList(metrics_object);
+  options.metric_options.window = window;
+  REPHOTO_CHECK_USAGE(window >= 3 && window % 2 == 1, "window: {} is not an odd number >= 3",
+                      window);
+  if (ssim_mode == "skimage") {
+    options.metric_options.ssim_gaussian = false;
+    options.metric_options.ssim_window = 7;
+  } else {
+    REPHOTO_CHECK_USAGE(ssim_mode == "gaussian", "ssim_mode: '{}' is not gaussian or skimage",
+                        ssim_mode);
+  }
+  options.exposure.dark_threshold = dark;
+  options.exposure.saturated_threshold = saturated;
+  const ArrayView photo = ViewImage(photo_object, "photo");
+  const ArrayView render = ViewImage(render_object, "render");
+  REPHOTO_CHECK_USAGE(photo.width == render.width && photo.height == render.height,
+                      "render is {}x{} but photo is {}x{} (same size required)", render.width,
+                      render.height, photo.width, photo.height);
+  std::optional<ArrayView> mask, render_mask;
+  if (!mask_object.is_none()) mask = ViewImage(mask_object, "mask", true);
+  if (!render_mask_object.is_none())
+    render_mask = ViewImage(render_mask_object, "render_mask", true);
+  for (const std::optional<ArrayView>* m : {&mask, &render_mask}) {
+    REPHOTO_CHECK_USAGE(!*m || ((*m)->width == photo.width && (*m)->height == photo.height),
+                        "{} is {}x{} but photo is {}x{}", m == &mask ? "mask" : "render_mask",
+                        (*m)->width, (*m)->height, photo.width, photo.height);
+  }
+
+  py::dict out;
+  py::dict evaluated;
+  py::dict errors;
+  if (compat) {
+    const std::optional<metrics::CompatPreset> preset = metrics::ParseCompatPreset(*compat);
+    REPHOTO_CHECK_USAGE(preset.has_value(), "compat: '{}' is not 3dgs or nerfstudio", *compat);
+    REPHOTO_CHECK_USAGE(!mask && !render_mask, "compat {}: masks do not exist in this mode",
+                        *compat);
+    if (metrics_object.is_none())
+      options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+    options.compat = preset;
+    options.compat_background = background;
+    Image photo_image, render_image, squared_error, ssim_map;
+    compare::ImageResult result;
+    {
+      py::gil_scoped_release release;
+      ToImage(photo, &photo_image);
+      ToImage(render, &render_image);
+      result = compare::CompareCompat(options, *preset, "", "photo", "render", photo_image,
+                                      render_image, error_images ? &squared_error : nullptr,
+                                      error_images ? &ssim_map : nullptr);
+    }
+    out["completeness"] = result.completeness.value;
+    for (size_t i = 0; i < options.metrics.size(); ++i) {
+      const std::string name(metrics::MetricName(options.metrics[i]));
+      out[name.c_str()] = result.metrics[i].mean;
+      evaluated[name.c_str()] = result.metrics[i].evaluated;
+    }
+    if (error_images) {
+      for (metrics::Metric metric : options.metrics) {
+        errors[std::string(metrics::MetricName(metric)).c_str()] = ToNumpy(
+            metric == metrics::Metric::kPsnr ? std::move(squared_error) : std::move(ssim_map));
+      }
+    }
+    out["evaluated"] = evaluated;
+    if (error_images) out["errors"] = errors;
+    return out;
+  }
+
+  // The same steps as compare::ComparePhotoAndRender (compare/compare.cc), fed straight from
+  // the arrays: photo validity = mask AND alpha AND exposure; rendering validity = render_mask,
+  // else alpha > 0, else not pure black; metrics where both are valid.
+  thread_local ThreadBuffers buffers;
+  ThreadBuffers& b = buffers;
+  metrics::Completeness completeness;
+  {
+    py::gil_scoped_release release;
+    ToColour(photo, &b.photo_rgb, &b.photo_alpha);
+    ToColour(render, &b.render_rgb, &b.render_alpha);
+    Mask user;
+    if (mask) ToMask(*mask, &b.user_mask);
+    if (mask && !b.photo_alpha.empty()) {
+      user = metrics::CombineMasks(b.user_mask, b.photo_alpha);
+    } else if (mask) {
+      user = b.user_mask;
+    } else if (!b.photo_alpha.empty()) {
+      user = b.photo_alpha;
+    }
+    const Mask photo_valid = metrics::PhotoValidity(b.photo_rgb, user, options.exposure);
+    Mask render_valid;
+    if (render_mask) {
+      ToMask(*render_mask, &b.render_mask);
+      render_valid = metrics::RephotoValidity(b.render_rgb, b.render_mask);
+    } else if (!b.render_alpha.empty()) {
+      render_valid = b.render_alpha;  // RephotoValidity's rule for 2/4 channels: alpha > 0
+    } else {
+      render_valid = metrics::RephotoValidity(b.render_rgb);
+    }
+    completeness = metrics::ComputeCompleteness(photo_valid, render_valid, window);
+    const Mask valid = metrics::CombineMasks(photo_valid, render_valid);
+    metrics::ComputeMetrics(b.photo_rgb, b.render_rgb, valid, options.metrics,
+                            options.metric_options, &b.results);
+  }
+  out["completeness"] = completeness.value;
+  out["valid_photo_windows"] = completeness.valid_photo;
+  out["valid_both_windows"] = completeness.valid_both;
+  for (metrics::MetricResult& result : b.results) {
+    const std::string name(metrics::MetricName(result.metric));
+    out[name.c_str()] = result.mean;
+    evaluated[name.c_str()] = result.evaluated;
+    if (error_images) errors[name.c_str()] = ToNumpy(std::move(result.error));
+  }
+  out["evaluated"] = evaluated;
+  if (error_images) out["errors"] = errors;
+  return out;
+}
+
+// ------------------------------------------------------------------------------ scenes
+
+py::array PoseMatrix(const camera::Pose& pose) {
+  py::array_t<double> m({4, 4});
+  auto r = m.mutable_unchecked<2>();
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) r(i, j) = 0;
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r(i, j) = pose.rotation(i, j);
+    r(i, 3) = pose.translation(i);
+  }
+  r(3, 3) = 1;
+  return m;
+}
+
+camera::Pose PoseFromMatrix(const py::handle& object) {
+  const py::array_t<double, py::array::c_style | py::array::forcecast> m =
+      py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(object);
+  REPHOTO_CHECK_USAGE(m && m.ndim() == 2 && m.shape(0) >= 3 && m.shape(1) == 4,
+                      "cam_from_world: expected a 4x4 (or 3x4) matrix");
+  camera::Pose pose;
+  auto r = m.unchecked<2>();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) pose.rotation(i, j) = r(i, j);
+    pose.translation(i) = r(i, 3);
+  }
+  pose.Validate("cam_from_world");
+  return pose;
+}
+
+struct PyView {
+  std::string name;
+  std::filesystem::path image_path;
+  std::optional<std::filesystem::path> mask_path;
+  int camera_id = 0;
+  camera::Camera camera;
+  camera::Pose pose;
+};
+
+struct PyScene {
+  scene::Scene scene;
+  std::string format;
+  std::filesystem::path source;
+  std::vector<PyView> views;
+};
+
+std::shared_ptr<PyScene> ReadScene(const std::filesystem::path& path,
+                                   const std::optional<std::string>& format,
+                                   const std::optional<std::filesystem::path>& image_root,
+                                   bool check_image_sizes) {
+  scene::ReadSceneOptions options;
+  if (format) {
+    options.format = scene::ParseSceneFormat(*format);
+    REPHOTO_CHECK_USAGE(options.format.has_value(), "format: unknown scene format '{}' ({})",
+                        *format, scene::SceneFormatList());
+  }
+  options.image_root = image_root;
+  options.check_image_sizes = check_image_sizes;
+  auto result = std::make_shared<PyScene>();
+  scene::SceneSource source;
+  {
+    py::gil_scoped_release release;
+    result->scene = scene::ReadScene(path, options, &source);
+  }
+  result->format = std::string(scene::SceneFormatName(source.format));
+  result->source = source.path;
+  for (const scene::View& view : result->scene.views) {
+    result->views.push_back({view.name, view.image_path, view.mask_path, view.camera_id,
+                             result->scene.CameraOf(view), view.cam_from_world});
+  }
+  return result;
+}
+
+py::dict Split(const py::object& scene_or_names, const std::string& scheme_text,
+               std::optional<uint64_t> seed) {
+  std::vector<std::string> names;
+  if (py::isinstance<PyScene>(scene_or_names)) {
+    for (const PyView& view : scene_or_names.cast<const PyScene&>().views)
+      names.push_back(view.name);
+  } else {
+    for (const py::handle& item : scene_or_names) names.push_back(py::str(item));
+  }
+  split::Scheme scheme = split::ParseScheme(scheme_text);
+  if (seed) {
+    REPHOTO_CHECK_USAGE(scheme.Seeded(), "seed: scheme '{}' takes no seed", scheme_text);
+    scheme.seed = *seed;
+  }
+  const split::Split split = split::MakeSplit(names, scheme);
+  py::list folds;
+  for (const split::Fold& fold : split.folds) {
+    py::dict f;
+    f["train"] = fold.train;
+    f["test"] = fold.test;
+    folds.append(f);
+  }
+  py::dict out;
+  out["scheme"] = split.scheme.ToString();
+  out["cross_validated"] = split.cross_validated;
+  out["folds"] = folds;
+  return out;
+}
+
+// ------------------------------------------------------------------------------ models
+
+struct Model {
+  std::filesystem::path path;
+  std::unique_ptr<render::RenderModel> mesh;  // mesh or point cloud
+  std::unique_ptr<splat::GaussianModel> gaussians;
+};
+
+std::shared_ptr<Model> LoadModel(const std::filesystem::path& path, float point_radius) {
+  auto model = std::make_shared<Model>();
+  model->path = path;
+  py::gil_scoped_release release;
+  if (splat::IsGaussianFile(path)) {
+    model->gaussians = std::make_unique<splat::GaussianModel>(splat::ReadGaussians(path));
+  } else {
+    render::ModelOptions options;
+    if (point_radius > 0) options.point_radius = point_radius;
+    model->mesh =
+        std::make_unique<render::RenderModel>(mesh::ReadMesh(path), options, path.string());
+  }
+  return model;
+}
+
+py::tuple Render(const Model& model, const py::object& view_or_camera,
+                 const py::object& cam_from_world, int spp, uint32_t seed, bool backfaces,
+                 std::array<float, 3> background, const std::string& gaussian_mode) {
+  camera::Camera camera;
+  camera::Pose pose;
+  if (py::isinstance<PyView>(view_or_camera)) {
+    const PyView& view = view_or_camera.cast<const PyView&>();
+    camera = view.camera;
+    pose = cam_from_world.is_none() ? view.pose : PoseFromMatrix(cam_from_world);
+  } else {
+    camera = view_or_camera.cast<camera::Camera>();
+    REPHOTO_CHECK_USAGE(!cam_from_world.is_none(),
+                        "render: cam_from_world is required with a Camera (or pass a View)");
+    pose = PoseFromMatrix(cam_from_world);
+  }
+  camera.Validate("camera");
+  Image color, depth;
+  {
+    py::gil_scoped_release release;
+    if (model.gaussians) {
+      splat::GaussianRenderOptions options;
+      options.background = Eigen::Vector3f(background[0], background[1], background[2]);
+      options.mode = gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
+                                                    : splat::GaussianMode::kClassic;
+      splat::GaussianRendering r = splat::RenderGaussians(*model.gaussians, camera, pose, options);
+      color = std::move(r.color);
+      depth = std::move(r.depth);
+    } else {
+      render::RenderOptions options;
+      options.samples_per_pixel = spp;
+      options.seed = seed;
+      options.backfaces = backfaces;
+      render::Rephoto r = render::RenderRephoto(*model.mesh, camera, pose, options);
+      color = std::move(r.color);
+      depth = std::move(r.depth);
+    }
+  }
+  return py::make_tuple(ToNumpy(std::move(color)), ToNumpy(std::move(depth)));
+}
+
+// ------------------------------------------------------------------------------ evaluate
+
+eval::SettingValue ToSetting(const py::handle& value, const std::string& name) {
+  if (py::isinstance<py::bool_>(value)) return value.cast<bool>();
+  if (py::isinstance<py::int_>(value)) return value.cast<int64_t>();
+  if (py::isinstance<py::float_>(value)) return value.cast<double>();
+  if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+  if (py::hasattr(value, "__fspath__")) return std::string(py::str(value.attr("__fspath__")()));
+  if (py::isinstance<py::sequence>(value)) {
+    std::vector<std::string> items;
+    for (const py::handle& item : value) items.push_back(py::str(item));
+    return items;
+  }
+  throw UsageError(fmt::format("{}: unsupported value type {}", name,
+                               std::string(py::str(value.get_type().attr("__name__")))));
+}
+
+std::filesystem::path Evaluate(const py::kwargs& kwargs) {
+  eval::EvaluateOptions options;
+  if (kwargs.contains("config")) {
+    eval::LoadConfigFile(std::filesystem::path(std::string(
+                             py::str(py::module_::import("os").attr("fspath")(kwargs["config"])))),
+                         &options);
+  }
+  for (const auto& [key, value] : kwargs) {
+    std::string name = py::str(key);
+    if (name == "config") continue;
+    if (value.is_none()) continue;
+    eval::ApplySetting(&options, name, ToSetting(value, name), name);
+  }
+  py::gil_scoped_release release;
+  eval::RunEvaluate(options);
+  return options.out;
+}
+
+// For the timing comparison in the README: seconds per call of the CLI's own per-pair function
+// (compare::ComparePhotoAndRender, no error images) on these arrays, as decoded images
+// (the conversion into Image is done once, outside the timing, as the CLI's decoder would).
+// The workspace is reused between repeats, as the CLI does between pairs; returns the minimum.
+double CliPairSeconds(const py::object& photo_object, const py::object& render_object,
+                      const py::object& metrics_object, int repeats) {
+  compare::CompareOptions options;
+  options.metrics = MetricList(metrics_object);
+  options.write_error_images = false;
+  const ArrayView photo_view = ViewImage(photo_object, "photo");
+  const ArrayView render_view = ViewImage(render_object, "render");
+  Image photo, render;
+  py::gil_scoped_release release;
+  ToImage(photo_view, &photo);
+  ToImage(render_view, &render);
+  compare::CompareWorkspace workspace;
+  double best = 1e300;
+  for (int i = 0; i < repeats; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    compare::ComparePhotoAndRender(options, "x", "photo", "render", photo, render, nullptr, nullptr,
+                                   {}, &workspace);
+    best = std::min(
+        best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  return best;
+}
+
+}  // namespace
+}  // namespace rephoto::python
+
+PYBIND11_MODULE(_rephoto, m) {
+  using namespace rephoto;
+  using namespace rephoto::python;
+  m.doc() = "rephoto's C++ library (see the rephoto package for the documented API)";
+
+  static py::exception<Error> error(m, "Error", PyExc_RuntimeError);
+  static py::object usage_error = [&] {
+    py::object type = py::reinterpret_steal<py::object>(PyErr_NewException(
+        "rephoto.UsageError", py::make_tuple(error, py::handle(PyExc_ValueError)).ptr(), nullptr));
+    m.attr("UsageError") = type;
+    return type;
+  }();
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const UsageError& e) {
+      PyErr_SetString(usage_error.ptr(), e.what());
+    } catch (const Error& e) {
+      PyErr_SetString(error.ptr(), e.what());
+    }
+  });
+
+  m.attr("__version__") = compare::ToolVersion();
+#ifdef NDEBUG
+  m.attr("_build_type") = "Release";
+#else
+  m.attr("_build_type") = "Debug";
+#endif
+  m.attr("_compiler") = __VERSION__;
+
+  m.def("compare", &Compare, py::arg("photo"), py::arg("render"), py::arg("mask") = py::none(),
+        py::arg("metrics") = py::none(), py::arg("render_mask") = py::none(),
+        py::arg("error_images") = false, py::arg("window") = 9, py::arg("ssim_mode") = "gaussian",
+        py::arg("dark") = 0.0f, py::arg("saturated") = 1.0f, py::arg("compat") = py::none(),
+        py::arg("background") = std::array<float, 3>{0, 0, 0});
+  m.def("metric_names", [] {
+    std::vector<std::string> names;
+    for (metrics::Metric metric : metrics::AllMetrics())
+      names.emplace_back(metrics::MetricName(metric));
+    return names;
+  });
+
+  py::class_<camera::Camera>(m, "Camera")
+      .def(
+          py::init([](const std::string& model, int width, int height, std::vector<double> params) {
+            camera::Camera c;
+            const auto parsed = camera::ParseCameraModel(model);
+            REPHOTO_CHECK_USAGE(parsed.has_value(), "camera model '{}' is unknown", model);
+            c.model = *parsed;
+            c.width = width;
+            c.height = height;
+            c.params = std::move(params);
+            c.Validate("camera");
+            return c;
+          }),
+          py::arg("model"), py::arg("width"), py::arg("height"), py::arg("params"))
+      .def_property_readonly(
+          "model",
+          [](const camera::Camera& c) { return std::string(camera::CameraModelName(c.model)); })
+      .def_readonly("width", &camera::Camera::width)
+      .def_readonly("height", &camera::Camera::height)
+      .def_readonly("params", &camera::Camera::params)
+      .def("__repr__", [](const camera::Camera& c) {
+        return fmt::format("Camera({}, {}x{}, {} params)", camera::CameraModelName(c.model),
+                           c.width, c.height, c.params.size());
+      });
+
+  py::class_<PyView>(m, "View")
+      .def_readonly("name", &PyView::name)
+      .def_readonly("image_path", &PyView::image_path)
+      .def_readonly("mask_path", &PyView::mask_path)
+      .def_readonly("camera_id", &PyView::camera_id)
+      .def_readonly("camera", &PyView::camera)
+      .def_property_readonly("width", [](const PyView& v) { return v.camera.width; })
+      .def_property_readonly("height", [](const PyView& v) { return v.camera.height; })
+      .def_property_readonly("cam_from_world", [](const PyView& v) { return PoseMatrix(v.pose); })
+      .def_property_readonly("center",
+                             [](const PyView& v) {
+                               const Eigen::Vector3d c = v.pose.Center();
+                               return std::vector<double>{c.x(), c.y(), c.z()};
+                             })
+      .def("__repr__", [](const PyView& v) {
+        return fmt::format("View('{}', {}x{} {})", v.name, v.camera.width, v.camera.height,
+                           camera::CameraModelName(v.camera.model));
+      });
+
+  py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene")
+      .def_readonly("views", &PyScene::views)
+      .def_readonly("format", &PyScene::format)
+      .def_readonly("source", &PyScene::source)
+      .def_property_readonly("image_root", [](const PyScene& s) { return s.scene.image_root; })
+      .def_property_readonly("cameras", [](const PyScene& s) { return s.scene.cameras; })
+      .def_property_readonly("point_count", [](const PyScene& s) { return s.scene.points.size(); })
+      .def("__len__", [](const PyScene& s) { return s.views.size(); })
+      .def("__getitem__",
+           [](const PyScene& s, py::object key) -> PyView {
+             if (py::isinstance<py::int_>(key)) {
+               py::ssize_t i = key.cast<py::ssize_t>();
+               const py::ssize_t n = static_cast<py::ssize_t>(s.views.size());
+               if (i < 0) i += n;
+               if (i < 0 || i >= n) throw py::index_error("view index out of range");
+               return s.views[static_cast<size_t>(i)];
+             }
+             const std::string name = py::str(key);
+             for (const PyView& v : s.views) {
+               if (v.name == name) return v;
+             }
+             throw py::key_error(name);
+           })
+      .def("__repr__", [](const PyScene& s) {
+        return fmt::format("Scene({} views, {} cameras, {} points, {} from {})", s.views.size(),
+                           s.scene.cameras.size(), s.scene.points.size(), s.format,
+                           s.source.string());
+      });
+
+  m.def("read_scene", &ReadScene, py::arg("path"), py::arg("format") = py::none(),
+        py::arg("image_root") = py::none(), py::arg("check_image_sizes") = true);
+  m.def("split", &Split, py::arg("scene"), py::arg("scheme"), py::arg("seed") = py::none());
+
+  py::class_<Model, std::shared_ptr<Model>>(m, "Model")
+      .def_readonly("path", &Model::path)
+      .def_property_readonly("kind",
+                             [](const Model& model) -> std::string {
+                               if (model.gaussians) return "gaussians";
+                               return model.mesh->representation() ==
+                                              render::Representation::kPointCloud
+                                          ? "point_cloud"
+                                          : "mesh";
+                             })
+      .def("render", &Render, py::arg("view"), py::arg("cam_from_world") = py::none(),
+           py::arg("spp") = 4, py::arg("seed") = 0, py::arg("backfaces") = true,
+           py::arg("background") = std::array<float, 3>{0, 0, 0},
+           py::arg("gaussian_mode") = "classic");
+  m.def("load_model", &LoadModel, py::arg("path"), py::arg("point_radius") = 0.0f);
+  m.def("evaluate", &Evaluate);
+  m.def("_cli_pair_seconds", &CliPairSeconds, py::arg("photo"), py::arg("render"),
+        py::arg("metrics") = py::none(), py::arg("repeats") = 3);
+}

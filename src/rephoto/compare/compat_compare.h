@@ -1,0 +1,30 @@
+// `rephoto compare --compat PRESET`: one pair compared the way the field's evaluation scripts
+// do (metrics/compat.h), for numbers comparable with published tables. Every pixel counts: no
+// masks, no ill-exposure test, no completeness masking of the metrics. A photo (ground truth)
+// with alpha is composited over `background`; a rendering's alpha is dropped. Only the
+// metrics "psnr" and "ssim" exist in this mode. Completeness is still reported (rendering
+// alpha/black against an all-valid photo) but does not enter the metrics.
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "rephoto/compare/compare.h"
+#include "rephoto/metrics/compat.h"
+
+namespace rephoto::compare {
+
+// Throws UsageError when `metrics` holds anything but psnr and ssim.
+void CheckCompatMetrics(metrics::CompatPreset preset, const std::vector<metrics::Metric>& list);
+
+// The ImageResult of one pair under `preset` (metrics in options.metrics order; each
+// "evaluated" = width * height; psnr's mean is the image's PSNR). `squared_error` and
+// `ssim_map` as in ComputeCompatMetrics. Sizes must match (no resizing). Throws Error naming
+// the rendering on a size mismatch.
+ImageResult CompareCompat(const CompareOptions& options, metrics::CompatPreset preset,
+                          const std::string& name, const std::filesystem::path& photo_path,
+                          const std::filesystem::path& render_path, const Image& photo,
+                          const Image& render, Image* squared_error = nullptr,
+                          Image* ssim_map = nullptr);
+
+}  // namespace rephoto::compare
