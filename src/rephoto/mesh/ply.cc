@@ -16,41 +16,15 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/limits.h"
+#include "rephoto/io/ply_types.h"
 
 namespace rephoto::mesh {
 namespace {
 
-enum class Type { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
-
-std::optional<Type> ParseType(std::string_view name) {
-  if (name == "char" || name == "int8") return Type::kInt8;
-  if (name == "uchar" || name == "uint8") return Type::kUInt8;
-  if (name == "short" || name == "int16") return Type::kInt16;
-  if (name == "ushort" || name == "uint16") return Type::kUInt16;
-  if (name == "int" || name == "int32") return Type::kInt32;
-  if (name == "uint" || name == "uint32") return Type::kUInt32;
-  if (name == "float" || name == "float32") return Type::kFloat32;
-  if (name == "double" || name == "float64") return Type::kFloat64;
-  return std::nullopt;
-}
-
-int TypeSize(Type type) {
-  switch (type) {
-    case Type::kInt8:
-    case Type::kUInt8:
-      return 1;
-    case Type::kInt16:
-    case Type::kUInt16:
-      return 2;
-    case Type::kInt32:
-    case Type::kUInt32:
-    case Type::kFloat32:
-      return 4;
-    case Type::kFloat64:
-      return 8;
-  }
-  return 0;
-}
+// PLY scalar types: io/ply_types.h.
+using Type = io::PlyType;
+inline std::optional<Type> ParseType(std::string_view name) { return io::ParsePlyType(name); }
+inline int TypeSize(Type type) { return io::PlyTypeSize(type); }
 
 // Scale that maps an integer colour channel to [0,1]; 1 for floating-point types.
 double ColorScale(Type type) {

@@ -19,14 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::ErrorOf;
 
 TEST(RunFolder, CreatesAMissingFolderAndMarksIt) {
   const fs::path dir = testing::MakeTempDir() / "new" / "run";

@@ -16,14 +16,7 @@ using ::testing::HasSubstr;
 
 fs::path Data(const std::string& relative) { return testing::SharedDataDir() / relative; }
 
-std::string ErrorOf(const std::function<void()>& function) {
-  try {
-    function();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::ErrorOf;
 
 TEST(ReadSceneTest, FormatNames) {
   for (SceneFormat format :

@@ -6,6 +6,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/io/ply_types.h"
 
 namespace rephoto::splat {
 namespace {
@@ -13,14 +14,8 @@ namespace {
 namespace fs = std::filesystem;
 
 size_t ScalarSize(std::string_view type) {
-  if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
-  if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-  if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" ||
-      type == "float32") {
-    return 4;
-  }
-  if (type == "double" || type == "float64") return 8;
-  return 0;
+  const std::optional<io::PlyType> parsed = io::ParsePlyType(type);
+  return parsed ? static_cast<size_t>(io::PlyTypeSize(*parsed)) : 0;
 }
 
 std::vector<std::string> Words(const std::string& line) {

@@ -31,14 +31,7 @@ Scheme KFold(int k, uint64_t seed) {
   return scheme;
 }
 
-std::string ErrorOf(const std::function<void()>& function) {
-  try {
-    function();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::ErrorOf;
 
 // Published SplitMix64 outputs (Vigna's splitmix64.c; also computed by
 // testdata/make_split_fixture.py).

@@ -6,6 +6,8 @@
 #include <functional>
 #include <string>
 
+#include "rephoto/core/error.h"
+
 namespace rephoto::testing {
 namespace fs = std::filesystem;
 
@@ -46,6 +48,15 @@ std::mt19937_64 MakeRng() {
   const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "";
   return std::mt19937_64(std::hash<std::string>{}(name) ^ 0x5eed2017ULL);
+}
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 }  // namespace rephoto::testing

@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <random>
+#include <string>
 
 namespace rephoto::testing {
 
@@ -21,12 +23,16 @@ std::filesystem::path MakeTempDir();
 // between tests, independent of the order tests run in.
 std::mt19937_64 MakeRng();
 
+// The message of the rephoto::Error that `f` throws, or "(no error)" when it throws none (other
+// exceptions propagate): for tests of one-line error messages.
+std::string ErrorOf(const std::function<void()>& f);
+
 }  // namespace rephoto::testing
 
 // Skips the current test with a message when a dataset folder under ../shared/data is missing.
-#define REPHOTO_REQUIRE_DATA(relative)                                                    \
-  do {                                                                                    \
-    if (!std::filesystem::exists(::rephoto::testing::SharedDataDir() / (relative))) {     \
+#define REPHOTO_REQUIRE_DATA(relative)                                                             \
+  do {                                                                                             \
+    if (!std::filesystem::exists(::rephoto::testing::SharedDataDir() / (relative))) {              \
       GTEST_SKIP() << "dataset not found: " << (::rephoto::testing::SharedDataDir() / (relative)); \
-    }                                                                                     \
+    }                                                                                              \
   } while (false)
