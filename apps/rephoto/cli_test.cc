@@ -14,6 +14,8 @@
 #include <thread>
 
 #include "rephoto/core/file.h"
+#include "rephoto/mesh/ply.h"
+#include "rephoto/splat/gaussians.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto {
@@ -25,15 +27,17 @@ using ::testing::HasSubstr;
 struct Outcome {
   int exit_code = -1;
   std::string err;
+  std::string out;
 };
 
 // Runs `rephoto ARGS` through the shell, stderr captured.
 Outcome RunCli(const std::string& args) {
-  const fs::path err = testing::MakeTempDir() / "stderr";
-  const std::string command =
-      std::string(REPHOTO_CLI) + " -q " + args + " >/dev/null 2>'" + err.string() + "'";
+  const fs::path dir = testing::MakeTempDir();
+  const std::string command = std::string(REPHOTO_CLI) + " -q " + args + " >'" +
+                              (dir / "stdout").string() + "' 2>'" + (dir / "stderr").string() + "'";
   const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFileToString(err)};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFileToString(dir / "stderr"),
+          ReadFileToString(dir / "stdout")};
 }
 
 size_t Lines(const std::string& text) {
@@ -114,6 +118,59 @@ TEST(Cli, OneWriterPerRunFolderAndKillNineReleasesIt) {
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30);
   EXPECT_EQ(third.exit_code, 3) << third.err;  // finished, both folds failed (timed out)
   EXPECT_THAT(ReadFileToString(run / "per_fold.csv"), HasSubstr("timed out after 0.2 s"));
+}
+
+// issue 14, item 8: what a new user read wrong.
+TEST(Cli, HelpAndMessagesSayWhatTheyMean) {
+  const Outcome help = RunCli("evaluate --help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_THAT(help.out, HasSubstr("--colorize,--no-colorize "));
+  EXPECT_EQ(help.out.find("{false}"), std::string::npos);
+  EXPECT_THAT(help.out, HasSubstr("interleaved:K"));
+  EXPECT_THAT(help.out, HasSubstr("20x vdt's time"));
+  EXPECT_THAT(help.out, HasSubstr("--command-timeout"));
+  EXPECT_THAT(RunCli("degrade --help").out, HasSubstr("Fraction of the faces removed"));
+  const Outcome metric = RunCli("evaluate --scene s --model m --out o --metrics 1-nc");
+  EXPECT_EQ(metric.exit_code, 2);
+  EXPECT_THAT(metric.err, HasSubstr("rephoto: --metrics: unknown metric '1-nc'"));
+  EXPECT_EQ(metric.err.find("--metrics: --metrics"), std::string::npos);
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const Outcome info =
+      RunCli("scene info '" +
+             (testing::SharedDataDir() / kSceaux / "colmap_text_derived").string() + "' --json");
+  EXPECT_EQ(info.exit_code, 0);
+  ASSERT_FALSE(info.out.empty());
+  EXPECT_EQ(info.out.back(), '\n');
+}
+
+// issue 16: a Gaussian splatting model through evaluate (report) and project, as a user runs them.
+TEST(Cli, GaussianModelsGoThroughEvaluateReportAndProject) {
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const fs::path dir = testing::MakeTempDir();
+  const mesh::Mesh mesh = mesh::ReadPly(testing::SharedDataDir() / kSceaux / "scene_mesh.ply");
+  splat::GaussianModel gaussians;
+  for (size_t v = 0; v < mesh.vertex_count(); v += 7) {
+    gaussians.positions.push_back(mesh.positions[v]);
+    gaussians.scales.push_back(Eigen::Vector3f::Constant(0.05f));
+    gaussians.rotations.push_back(Eigen::Vector4f(1, 0, 0, 0));
+    gaussians.opacities.push_back(0.8f);
+    for (int c = 0; c < 3; ++c) gaussians.sh.push_back(0.2f * static_cast<float>(c));
+  }
+  splat::WriteInriaPly(dir / "point_cloud.ply", gaussians);
+  const std::string model = (dir / "point_cloud.ply").string();
+  const Outcome evaluate = RunCli("evaluate " + SceauxArgs() + " --model '" + model +
+                                  "' --eval-short-side 120 --metrics 1-ncc,cb+cr --out '" +
+                                  (dir / "run").string() + "'");
+  EXPECT_EQ(evaluate.exit_code, 3) << evaluate.err;  // Sceaux lacks one photo: incomplete
+  EXPECT_THAT(ReadFileToString(dir / "run/report.html"), HasSubstr("1-ncc"));
+  EXPECT_THAT(ReadFileToString(dir / "run/projected/1-ncc.ply"),
+              HasSubstr("property float error\nend_header"));
+  const Outcome project =
+      RunCli("project '" + model + "' " + SceauxArgs() + " --errors '" + (dir / "run").string() +
+             "' --scale-cameras --out '" + (dir / "projected.ply").string() + "'");
+  EXPECT_EQ(project.exit_code, 0) << project.err;
+  EXPECT_EQ(ReadFileToString(dir / "projected.ply"),
+            ReadFileToString(dir / "run/projected/1-ncc.ply"));
 }
 
 }  // namespace

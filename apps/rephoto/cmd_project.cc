@@ -24,6 +24,9 @@
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/project/project.h"
 #include "rephoto/scene/read_scene.h"
+#include "rephoto/splat/gaussians.h"
+#include "rephoto/splat/rasterize.h"
+#include "rephoto/splat/scalar_ply.h"
 #include "scene_args.h"
 
 namespace rephoto::cli {
@@ -39,12 +42,16 @@ struct ProjectArguments {
   project::ProjectOptions options;
   std::vector<float> range;
   bool no_backfaces = false;
+  std::string gaussian_mode = "classic";
+  std::string background = "black";
 };
 
 CommandRunner SetupProject(CLI::App& app) {
   auto args = std::make_shared<ProjectArguments>();
   project::ProjectOptions& o = args->options;
-  app.add_option("model", args->model, "Mesh or point cloud (.ply, .obj) the errors belong to")
+  app.add_option("model", args->model,
+                 "Mesh, point cloud or 3D Gaussian splatting model (.ply, .obj, .splat) the errors "
+                 "belong to")
       ->required();
   app.add_option("--scene", args->scene, "Scene file or folder with the evaluation cameras")
       ->required();
@@ -80,6 +87,14 @@ CommandRunner SetupProject(CLI::App& app) {
                "evaluation at reduced resolution); otherwise a size mismatch is an error");
   app.add_flag("--no-backfaces", args->no_backfaces,
                "The errors were rendered without the back sides of triangles");
+  app.add_option("--gaussian-mode", args->gaussian_mode,
+                 "Gaussian splatting models: classic or antialiased, as they were rendered")
+      ->check(CLI::IsMember({"classic", "antialiased"}))
+      ->capture_default_str();
+  app.add_option("--background", args->background,
+                 "Gaussian splatting models: the background R,G,B, black or white they were "
+                 "rendered over")
+      ->capture_default_str();
   app.add_option("--point-radius", o.model_options.point_radius,
                  "Splat radius of point clouds in model units, as rendered (default: the file's "
                  "radius, else the distance to the k-th nearest neighbour)")
@@ -128,6 +143,24 @@ CommandRunner SetupProject(CLI::App& app) {
                              unmatched, args->metric, args->errors, args->scene));
     }
 
+    if (splat::IsGaussianFile(args->model)) {
+      // 3D Gaussians: the mean error per Gaussian, weighted by its blending weights, added to
+      // the model's own file as a float "error" (project.h, splat/scalar_ply.h).
+      splat::GaussianRenderOptions gaussian_options;
+      gaussian_options.mode = *splat::ParseGaussianMode(args->gaussian_mode);
+      gaussian_options.background = splat::ParseBackground(args->background, "--background");
+      const splat::GaussianModel gaussians = splat::ReadGaussians(args->model);
+      size_t seen = 0;
+      const std::vector<float> error =
+          project::ProjectErrorsOntoGaussians(gaussians, views, gaussian_options, options, &seen);
+      splat::WriteGaussiansWithScalar(args->model, gaussians, "error", error, args->out);
+      fmt::print("{}: projected {} error images of '{}' onto {} Gaussians: {} seen ({:.1f} %)\n",
+                 args->model, views.size(), args->metric, gaussians.size(), seen,
+                 100.0 * static_cast<double>(seen) / static_cast<double>(gaussians.size()));
+      fmt::print("wrote {} ({:.2f} s)\n", args->out,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      return static_cast<int>(ExitCode::kOk);
+    }
     const mesh::Mesh model = mesh::ReadMesh(args->model);
     REPHOTO_CHECK(model.vertex_count() > 0, "{}: the model has no vertices", args->model);
     const project::ProjectResult result = project::ProjectErrors(model, views, options);

@@ -70,25 +70,6 @@ struct RenderArguments {
 };
 
 // "R,G,B" with values in [0, 1], or "black" / "white". Throws Error otherwise.
-Eigen::Vector3f ParseBackground(const std::string& value) {
-  if (value == "black") return Eigen::Vector3f::Zero();
-  if (value == "white") return Eigen::Vector3f::Ones();
-  Eigen::Vector3f color;
-  size_t begin = 0;
-  for (int c = 0; c < 3; ++c) {
-    const size_t end = value.find(',', begin);
-    REPHOTO_CHECK((c < 2) == (end != std::string::npos),
-                  "--background {}: expected R,G,B in [0, 1], black or white", value);
-    const std::string token = value.substr(begin, end == std::string::npos ? end : end - begin);
-    char* stop = nullptr;
-    color[c] = std::strtof(token.c_str(), &stop);
-    REPHOTO_CHECK(!token.empty() && *stop == '\0' && color[c] >= 0 && color[c] <= 1,
-                  "--background {}: expected R,G,B in [0, 1], black or white", value);
-    begin = end + 1;
-  }
-  return color;
-}
-
 // Scene view indices of a --training value: a list file when such a file exists, else
 // comma-separated image names. Throws Error naming an unknown image.
 std::vector<size_t> TrainingIndices(const scene::Scene& scene, const std::string& value) {
@@ -178,7 +159,7 @@ void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
   splat::GaussianRenderOptions options;
   options.mode = args.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
                                                      : splat::GaussianMode::kClassic;
-  options.background = ParseBackground(args.background);
+  options.background = splat::ParseBackground(args.background, "--background");
   if (args.spp_given) {
     LogWarning("--spp does not apply to Gaussians (one sample at each pixel centre, as 3DGS)");
   }

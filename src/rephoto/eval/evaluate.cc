@@ -1813,7 +1813,7 @@ void Evaluation::ProjectOntoGaussians(const fs::path& model_path, const std::str
   const std::shared_ptr<const splat::GaussianModel> model = LoadGaussians(model_path, model_key);
   size_t seen = 0;
   const std::vector<float> mean =
-      project::ProjectErrorsOntoGaussians(*model, views, GaussianOptions(), &seen);
+      project::ProjectErrorsOntoGaussians(*model, views, GaussianOptions(), {}, &seen);
   splat::WriteGaussiansWithScalar(model_path, *model, "error", mean, out);
   LogInfo(fmt::format("projected {} of {} views onto {} Gaussians ({} seen) -> {}", metric_name,
                       views.size(), model->size(), seen, out.string()));

@@ -9,6 +9,7 @@
 
 #include "rephoto/core/file.h"
 #include "rephoto/eval/command.h"
+#include "rephoto/splat/rasterize.h"
 
 namespace rephoto::eval {
 namespace fs = std::filesystem;
@@ -314,22 +315,8 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     }
     o->gaussian_mode = mode;
   } else if (n == "background") {
-    const std::string text = AsString(value, source);
-    std::array<float, 3> rgb{};
-    if (text == "black" || text == "white") {
-      rgb.fill(text == "white" ? 1.0f : 0.0f);
-    } else {
-      std::istringstream in(text);
-      char comma1 = 0, comma2 = 0;
-      in >> rgb[0] >> comma1 >> rgb[1] >> comma2 >> rgb[2];
-      const bool ok = in && comma1 == ',' && comma2 == ',' && (in >> std::ws).eof() &&
-                      std::all_of(rgb.begin(), rgb.end(), [](float c) { return c >= 0 && c <= 1; });
-      if (!ok) {
-        throw UsageError(
-            fmt::format("{}: '{}' is not black, white or R,G,B with each in [0, 1]", source, text));
-      }
-    }
-    o->background = rgb;
+    const Eigen::Vector3f rgb = splat::ParseBackground(AsString(value, source), source);
+    o->background = {rgb[0], rgb[1], rgb[2]};
   } else if (n == "min-alpha") {
     const double min_alpha = AsDouble(value, source);
     if (!(min_alpha > 0 && min_alpha <= 1)) {

@@ -477,18 +477,15 @@ std::vector<std::string> ListErrorMetrics(const std::filesystem::path& run_dir) 
 std::vector<float> ProjectErrorsOntoGaussians(const splat::GaussianModel& model,
                                               const std::vector<ProjectView>& views,
                                               const splat::GaussianRenderOptions& options,
-                                              size_t* seen) {
+                                              const ProjectOptions& project_options, size_t* seen) {
   splat::GaussianErrorAccumulator accumulator;
   accumulator.Reset(model.size());
   Image error;
   for (const ProjectView& view : views) {
     io::ReadImage(view.error_image, &error);
-    REPHOTO_CHECK(error.channels() == 1, "{}: an error image has 1 channel, this one {}",
-                  view.error_image.string(), error.channels());
-    REPHOTO_CHECK(error.width() == view.camera.width && error.height() == view.camera.height,
-                  "{}: image is {}x{} but its camera is {}x{}", view.error_image.string(),
-                  error.width(), error.height(), view.camera.width, view.camera.height);
-    splat::AccumulateGaussianErrors(model, view.camera, view.cam_from_world, options, error,
+    const camera::Camera camera =
+        CameraForImage(view, error.width(), error.height(), error.channels(), project_options);
+    splat::AccumulateGaussianErrors(model, camera, view.cam_from_world, options, error,
                                     &accumulator);
   }
   std::vector<float> mean(model.size(), std::numeric_limits<float>::quiet_NaN());

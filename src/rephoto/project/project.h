@@ -147,12 +147,15 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
 // error images weighted by the Gaussian's blending weight alpha * T at each pixel
 // (splat::AccumulateGaussianErrors; pixels whose error is NaN count for nothing), NaN for a
 // Gaussian no view saw; `seen` (optional) receives how many were seen. Each error image must
-// have 1 channel and its camera's size (Error naming it otherwise). The Gaussians are rendered
-// with `options` (mode, background), as they were for the errors. Write the result with
-// splat::WriteGaussiansWithScalar (every property of the model's file kept, "error" added).
+// have 1 channel and its camera's size, or only another resolution with
+// project_options.scale_cameras (Error naming it otherwise; the other ProjectOptions do not
+// apply). The Gaussians are rendered with `options` (mode, background), as they were for the
+// errors. Write the result with splat::WriteGaussiansWithScalar (every property of the model's
+// file kept, "error" added).
 std::vector<float> ProjectErrorsOntoGaussians(const splat::GaussianModel& model,
                                               const std::vector<ProjectView>& views,
                                               const splat::GaussianRenderOptions& options,
+                                              const ProjectOptions& project_options,
                                               size_t* seen = nullptr);
 
 // The colour (8-bit RGB) of one error value for the range [low, high] (see the file comment);

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -727,6 +729,31 @@ void AccumulateGaussianErrors(const GaussianModel& model, const camera::Camera& 
   }
   RasterizePinhole(model, u.grid, cam_from_world, options, &grid.color, &grid.depth, sum.data(),
                    accumulator, nullptr);
+}
+
+std::optional<GaussianMode> ParseGaussianMode(std::string_view text) {
+  if (text == "classic") return GaussianMode::kClassic;
+  if (text == "antialiased") return GaussianMode::kAntialiased;
+  return std::nullopt;
+}
+
+Eigen::Vector3f ParseBackground(std::string_view text, std::string_view source) {
+  if (text == "black") return Eigen::Vector3f::Zero();
+  if (text == "white") return Eigen::Vector3f::Ones();
+  Eigen::Vector3f color;
+  size_t begin = 0;
+  for (int c = 0; c < 3; ++c) {
+    const size_t end = text.find(',', begin);
+    const bool ok_comma = (c < 2) == (end != std::string_view::npos);
+    const std::string token(text.substr(begin, end == std::string_view::npos ? end : end - begin));
+    char* stop = nullptr;
+    color[c] = ok_comma ? std::strtof(token.c_str(), &stop) : -1.0f;
+    REPHOTO_CHECK_USAGE(
+        ok_comma && !token.empty() && *stop == '\0' && color[c] >= 0 && color[c] <= 1,
+        "{} {}: expected R,G,B in [0, 1], black or white", source, text);
+    begin = end + 1;
+  }
+  return color;
 }
 
 }  // namespace rephoto::splat

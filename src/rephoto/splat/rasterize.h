@@ -50,6 +50,8 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
+#include <string_view>
 #include <vector>
 
 #include "rephoto/camera/camera.h"
@@ -59,6 +61,12 @@
 namespace rephoto::splat {
 
 enum class GaussianMode { kClassic, kAntialiased };
+
+// "classic" or "antialiased"; nullopt otherwise.
+std::optional<GaussianMode> ParseGaussianMode(std::string_view text);
+// A background colour "R,G,B" (each in [0, 1]), "black" or "white"; throws UsageError
+// "<source> <text>: expected R,G,B in [0, 1], black or white" otherwise.
+Eigen::Vector3f ParseBackground(std::string_view text, std::string_view source);
 
 struct GaussianRenderOptions {
   GaussianMode mode = GaussianMode::kClassic;
