@@ -174,7 +174,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     }
     if (l.run.summary.is_object() && l.run.summary.contains("cross_validated") &&
         l.run.summary["cross_validated"].is_boolean() && !l.run.summary["cross_validated"]) {
-      notes.push_back("not cross-validated: the model saw the test photos");
+      notes.push_back("not cross-validated: the model may have seen the test photos");
     }
     for (const std::string& n : notes) l.note += (l.note.empty() ? "" : "; ") + n;
   }
