@@ -56,7 +56,7 @@ seed fuzz_mvs_texturing_cam fuzz/corpus/mvs_texturing_cam/*
 seed fuzz_splat fuzz/corpus/splat/inria_sh0 fuzz/corpus/splat/inria_sh1 \
   fuzz/corpus/splat/compressed fuzz/corpus/splat/three.splat fuzz/corpus/splat/cameras_json
 for colmap_file in "$data_dir"/openmvs_sceaux/colmap_text_derived/*.txt "$data_dir"/llff_fern/sparse/0/*.bin; do
-  # fuzz_scene_colmap takes a selector byte before the file (see src/rephoto/scene/colmap_fuzz.cc);
+  # fuzz_scene_colmap takes a selector byte before the file (see fuzz/fuzz_scene_colmap.cc);
   # the raw files still seed useful tokens.
   seed fuzz_scene_colmap "$colmap_file"
 done
