@@ -54,7 +54,8 @@ seed fuzz_mve fuzz/corpus/mve/*
 seed fuzz_mvs_texturing_cam fuzz/corpus/mvs_texturing_cam/*
 # Selector byte + file (fuzz/fuzz_splat.cc); made by fuzz/corpus/splat/make_seeds.py.
 seed fuzz_splat fuzz/corpus/splat/inria_sh0 fuzz/corpus/splat/inria_sh1 \
-  fuzz/corpus/splat/compressed fuzz/corpus/splat/three.splat fuzz/corpus/splat/cameras_json
+  fuzz/corpus/splat/compressed fuzz/corpus/splat/three.splat fuzz/corpus/splat/cameras_json \
+  fuzz/corpus/splat/regression_nan_tile_extent  # a finding of stop 23, kept as a seed
 for colmap_file in "$data_dir"/openmvs_sceaux/colmap_text_derived/*.txt "$data_dir"/llff_fern/sparse/0/*.bin; do
   # fuzz_scene_colmap takes a selector byte before the file (see fuzz/fuzz_scene_colmap.cc);
   # the raw files still seed useful tokens.

@@ -95,9 +95,12 @@ int TileBound(float v, int grid) {
   return static_cast<int>(v);
 }
 
-// v clamped to [lo, hi] before the conversion (no overflow for huge extents).
+// v clamped to [lo, hi] before the conversion (no overflow for huge extents); NaN (from
+// extreme but finite parameters, e.g. inf - inf in an ellipse extent) gives lo.
 int ClampToInt(float v, int lo, int hi) {
-  return static_cast<int>(std::clamp(v, static_cast<float>(lo), static_cast<float>(hi)));
+  if (!(v > static_cast<float>(lo))) return lo;
+  if (v >= static_cast<float>(hi)) return hi;
+  return static_cast<int>(v);
 }
 
 // Projects Gaussian g; false when it is culled.
