@@ -163,6 +163,16 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       best_completeness = l.completeness_median;
     }
   }
+  // Not cross-validated (summary.json "cross_validated": false) matters beside runs that are: a
+  // collection of fixed models alone (the demo's) compares fairly among itself.
+  const auto cross_validated = [](const RunData& run) {
+    return !(run.summary.is_object() && run.summary.contains("cross_validated") &&
+             run.summary["cross_validated"].is_boolean() && !run.summary["cross_validated"]);
+  };
+  const bool mixed = std::any_of(runs.begin(), runs.end(),
+                                 [&](const Loaded& l) { return cross_validated(l.run); }) &&
+                     std::any_of(runs.begin(), runs.end(),
+                                 [&](const Loaded& l) { return !cross_validated(l.run); });
   for (Loaded& l : runs) {
     std::vector<std::string> notes;
     if (!std::isnan(l.completeness_median) &&
@@ -172,8 +182,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
           "accuracy covers fewer pixels and does not compare",
           l.completeness_median, options.completeness_margin, best_completeness));
     }
-    if (l.run.summary.is_object() && l.run.summary.contains("cross_validated") &&
-        l.run.summary["cross_validated"].is_boolean() && !l.run.summary["cross_validated"]) {
+    if (mixed && !cross_validated(l.run)) {
       notes.push_back("not cross-validated: the model may have seen the test photos");
     }
     for (const std::string& n : notes) l.note += (l.note.empty() ? "" : "; ") + n;
@@ -285,12 +294,9 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
         const int index = l.run.MetricIndex(m);
         row.push_back(io::CsvNumber(index >= 0 ? Summarize(l.run.Values(index)).median : NAN));
       }
-      const bool cross_validated =
-          !(l.run.summary.is_object() && l.run.summary.contains("cross_validated") &&
-            l.run.summary["cross_validated"].is_boolean() && !l.run.summary["cross_validated"]);
       row.push_back(std::to_string(l.run.failed_folds.size()));
       row.push_back(std::to_string(l.run.missing.size()));
-      row.push_back(cross_validated ? "true" : "false");
+      row.push_back(cross_validated(l.run) ? "true" : "false");
       row.push_back(l.note);
       csv.AddRow(row);
     }

@@ -88,8 +88,9 @@ struct CollectionOptions {
   // Accuracy is meaningless without completeness (paper Section 4.2): a run whose median
   // completeness is more than this below the most complete run's is marked in the ranking
   // ("note" column and a warning sign) as not comparable by accuracy alone. Runs that are not
-  // cross-validated (summary.json "cross_validated": false: a fixed model that saw the test
-  // photos) are marked too. In [0, 1].
+  // cross-validated (summary.json "cross_validated": false: a fixed model that may have seen
+  // the test photos) are marked too when the collection also holds cross-validated runs (fixed
+  // models alone compare fairly among themselves). In [0, 1].
   double completeness_margin = 0.05;
   // When set, the ranking table is also written as CSV (rank, label, n, primary median,
   // completeness median, the other metrics' medians, failed folds, missing, cross_validated,
