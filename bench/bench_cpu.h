@@ -1,10 +1,13 @@
-// Process CPU time per benchmark iteration, shared by the benchmark programs.
+// Helpers shared by the benchmark programs: process CPU time per iteration, the common view.
 #pragma once
 
 #include <benchmark/benchmark.h>
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <string>
 
+#include "rephoto/camera/camera.h"
 #include "rephoto/core/process.h"
 
 namespace rephoto::bench {
@@ -29,5 +32,19 @@ class CpuCounter {
   std::string name_;
   double start_;
 };
+
+// The benchmarks' view of their unit-sphere scenes: from distance 2.3, slightly from above.
+inline camera::Pose BenchPose() {
+  const Eigen::Vector3d center(0.4, -2.2, 0.6);
+  const Eigen::Vector3d forward = (-center).normalized();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d(0, 0, 1)).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  camera::Pose pose;
+  pose.rotation.row(0) = right.transpose();
+  pose.rotation.row(1) = down.transpose();
+  pose.rotation.row(2) = forward.transpose();
+  pose.translation = -pose.rotation * center;
+  return pose;
+}
 
 }  // namespace rephoto::bench

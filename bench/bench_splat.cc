@@ -28,6 +28,8 @@
 
 namespace {
 
+using rephoto::bench::BenchPose;
+
 using rephoto::camera::Camera;
 using rephoto::camera::CameraModel;
 using rephoto::camera::Pose;
@@ -86,20 +88,6 @@ Camera BenchCamera(int width) {
   const double f = 1400.0 * width / 1920.0;
   camera.params = {f, f, width / 2.0, camera.height / 2.0};
   return camera;
-}
-
-// Looking at the sphere from distance 2.3, slightly from above (as bench_render).
-Pose BenchPose() {
-  const Eigen::Vector3d center(0.4, -2.2, 0.6);
-  const Eigen::Vector3d forward = (-center).normalized();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d(0, 0, 1)).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
-  Pose pose;
-  pose.rotation.row(0) = right.transpose();
-  pose.rotation.row(1) = down.transpose();
-  pose.rotation.row(2) = forward.transpose();
-  pose.translation = -pose.rotation * center;
-  return pose;
 }
 
 double PeakRssMb() {
