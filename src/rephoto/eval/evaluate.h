@@ -210,6 +210,19 @@ struct EvaluateOptions {
   std::string projection_metric = "1-ncc";
   bool report = true;              // write report.html
   bool handle_interrupts = false;  // install SIGINT/SIGTERM handlers (the CLI does)
+  // One task of a run instead of the whole run ("" = everything), for executors that run the
+  // tasks elsewhere (a cluster job) on the same run folder, which a whole run with the same
+  // settings prepared first (split, fold folders). Tasks:
+  //   fold:F               fold F's command (--reconstruct/--render) and derived model
+  //                        (--colorize, defects): RUN/folds/fold_FF/{reconstruction,model.ply}
+  //   views:F:FIRST:COUNT  render and compare views FIRST..FIRST+COUNT-1 of fold F (the fold's
+  //                        test views in name order); needs the fold's finished command
+  //   aggregate            per_image.csv, per_fold.csv, summary.json, projection, report from
+  //                        the view records; views without a valid record count as failed
+  // A task takes no run-folder lock and writes only its own outputs (atomically), so tasks of
+  // one run can run at once; each reuses what is already done, like a whole run. Its exit code:
+  // kOk, or kIncomplete when its fold or a view failed (the reason is in fold.json / logged).
+  std::string only;
   // Recorded in run.json only.
   std::vector<std::string> command_line;
   std::filesystem::path config_file;
