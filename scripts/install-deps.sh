@@ -17,6 +17,7 @@ packages=(
   python3-setuptools python3-wheel python3-pandas python3-matplotlib
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   chromium
+  slurmctld slurmd slurm-client munge
 )
 
 missing=()
