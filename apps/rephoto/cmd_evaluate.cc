@@ -16,6 +16,7 @@
 #include "command.h"
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
 
 namespace rephoto::cli {
@@ -35,11 +36,6 @@ std::vector<std::string> CommandLine() {
   std::string arg;
   while (std::getline(in, arg, '\0')) args.push_back(arg);
   return args;
-}
-
-std::string FormatValue(double value) {
-  if (std::isnan(value)) return "-";
-  return fmt::format("{:.4f}", value);
 }
 
 CommandRunner SetupEvaluate(CLI::App& app) {
@@ -102,44 +98,7 @@ CommandRunner SetupEvaluate(CLI::App& app) {
     options.command_line = CommandLine();
     const eval::EvaluateResult result = eval::RunEvaluate(options);
 
-    fmt::print(
-        "{} folds, {} of {} test images evaluated ({} views reused, {} rendered, {} "
-        "commands run)\n",
-        result.folds.size(), result.evaluated_images, result.images, result.counters.views_reused,
-        result.counters.views_rendered, result.counters.commands_run);
-    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "", "fold mean", "min", "median",
-               "max", "pooled");
-    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "completeness",
-               FormatValue(result.completeness_across_folds.mean),
-               FormatValue(result.completeness_across_folds.min),
-               FormatValue(result.completeness_across_folds.median),
-               FormatValue(result.completeness_across_folds.max), "");
-    for (const eval::MetricAggregate& m : result.metrics) {
-      fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", metrics::MetricName(m.metric),
-                 FormatValue(m.across_folds.mean), FormatValue(m.across_folds.min),
-                 FormatValue(m.across_folds.median), FormatValue(m.across_folds.max),
-                 FormatValue(m.pooled));
-    }
-    for (const eval::FoldResult& fold : result.folds) {
-      if (!fold.ok) fmt::print("failed: {}\n", fold.message);
-    }
-    for (const std::string& name : result.missing_photos) fmt::print("missing photo: {}\n", name);
-    const eval::EvaluateTimings& t = result.timings;
-    const std::string cpu = t.external_cpu > 0
-                                ? fmt::format(
-                                      "; CPU: commands {:.1f} s, rephoto {:.1f} s "
-                                      "= {:.1f} %",
-                                      t.external_cpu, t.rephoto_cpu, 100 * t.rephoto_cpu_share())
-                                : "";
-    // The commands of several folds run at once and beside rephoto's own work, so their
-    // summed times can exceed the wall-clock total; the line says so when they do.
-    const bool overlapped = t.external + t.rephoto() > t.total + 0.05;
-    fmt::print(
-        "Time {:.1f} s wall clock (external commands {:.1f} s, rephoto {:.1f} s{}{}). "
-        "Results in {}\n",
-        t.total, t.external, t.rephoto(),
-        overlapped ? ", summed over work that ran at the same time" : "", cpu,
-        options.out.string());
+    fmt::print("{}", eval::ResultText(result, options.out));
     return static_cast<int>(result.exit_code);
   };
 }

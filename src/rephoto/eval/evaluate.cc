@@ -8,6 +8,7 @@
 #include <mutex>
 #include <thread>
 
+#include "rephoto/core/file.h"
 #include "rephoto/core/process.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/eval/aggregate.h"
@@ -19,6 +20,7 @@
 #include "rephoto/eval/records.h"
 #include "rephoto/eval/rephoto_views.h"
 #include "rephoto/eval/run_command.h"
+#include "rephoto/eval/settings.h"
 #include "rephoto/eval/state.h"
 #include "rephoto/split/split_writer.h"
 
@@ -355,7 +357,89 @@ EvaluateResult RunTask(RunState& s) {
   return result;
 }
 
+// Whether a fold's task (command, derived model) has its results, and the fold's base key.
+bool FoldReady(RunState& s, ViewWorkspace& ws, FoldState& fold) {
+  if (s.source != ModelSource::kModel) {
+    RunFoldCommand(s, fold, /*may_run=*/false);
+    if (!fold.ok) return false;
+  }
+  try {
+    std::optional<mesh::Mesh> mesh;
+    ResolveFoldModel(s, ws.models, fold, &mesh);
+  } catch (const Error&) {
+    return false;  // the fold task reports it
+  }
+  if (!s.DerivesModel() || fold.gaussians) return true;
+  std::error_code ec;
+  return fs::is_regular_file(fold.dir / "model.ply", ec) &&
+         fs::is_regular_file(fold.dir / "model.key", ec) &&
+         ReadFileToString(fold.dir / "model.key") == fold.colorize_key;
+}
+
 }  // namespace
+
+EvaluatePlan PlanEvaluate(const EvaluateOptions& options, size_t views_per_task) {
+  REPHOTO_CHECK_USAGE(views_per_task > 0, "evaluate: views per task must be at least 1");
+  EvaluateOptions o = options;
+  o.only.clear();
+  o.executor = "local";
+  RunState s(o);
+  const fs::path run_json = fs::absolute(o.out).lexically_normal() / "run.json";
+  const std::optional<Json> previous = run::ReadJsonRecord(run_json);
+  const std::string previous_status = previous ? previous->value("status", "") : "";
+  Start(s);
+  PrepareFolds(s);
+  Hasher settings;
+  settings.Add(SettingsJson(o).dump());
+  if (s.source == ModelSource::kModel && !o.model.empty()) settings.Add(s.hashes->Hash(o.model));
+  const std::string settings_key = settings.Hex();
+  EvaluatePlan plan;
+  plan.run = s.run;
+  plan.folds = s.folds.size();
+  ViewWorkspace ws;
+  bool all_done = true;
+  Hasher aggregate_key;
+  aggregate_key.Add(settings_key);
+  std::vector<EvaluateTask> view_tasks;
+  for (FoldState& fold : s.folds) {
+    plan.views += fold.tests.size();
+    const bool fold_task = s.source != ModelSource::kModel || s.DerivesModel();
+    const bool ready = FoldReady(s, ws, fold);
+    const std::string fold_key =
+        Hasher().Add(settings_key).Add(fold.train_key).Add(fold.test_key).Hex();
+    if (fold_task) {
+      plan.tasks.push_back({EvaluateTask::Kind::kFold, fmt::format("fold:{}", fold.index),
+                            fold.index, 0, fold_key, ready});
+      all_done &= ready;
+    }
+    for (size_t first = 0; first < fold.tests.size(); first += views_per_task) {
+      const size_t count = std::min(views_per_task, fold.tests.size() - first);
+      EvaluateTask task{EvaluateTask::Kind::kViews,
+                        fmt::format("views:{}:{}:{}", fold.index, first, count), fold.index, count};
+      Hasher key;
+      key.Add(fold_key);
+      task.done = ready && PlanViews(s, fold, nullptr, first, count).empty();
+      for (size_t i = first; i < first + count; ++i) {
+        key.Add(fold.tests[i].stem).Add(ready ? fold.views[i].key : std::string());
+      }
+      task.key = key.Hex();
+      aggregate_key.Add(task.key);
+      all_done &= task.done;
+      view_tasks.push_back(std::move(task));
+    }
+  }
+  plan.tasks.insert(plan.tasks.end(), view_tasks.begin(), view_tasks.end());
+  std::error_code ec;
+  const bool aggregated = (previous_status == "ok" || previous_status == "incomplete") &&
+                          fs::is_regular_file(s.run / "summary.json", ec);
+  plan.tasks.push_back({EvaluateTask::Kind::kAggregate, "aggregate", 0, 0, aggregate_key.Hex(),
+                        all_done && aggregated});
+  if (plan.tasks.back().done && previous) {
+    run::WriteJsonRecord(run_json, *previous);  // nothing to do: the finished run's record stays
+  }
+  s.hashes->Save();
+  return plan;
+}
 
 // ------------------------------------------------------------------------------ public API
 

@@ -66,3 +66,25 @@ TEST(RunRecords, DamagedOrMissingRecordsReadAsAbsent) {
 
 }  // namespace
 }  // namespace rephoto::run
+
+#include "rephoto/run/summary_table.h"
+
+namespace rephoto::run {
+namespace {
+
+TEST(SummaryTable, ColumnsAndSpecialValues) {
+  Summary s;
+  s.mean = 0.25;
+  s.min = 0;
+  s.median = std::numeric_limits<double>::quiet_NaN();
+  s.max = std::numeric_limits<double>::infinity();
+  const std::string text = FormatSummaryTable(
+      "over images", "mean", {{"completeness", s, 0, false}, {"1-ncc", s, 0.5, true}});
+  EXPECT_EQ(text,
+            "over images          mean        min     median        max     pooled\n"
+            "completeness       0.2500     0.0000          -        inf           \n"
+            "1-ncc              0.2500     0.0000          -        inf     0.5000\n");
+}
+
+}  // namespace
+}  // namespace rephoto::run
