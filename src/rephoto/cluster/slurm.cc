@@ -52,7 +52,7 @@ void SlurmOptions::Check() const {
                           "--slurm-option '{}': not an sbatch option (it must start with -)",
                           option);
       for (const char* ours : {"--array", "-a", "--output", "-o", "--error", "-e", "--parsable",
-                               "--dependency", "-d", "--wrap"}) {
+                               "--dependency", "-d", "--job-name", "-J", "--wrap"}) {
         const std::string_view name = std::string_view(option).substr(0, option.find('='));
         REPHOTO_CHECK_USAGE(name != ours,
                             "--slurm-option '{}': rephoto sets {} itself (see docs/cluster.md)",
@@ -116,6 +116,18 @@ std::vector<std::string> RunOutcome::FailureLines() const {
 }
 
 namespace {
+
+// RunProgram, with a hint when a Slurm program cannot be started at all.
+ProgramOutput RunSlurm(const std::vector<std::string>& argv) {
+  try {
+    return RunProgram(argv);
+  } catch (const Error& e) {
+    ThrowError(
+        "{} (is Slurm installed here? REPHOTO_SBATCH, REPHOTO_SQUEUE, ... name other "
+        "programs)",
+        e.what());
+  }
+}
 
 // ------------------------------------------------------------------------------ jobs.json
 
@@ -331,7 +343,7 @@ std::map<std::string, QueueEntry> Runner::QueryQueue(const std::set<std::string>
   if (jobs.empty()) return entries;
   std::string list;
   for (const std::string& job : jobs) list += (list.empty() ? "" : ",") + job;
-  const ProgramOutput output = RunProgram(
+  const ProgramOutput output = RunSlurm(
       {options_.commands.squeue, "-h", "-r", "-t", "all", "-j", list, "-o", "%F|%K|%T|%r|%N"});
   if (!output.ok()) {
     // squeue refuses a list of job ids that are all unknown (purged after MinJobAge).
@@ -429,7 +441,7 @@ void Runner::Plan() {
   if (!cancel.empty()) {
     std::vector<std::string> argv = {options_.commands.scancel};
     argv.insert(argv.end(), cancel.begin(), cancel.end());
-    const ProgramOutput output = RunProgram(argv);
+    const ProgramOutput output = RunSlurm(argv);
     REPHOTO_CHECK(output.ok(), "scancel: {}", output.FirstLine());
   }
 }
@@ -454,7 +466,7 @@ std::string Runner::SubmitArray(size_t group, const std::vector<size_t>& tasks,
   WriteTextFileAtomically(script, MakeArrayScript(spec, argv));
   fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
 
-  const ProgramOutput output = RunProgram(argv);
+  const ProgramOutput output = RunSlurm(argv);
   REPHOTO_CHECK(output.ok(), "sbatch refused the {} task(s) of group '{}': {}", tasks.size(),
                 task_group.name, output.FirstLine());
   const std::string job = ParseSbatchJobId(output.out);
@@ -492,7 +504,7 @@ void Runner::Submit() {
   } else {
     max_array_size_ = 1001;  // Slurm's default
     try {
-      const ProgramOutput output = RunProgram({options_.commands.scontrol, "show", "config"});
+      const ProgramOutput output = RunSlurm({options_.commands.scontrol, "show", "config"});
       if (output.ok()) max_array_size_ = ParseMaxArraySize(output.out).value_or(max_array_size_);
     } catch (const Error&) {
       // No scontrol: keep the default.
@@ -575,8 +587,8 @@ void Runner::ExplainVanished(std::vector<Tracked*>& vanished) {
   for (const std::string& job : jobs) list += (list.empty() ? "" : ",") + job;
   ProgramOutput output;
   try {
-    output = RunProgram({options_.commands.sacct, "-n", "-X", "-P", "-j", list, "-o",
-                         "JobID,State,ExitCode,NodeList"});
+    output = RunSlurm({options_.commands.sacct, "-n", "-X", "-P", "-j", list, "-o",
+                       "JobID,State,ExitCode,NodeList"});
   } catch (const Error&) {
     sacct_works_ = false;
     return;

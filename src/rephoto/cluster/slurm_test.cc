@@ -104,7 +104,7 @@ std::string Q(const fs::path& path) { return ShellWord(path.string()); }
 TEST(Slurm, GroupsRunAsArraysInOrderAndFinishedTasksAreNotSubmittedAgain) {
   REPHOTO_REQUIRE_SLURM(cluster);
   const fs::path dir = testing::MakeTempDir();
-  const fs::path run = dir / "run";
+  const fs::path run = dir / "run folder's";  // paths reach sbatch and the script unharmed
   const fs::path out = dir / "out";
   fs::create_directories(out);
   SbatchCounter counter(dir);
@@ -420,6 +420,55 @@ TEST(Slurm, BadTasksAndRefusedSubmissionsAreOneLineErrors) {
   options.work.options = {"--array=0-3"};
   EXPECT_EQ(testing::ErrorOf([&] { RunTaskGroups(dir / "run", groups, options); }),
             "--slurm-option '--array=0-3': rephoto sets --array itself (see docs/cluster.md)");
+}
+
+// A task that leaves the queue without a result file (its node died; here its wrapper is
+// killed and a squeue wrapper hides the job) fails as vanished, and sacct, where the cluster
+// keeps accounting, says how it ended.
+TEST(Slurm, TaskThatVanishesIsNamedAndSacctSaysWhy) {
+  REPHOTO_REQUIRE_SLURM(cluster);
+  const fs::path dir = testing::MakeTempDir();
+  SbatchCounter counter(dir);
+  SlurmOptions options = TestOptions(counter);
+  options.commands.squeue = (dir / "squeue").string();
+  WriteTextFileAtomically(options.commands.squeue, "#!/bin/sh\nsqueue \"$@\" >/dev/null\n");
+  fs::permissions(options.commands.squeue, fs::perms::owner_all);
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  groups[0].tasks = {Sh("dies", "kill -9 $PPID")};
+
+  RunOutcome outcome = RunTaskGroups(dir / "run", groups, options);
+  ASSERT_EQ(outcome.Count(TaskState::kFailed), 1u);
+  const std::string job = Find(outcome, "dies").job;
+  EXPECT_EQ(outcome.FailureLines()[0],
+            fmt::format("dies: vanished: left the queue without a result file (node died?) (job "
+                        "{}); log: {}",
+                        job, (fs::absolute(dir / "run") / "slurm" / (job + ".log")).string()));
+
+  // The next call submits it again; this time sacct answers.
+  options.commands.sacct = (dir / "sacct").string();
+  WriteTextFileAtomically(options.commands.sacct,
+                          "#!/bin/sh\necho \"${5}_0|NODE_FAIL|0:0|n1\"\n");  // $5: the job list
+  fs::permissions(options.commands.sacct, fs::perms::owner_all);
+  outcome = RunTaskGroups(dir / "run", groups, options);
+  ASSERT_EQ(outcome.Count(TaskState::kFailed), 1u);
+  EXPECT_TRUE(Find(outcome, "dies").submitted);
+  EXPECT_EQ(Find(outcome, "dies").message, "its node failed (sacct; no result file)");
+  EXPECT_EQ(Find(outcome, "dies").slurm_state, "NODE_FAIL");
+  EXPECT_EQ(counter.Count(), 2u);
+}
+
+TEST(Slurm, MissingSlurmProgramIsNamed) {
+  const fs::path dir = testing::MakeTempDir();
+  SlurmOptions options;
+  options.commands.sbatch = (dir / "no-sbatch").string();
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  groups[0].tasks = {Sh("a", "true")};
+  EXPECT_EQ(testing::ErrorOf([&] { RunTaskGroups(dir / "run", groups, options); }),
+            fmt::format("{}: cannot start: No such file or directory (is Slurm installed here? "
+                        "REPHOTO_SBATCH, REPHOTO_SQUEUE, ... name other programs)",
+                        options.commands.sbatch));
 }
 
 }  // namespace
