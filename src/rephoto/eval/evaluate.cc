@@ -21,6 +21,7 @@
 #include "rephoto/eval/rephoto_views.h"
 #include "rephoto/eval/run_command.h"
 #include "rephoto/eval/settings.h"
+#include "rephoto/eval/slurm_executor.h"
 #include "rephoto/eval/state.h"
 #include "rephoto/split/split_writer.h"
 
@@ -347,7 +348,13 @@ EvaluateResult RunTask(RunState& s) {
   const Task task = ParseTask(s.o.only);
   Start(s);
   EvaluateResult result;
-  if (task.kind == Task::Kind::kAggregate) return RunAggregateTask(s);
+  if (task.kind == Task::Kind::kAggregate) {
+    // The task did its work when the tables are written; whether the run is complete is in
+    // summary.json (the submitting process reads it back).
+    result = RunAggregateTask(s);
+    result.exit_code = ExitCode::kOk;
+    return result;
+  }
   REPHOTO_CHECK_USAGE(task.fold < s.folds.size(), "--only {}: the run has {} folds", s.o.only,
                       s.folds.size());
   FoldState& fold = s.folds[task.fold];
@@ -531,6 +538,12 @@ void EvaluateOptions::Check() const {
     throw UsageError(fmt::format("evaluate: unknown projection metric '{}'", projection_metric));
   }
   if (!only.empty()) ParseTask(only);  // UsageError when malformed
+  if (executor != "local" && executor != "slurm") {
+    throw UsageError(fmt::format("evaluate: --executor '{}' is not one of local, slurm", executor));
+  }
+  if (executor == "slurm" && !only.empty()) {
+    throw UsageError("evaluate: --only runs one task here; it does not go with --executor slurm");
+  }
   compare::CompareOptions c;
   c.photos = c.renders = c.out = "-";
   c.metrics = metrics;
@@ -548,6 +561,15 @@ EvaluateResult RunEvaluate(const EvaluateOptions& options) {
   std::optional<InterruptGuard> guard;
   if (options.handle_interrupts) guard.emplace();
   RequestInterrupt(false);
+  if (options.executor == "slurm") {
+    const SlurmRunOutcome outcome = RunEvaluateOnSlurm(options);
+    if (!outcome.finished) {
+      ThrowError("{}: the Slurm jobs did not finish the run ({}); rerun to resume",
+                 options.out.string(),
+                 outcome.failed.empty() ? "not waited for" : outcome.failed.front());
+    }
+    return outcome.result;
+  }
   try {
     return options.only.empty() ? RunAll(s) : RunTask(s);
   } catch (const Error& e) {

@@ -222,7 +222,8 @@ struct EvaluateOptions {
   //                        the view records; views without a valid record count as failed
   // A task takes no run-folder lock and writes only its own outputs (atomically), so tasks of
   // one run can run at once; each reuses what is already done, like a whole run. Its exit code:
-  // kOk, or kIncomplete when its fold or a view failed (the reason is in fold.json / logged).
+  // kOk, or kIncomplete when its fold or a view failed (the reason is in fold.json / logged);
+  // aggregate exits kOk once the tables are written (the run's state is in summary.json).
   std::string only;
   // Where the work runs: "local" (this process) or "slurm" (eval/slurm_executor.h: the tasks
   // above as Slurm job arrays; `slurm` holds the resources and --wait). `program` is the

@@ -4,6 +4,7 @@
 
 #include <set>
 
+#include "rephoto/cluster/slurm_settings.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/eval/command.h"
@@ -77,7 +78,7 @@ SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
   // The settings as a config file every task reads (absolute paths: nodes share the paths).
   EvaluateOptions task_options = options;
   task_options.out = plan.run;
-  const fs::path config = plan.run / "slurm" / "evaluate.json";
+  const fs::path config = plan.run / "evaluate-settings.json";
   const std::string config_text = SettingsJson(task_options).dump(2) + "\n";
   WriteTextFileAtomically(config, config_text);
   const std::string config_key = Hasher().Add(config_text).Hex();
@@ -87,7 +88,7 @@ SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
   SlurmRunOutcome outcome;
   outcome.tasks = plan.tasks.size();
   for (const EvaluateTask& task : plan.tasks) outcome.tasks_done_before += task.done ? 1 : 0;
-  cluster::SlurmOptions slurm = options.slurm;
+  cluster::SlurmOptions slurm = cluster::ResolveReconstructResources(options.slurm);
   slurm.interrupted = [] { return InterruptRequested(); };
   slurm.job_name = "rephoto-eval";
   LogInfo(fmt::format("evaluate on Slurm: {} folds, {} views, {} tasks ({} done before) -> {}",
@@ -98,6 +99,7 @@ SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
         LogInfo(fmt::format("slurm: {} of {} tasks done, {} failed, {} running, {} pending",
                             p.done, p.total, p.failed, p.running, p.pending));
       });
+  outcome.run = run;
   outcome.jobs = run.JobIds();
   outcome.failed = run.FailureLines();
   outcome.submitted = run.submitted;

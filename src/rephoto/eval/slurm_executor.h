@@ -4,13 +4,13 @@
 // What runs where:
 //   the submitting process  PlanEvaluate: reads the scene, splits, prepares the fold folders
 //                           and run.json (the run folder on a filesystem every node sees),
-//                           writes the settings to RUN/slurm/evaluate.json, submits, follows
+//                           writes the settings to RUN/evaluate-settings.json, submits, follows
 //   array "fold"            one task per fold: its --reconstruct/--render command (with the
 //                           --slurm-reconstruct-* resources) and derived model (--colorize)
 //   array "views"           chunks of EvaluateOptions::views_per_task held-out views: render +
 //                           compare, one record per view
 //   job "aggregate"         per_image.csv, per_fold.csv, summary.json, projection, report
-// Each task runs `<program> -q -j <cpus> evaluate --config RUN/slurm/evaluate.json --only <task>`
+// Each task runs `<program> -q -j <cpus> evaluate --config RUN/evaluate-settings.json --only <task>`
 // (cpus: --slurm-cpus-per-task, else all the node's). Tasks whose results are already in the run
 // folder with valid keys are not submitted; tasks of an earlier submission still queued or
 // running are followed; failed, cancelled or vanished ones are submitted again by the next call.
@@ -33,6 +33,7 @@ struct SlurmRunOutcome {
   std::vector<std::string> jobs;    // array job ids submitted or followed
   std::vector<std::string> failed;  // one line per failed task, with its log file
   size_t submitted = 0, tasks = 0, tasks_done_before = 0;
+  cluster::RunOutcome run;  // what became of each submitted task
 };
 
 SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options);
