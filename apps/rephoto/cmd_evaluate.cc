@@ -148,6 +148,7 @@ CommandRunner SetupEvaluate(CLI::App& app) {
       return static_cast<int>(outcome.result.exit_code);
     }
     const eval::EvaluateResult result = eval::RunEvaluate(options);
+    if (!options.only.empty()) return static_cast<int>(result.exit_code);  // a task: no table
 
     fmt::print("{}", eval::ResultText(result, options.out));
     return static_cast<int>(result.exit_code);

@@ -306,7 +306,15 @@ ExitCode RunViewsTask(RunState& s, FoldState& fold, size_t first, size_t count) 
   ViewWorkspace ws;
   const size_t end = std::min(fold.tests.size(), first + count);
   Progress progress("evaluate", end > first ? end - first : 0);
-  RephotoFold(s, ws, fold, &progress, first, count);
+  try {
+    RephotoFold(s, ws, fold, &progress, first, count);
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    if (InterruptRequested()) throw;
+    LogWarning(fmt::format("{}: {}", fold.name, e.what()));
+    return ExitCode::kIncomplete;
+  }
   s.hashes->Save();
   if (InterruptRequested()) throw Interrupted(fmt::format("{}: interrupted", s.run.string()));
   for (size_t i = first; i < end; ++i) {

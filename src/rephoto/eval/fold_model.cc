@@ -183,7 +183,18 @@ std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache
     mesh->emplace(mesh::ReadPly(coloured));
   } else {
     if (!*mesh) mesh->emplace(mesh::ReadMesh(fold.model_path));
-    if (s.DerivesModel()) built = DeriveModel(s, fold, **mesh);
+    if (s.DerivesModel()) {
+      built = DeriveModel(s, fold, **mesh);
+      // Rendered with the colours model.ply holds, so that a later run (or another process)
+      // that reads model.ply renders the same pixels.
+      if (built) {
+        std::vector<Eigen::Vector3f> colors = built->mesh().colors;
+        mesh::QuantizeColorsAsPly(&colors);
+        built->SetVertexColors(std::move(colors));
+      } else {
+        mesh::QuantizeColorsAsPly(&(*mesh)->colors);
+      }
+    }
   }
   std::shared_ptr<const render::RenderModel> model;
   if (built) {

@@ -68,23 +68,28 @@ std::vector<cluster::TaskGroup> TaskGroups(const EvaluateOptions& o, const Evalu
 
 }  // namespace
 
-SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
+std::vector<cluster::TaskGroup> PrepareEvaluateTasks(const EvaluateOptions& options,
+                                                     const std::string& prefix,
+                                                     EvaluatePlan* plan) {
   options.Check();
   REPHOTO_CHECK_USAGE(options.views_per_task >= 1, "evaluate: --views-per-task must be >= 1");
   const fs::path program = options.program.empty() ? ThisExecutable() : options.program;
-  REPHOTO_CHECK_USAGE(program.is_absolute(), "evaluate: the rephoto program path {} is not absolute",
-                      program.string());
-  const EvaluatePlan plan = PlanEvaluate(options, static_cast<size_t>(options.views_per_task));
+  REPHOTO_CHECK_USAGE(program.is_absolute(),
+                      "evaluate: the rephoto program path {} is not absolute", program.string());
+  *plan = PlanEvaluate(options, static_cast<size_t>(options.views_per_task));
   // The settings as a config file every task reads (absolute paths: nodes share the paths).
   EvaluateOptions task_options = options;
-  task_options.out = plan.run;
-  const fs::path config = plan.run / "evaluate-settings.json";
+  task_options.out = plan->run;
+  const fs::path config = plan->run / "evaluate-settings.json";
   const std::string config_text = SettingsJson(task_options).dump(2) + "\n";
   WriteTextFileAtomically(config, config_text);
   const std::string config_key = Hasher().Add(config_text).Hex();
-  const std::vector<cluster::TaskGroup> groups =
-      TaskGroups(options, plan, program, config, config_key);
+  return TaskGroups(options, *plan, program, config, config_key, prefix);
+}
 
+SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
+  EvaluatePlan plan;
+  const std::vector<cluster::TaskGroup> groups = PrepareEvaluateTasks(options, "", &plan);
   SlurmRunOutcome outcome;
   outcome.tasks = plan.tasks.size();
   for (const EvaluateTask& task : plan.tasks) outcome.tasks_done_before += task.done ? 1 : 0;

@@ -38,6 +38,14 @@ struct SlurmRunOutcome {
 
 SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options);
 
+// What RunEvaluateOnSlurm submits, for callers that run several evaluations as one set of job
+// arrays (sweep): prepares the run (PlanEvaluate), writes RUN/evaluate-settings.json and returns
+// the three groups "fold", "views", "aggregate" (tasks already done left out; task ids prefixed
+// with `prefix`, e.g. "<setting>/").
+std::vector<cluster::TaskGroup> PrepareEvaluateTasks(const EvaluateOptions& options,
+                                                     const std::string& prefix,
+                                                     EvaluatePlan* plan);
+
 // The absolute path of this process's executable (/proc/self/exe).
 std::filesystem::path ThisExecutable();
 
