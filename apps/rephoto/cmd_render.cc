@@ -168,7 +168,8 @@ void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
 
 void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
                       const std::vector<size_t>& views) {
-  const bool vdt = args.representation == "vdt";
+  const bool vdt = render::ParseRepresentation(args.representation) ==
+                   render::ViewRepresentation::kVdt;
   REPHOTO_CHECK(!vdt || !args.model.empty(),
                 "render: --representation vdt needs MODEL (the proxy)");
   const std::vector<std::string> stems = OutputStems(args, scene, views);
@@ -281,11 +282,14 @@ CommandRunner SetupRender(CLI::App& app) {
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     const std::vector<size_t> views = SelectViews(scene, args->images);
 
-    if (args->representation == "gaussians" ||
-        (args->representation == "auto" && !args->model.empty() &&
+    using render::ViewRepresentation;
+    const ViewRepresentation representation =
+        render::ParseRepresentation(args->representation).value_or(ViewRepresentation::kAuto);
+    if (representation == ViewRepresentation::kGaussians ||
+        (representation == ViewRepresentation::kAuto && !args->model.empty() &&
          splat::IsGaussianFile(args->model))) {
       RenderGaussianFile(*args, scene, views);
-    } else if (args->representation != "auto") {
+    } else if (render::IsImageBased(representation)) {
       RenderImageBased(*args, scene, views);
     } else {
       RenderModelFile(*args, scene, views);

@@ -55,6 +55,8 @@ void Start(RunState& s) {
   s.start_cpu = ProcessCpuSeconds();
   s.o.Check();
   s.source = s.o.source();
+  s.representation =
+      render::ParseRepresentation(s.o.representation).value_or(render::ViewRepresentation::kAuto);
   s.run = fs::absolute(s.o.out).lexically_normal();
   s.worker = !s.o.only.empty();
   if (s.source == ModelSource::kModel && !s.o.model.empty()) {
@@ -496,7 +498,10 @@ void EvaluateOptions::Check() const {
         "absolute path {})",
         model.string()));
   }
-  if (render.empty() && reconstruct.empty() && model.empty() && representation != "ibr") {
+  const std::optional<render::ViewRepresentation> parsed_representation =
+      render::ParseRepresentation(representation);
+  if (render.empty() && reconstruct.empty() && model.empty() &&
+      parsed_representation != render::ViewRepresentation::kIbr) {
     throw UsageError(
         "evaluate: give a model source: --model FILE, --reconstruct CMD --model "
         "PATH, or --render CMD");
@@ -522,18 +527,17 @@ void EvaluateOptions::Check() const {
   if (!reconstruct.empty())
     TemplatePlaceholders(reconstruct, CommandPlaceholders(), "--reconstruct");
   if (!render.empty()) TemplatePlaceholders(render, CommandPlaceholders(), "--render");
-  if (representation != "auto" && representation != "vdt" && representation != "ibr" &&
-      representation != "gaussians") {
+  if (!parsed_representation) {
     throw UsageError(fmt::format(
         "evaluate: --representation '{}' is not one of auto (the model as it is), vdt "
         "(view-dependent texturing on the model), ibr (image-based rendering with depth maps), "
         "gaussians (the model as 3D Gaussian splats)",
         representation));
   }
-  if (representation != "auto" && !render.empty()) {
+  if (parsed_representation != render::ViewRepresentation::kAuto && !render.empty()) {
     throw UsageError("evaluate: --representation is for rephoto's renderers, not --render");
   }
-  if (!depth_maps.empty() && representation != "ibr") {
+  if (!depth_maps.empty() && parsed_representation != render::ViewRepresentation::kIbr) {
     throw UsageError("evaluate: --depth-maps is for --representation ibr");
   }
   if (jobs < 1) throw UsageError("evaluate: --jobs must be at least 1");

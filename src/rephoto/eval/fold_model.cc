@@ -50,9 +50,9 @@ std::string BaseKey(RunState& s, const FoldState& fold) {
   Hasher base;
   base.Add(fold.model_key).Add(RenderSettingsKey(s.o));
   // Image-based representations render from the fold's training photos (and depth maps).
-  if (s.o.representation == "vdt" || s.o.representation == "ibr") {
+  if (render::IsImageBased(s.representation)) {
     base.Add(fold.train_key);
-    if (s.o.representation == "ibr" && !s.o.depth_maps.empty()) {
+    if (s.representation == render::ViewRepresentation::kIbr && !s.o.depth_maps.empty()) {
       base.Add(s.o.depth_maps.string());
       std::error_code ec;
       for (const auto& entry : fs::directory_iterator(s.o.depth_maps, ec)) {
@@ -126,10 +126,8 @@ std::unique_ptr<render::RenderModel> DeriveModel(RunState& s, FoldState& fold, m
 }  // namespace
 
 bool IsGaussianModel(const RunState& s, ModelCache& cache, const fs::path& path) {
-  if (path.empty() || (s.o.representation != "auto" && s.o.representation != "gaussians")) {
-    return false;
-  }
-  if (s.o.representation == "gaussians") return true;
+  if (path.empty() || render::IsImageBased(s.representation)) return false;
+  if (s.representation == render::ViewRepresentation::kGaussians) return true;
   const auto [it, inserted] = cache.is_gaussian_file.emplace(path, false);
   if (inserted) it->second = splat::IsGaussianFile(path);
   return it->second;
@@ -247,10 +245,8 @@ std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& 
   render_options.samples_per_pixel = s.o.samples_per_pixel;
   render_options.backfaces = s.o.backfaces;
   const auto build_start = Clock::now();
-  const render::ViewRepresentation representation =
-      render::ParseRepresentation(s.o.representation).value_or(render::ViewRepresentation::kAuto);
   std::unique_ptr<render::ViewRenderer> renderer;
-  if (!render::IsImageBased(representation)) {
+  if (!render::IsImageBased(s.representation)) {
     renderer = std::make_unique<render::ModelViewRenderer>(std::move(model), render_options);
   } else {
     // The fold's training photos reprojected through the model (vdt) or through per-view depth
@@ -260,7 +256,7 @@ std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& 
     for (size_t i = 0; i < indices.size(); ++i) indices[i] = i;
     ibr::ImageBasedOptions ibr_options;
     ibr_options.scene_points = ibr::ScenePoints(train);
-    const bool vdt = representation == render::ViewRepresentation::kVdt;
+    const bool vdt = s.representation == render::ViewRepresentation::kVdt;
     auto views = ibr::TrainingViewsFromScene(train, indices, vdt ? fs::path() : s.o.depth_maps);
     if (vdt) {
       REPHOTO_CHECK(model && !model->mesh().is_point_cloud(),

@@ -52,7 +52,8 @@ void ProjectOnto(RunState& s, ModelCache& cache, const fs::path& model_path,
       view.error_image = fold->dir / "errors" / (test.stem + "." + metric_name + ".exr");
       const fs::path depth = fold->dir / "renders" / (test.stem + ".depth.exr");
       std::error_code exists_ec;
-      if (s.o.representation == "auto" && fs::is_regular_file(depth, exists_ec)) {
+      if (s.representation == render::ViewRepresentation::kAuto &&
+          fs::is_regular_file(depth, exists_ec)) {
         // The model's own rendering made these errors: its depth map needs no second render.
         view.depth_image = depth;
       }

@@ -33,6 +33,7 @@
 #include "rephoto/compare/compare.h"
 #include "rephoto/eval/evaluate.h"
 #include "rephoto/eval/hash.h"
+#include "rephoto/render/view_renderer.h"
 #include "rephoto/run/records.h"
 #include "rephoto/run/run_folder.h"
 #include "rephoto/scene/read_scene.h"
@@ -125,6 +126,8 @@ struct RunState {
 
   EvaluateOptions o;
   ModelSource source = ModelSource::kModel;
+  // EvaluateOptions::representation, parsed (Check accepted it).
+  render::ViewRepresentation representation = render::ViewRepresentation::kAuto;
   std::filesystem::path run;  // absolute, normal
   Clock::time_point start;
   double start_cpu = 0;  // ProcessCpuSeconds() at start
