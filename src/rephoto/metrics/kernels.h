@@ -13,7 +13,12 @@
 // baseline, and the loader picks one at start-up. Floating-point contraction is off for this
 // library (CMakeLists.txt), so the clones compute bit-identical results (except the SSIM
 // filters, see ssim_filter.cc).
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+// REPHOTO_METRICS_NO_AVX512 (CMake option of the same name) drops the AVX-512 clone, so that
+// the AVX2 code that CPUs without AVX-512 run can be measured on one that has it.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(REPHOTO_METRICS_NO_AVX512)
+#define REPHOTO_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define REPHOTO_SIMD_CLONES \
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else

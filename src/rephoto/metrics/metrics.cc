@@ -71,6 +71,29 @@ void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, floa
   }
 }
 
+// Luma 0.299 R + 0.587 G + 0.114 B of an interleaved RGB row, the arithmetic of LumaPlanar on
+// the planes Deinterleave makes (same values), in one pass: census alone needs no planes.
+REPHOTO_SIMD_CLONES
+void LumaInterleaved(const float* __restrict rgb, int w, float* __restrict luma) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    V8f a, b, c;
+    __builtin_memcpy(&a, rgb + 3 * x, 32);
+    __builtin_memcpy(&b, rgb + 3 * x + 8, 32);
+    __builtin_memcpy(&c, rgb + 3 * x + 16, 32);
+    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+    const V8f r = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
+    const V8f g = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
+    const V8f bl = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    const V8f y = 0.299f * r + 0.587f * g + 0.114f * bl;
+    __builtin_memcpy(luma + x, &y, 32);
+  }
+  for (; x < w; ++x)
+    luma[x] = 0.299f * rgb[3 * x] + 0.587f * rgb[3 * x + 1] + 0.114f * rgb[3 * x + 2];
+}
+
 // cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes).
 REPHOTO_SIMD_CLONES
 void AccumulateBoxColumns(const float* __restrict planes, int w, double sign,
@@ -187,40 +210,82 @@ void LumaPlanar(const float* __restrict red, const float* __restrict green,
   for (int x = 0; x < w; ++x) luma[x] = 0.299f * red[x] + 0.587f * green[x] + 0.114f * blue[x];
 }
 
+typedef int V8i __attribute__((vector_size(32)));
 typedef float V16f __attribute__((vector_size(64)));
 typedef int V16i __attribute__((vector_size(64)));
 
-// counts[x - r] for x in [r, r + 32 * blocks): number of window neighbours whose census bit
-// differs. `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the window. GCC vector
-// extensions: native 16-wide in the AVX-512 clone, lowered to narrower vectors elsewhere.
-REPHOTO_SIMD_CLONES
-void CensusCounts(const float* const* photo_rows, const float* const* rephoto_rows, int r,
-                  int blocks, int* counts) {
-  for (int b = 0; b < blocks; ++b) {
-    const int x = r + 32 * b;
-    V16f cp0, cp1, cr0, cr1;
-    __builtin_memcpy(&cp0, photo_rows[r] + x, 64);
-    __builtin_memcpy(&cp1, photo_rows[r] + x + 16, 64);
-    __builtin_memcpy(&cr0, rephoto_rows[r] + x, 64);
-    __builtin_memcpy(&cr1, rephoto_rows[r] + x + 16, 64);
-    V16i n0 = {}, n1 = {};
+// values[x] for x in [r, end): the number of window neighbours whose census bit differs, times
+// inv_bits, where end = r + whole blocks of 2 vectors of pixels that fit before w - r; returns
+// end. `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the window. Inlined into
+// one function per target, with the vector width that suits it (CensusValues).
+template <typename VF, typename VI>
+[[gnu::always_inline]] inline int CensusBlocks(const float* const* photo_rows,
+                                               const float* const* rephoto_rows, int r, int w,
+                                               float inv_bits, float* values) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  int x = r;
+  for (; x + 2 * kLanes <= w - r; x += 2 * kLanes) {
+    VF cp0, cp1, cr0, cr1;
+    __builtin_memcpy(&cp0, photo_rows[r] + x, sizeof(VF));
+    __builtin_memcpy(&cp1, photo_rows[r] + x + kLanes, sizeof(VF));
+    __builtin_memcpy(&cr0, rephoto_rows[r] + x, sizeof(VF));
+    __builtin_memcpy(&cr1, rephoto_rows[r] + x + kLanes, sizeof(VF));
+    VI n0 = {}, n1 = {};
     for (int dy = 0; dy <= 2 * r; ++dy) {
       const float* pr = photo_rows[dy] + x;
       const float* rr = rephoto_rows[dy] + x;
       for (int dx = -r; dx <= r; ++dx) {
         // The centre compares false with itself in both images and adds nothing.
-        V16f p0, p1, q0, q1;
-        __builtin_memcpy(&p0, pr + dx, 64);
-        __builtin_memcpy(&p1, pr + dx + 16, 64);
-        __builtin_memcpy(&q0, rr + dx, 64);
-        __builtin_memcpy(&q1, rr + dx + 16, 64);
+        VF p0, p1, q0, q1;
+        __builtin_memcpy(&p0, pr + dx, sizeof(VF));
+        __builtin_memcpy(&p1, pr + dx + kLanes, sizeof(VF));
+        __builtin_memcpy(&q0, rr + dx, sizeof(VF));
+        __builtin_memcpy(&q1, rr + dx + kLanes, sizeof(VF));
         n0 -= (p0 < cp0) ^ (q0 < cr0);
         n1 -= (p1 < cp1) ^ (q1 < cr1);
       }
     }
-    __builtin_memcpy(counts + 32 * b, &n0, 64);
-    __builtin_memcpy(counts + 32 * b + 16, &n1, 64);
+    const VF v0 = __builtin_convertvector(n0, VF) * inv_bits;
+    const VF v1 = __builtin_convertvector(n1, VF) * inv_bits;
+    __builtin_memcpy(values + x, &v0, sizeof(VF));
+    __builtin_memcpy(values + x + kLanes, &v1, sizeof(VF));
   }
+  return x;
+}
+
+// 8-wide vectors: one ymm register each with AVX2, SSE pairs in the baseline. (64-byte GCC
+// vectors, which the AVX-512 version uses, were lowered to scalar compares in the AVX2 clone:
+// census 10x slower on CPUs without AVX-512.)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#endif
+int CensusValues8(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
+                  float inv_bits, float* values) {
+  return CensusBlocks<V8f, V8i>(photo_rows, rephoto_rows, r, w, inv_bits, values);
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    !defined(REPHOTO_METRICS_NO_AVX512)
+#define REPHOTO_CENSUS_AVX512 1
+// 16-wide: one zmm register each (15 % faster than ymm on the AMD EPYC this was measured on).
+__attribute__((target("arch=x86-64-v4"))) int CensusValues16(const float* const* photo_rows,
+                                                             const float* const* rephoto_rows,
+                                                             int r, int w, float inv_bits,
+                                                             float* values) {
+  return CensusBlocks<V16f, V16i>(photo_rows, rephoto_rows, r, w, inv_bits, values);
+}
+#endif
+
+// The vectorised part of a census row (see CensusBlocks); the same values on every target.
+int CensusValues(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
+                 float inv_bits, float* values) {
+#ifdef REPHOTO_CENSUS_AVX512
+  static const bool avx512 =
+      __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  if (avx512) return CensusValues16(photo_rows, rephoto_rows, r, w, inv_bits, values);
+#endif
+  return CensusValues8(photo_rows, rephoto_rows, r, w, inv_bits, values);
 }
 
 // 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
@@ -250,13 +315,18 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
   double* cols =
       box ? Scratch(double_buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1)) : nullptr;
   double* prefix = box ? cols + kBoxQuantities * w : nullptr;
-  thread_local std::vector<int> count_buffer;
-  int* counts = census ? Scratch(count_buffer, static_cast<size_t>(w)) : nullptr;
   auto slot = [&](int64_t j) { return slots + static_cast<size_t>(j % ring) * slot_size; };
   auto load = [&](int64_t j) {
     float* s = slot(j);
-    Deinterleave(in.photo.row(static_cast<int>(j)), w, s, s + w, s + 2 * w);
-    Deinterleave(in.rephoto.row(static_cast<int>(j)), w, s + 3 * w, s + 4 * w, s + 5 * w);
+    const float* p = in.photo.row(static_cast<int>(j));
+    const float* q = in.rephoto.row(static_cast<int>(j));
+    if (!box) {  // census alone: luma only
+      LumaInterleaved(p, w, s + 6 * w);
+      LumaInterleaved(q, w, s + 7 * w);
+      return;
+    }
+    Deinterleave(p, w, s, s + w, s + 2 * w);
+    Deinterleave(q, w, s + 3 * w, s + 4 * w, s + 5 * w);
     if (census) {
       LumaPlanar(s, s + w, s + 2 * w, w, s + 6 * w);
       LumaPlanar(s + 3 * w, s + 4 * w, s + 5 * w, w, s + 7 * w);
@@ -271,7 +341,6 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
   const double inv_count = 1.0 / (static_cast<double>(window) * window);
   const float inv_bits = 1.0f / static_cast<float>(window * window - 1);
   std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
-  const int blocks = (w - 2 * r) / 32;
   for (int64_t y = c0; y < c1; ++y) {
     const int yi = static_cast<int>(y);
     if (y > c0) {
@@ -296,8 +365,10 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
         photo_rows[k] = slot(y - r + k) + 6 * w;
         rephoto_rows[k] = slot(y - r + k) + 7 * w;
       }
-      CensusCounts(photo_rows.data(), rephoto_rows.data(), r, blocks, counts);
-      for (int x = r + 32 * blocks; x < w - r; ++x) {  // tail
+      float* census_values = zssd_values + w;
+      const int done =
+          CensusValues(photo_rows.data(), rephoto_rows.data(), r, w, inv_bits, census_values);
+      for (int x = done; x < w - r; ++x) {  // tail
         int n = 0;
         const float cp = photo_rows[r][x], cr = rephoto_rows[r][x];
         for (int k = 0; k <= 2 * r; ++k) {
@@ -305,11 +376,8 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
             n += (photo_rows[k][x + dx] < cp) != (rephoto_rows[k][x + dx] < cr);
           }
         }
-        counts[x - r] = n;
+        census_values[x] = static_cast<float>(n) * inv_bits;
       }
-      float* census_values = zssd_values + w;
-      for (int x = r; x < w - r; ++x)
-        census_values[x] = static_cast<float>(counts[x - r]) * inv_bits;
       const double s = MaskRow(census_values, ok, w, census->row(yi));
       sums.sum[2] += s;
       sums.count[2] += evaluated;
