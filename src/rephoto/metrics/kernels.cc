@@ -140,6 +140,16 @@ std::vector<float> FilterWeights(int radius, double sigma) {
   return out;
 }
 
+bool HasAvx512() {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  return has;
+#else
+  return false;
+#endif
+}
+
 void FillNaN(float* row, int width) { std::fill(row, row + width, kNaN); }
 
 }  // namespace rephoto::metrics::internal

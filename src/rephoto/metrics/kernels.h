@@ -24,6 +24,10 @@
 #else
 #define REPHOTO_SIMD_CLONES
 #endif
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    !defined(REPHOTO_METRICS_NO_AVX512)
+#define REPHOTO_HAVE_AVX512_KERNELS 1
+#endif
 
 namespace rephoto::metrics::internal {
 
@@ -105,12 +109,18 @@ class WindowValidityRows {
 // sigma <= 0.
 std::vector<float> FilterWeights(int radius, double sigma);
 
-// SSIM filters on interleaved RGB rows of n = 3 * width values, shifted by -0.5 (ssim_filter.cc).
-// Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy = weighted sum over the 2r+1 rows.
+// SSIM filters on interleaved RGB rows of n = 3 * width values (ssim_filter.cc).
+// Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy of the values shifted by -0.5 = weighted
+// sum over the 2r+1 rows.
 void SsimVertical(const float* const* p_rows, const float* const* q_rows, const float* weights,
                   int r, int n, float* out);
-// Horizontal: out[i] = weighted sum of in[i + 3k], k in [-r, r], for i in [3r, n - 3r).
+// Horizontal, for the 5 planes of n values of SsimVertical's output: out[q * n + i] = weighted
+// sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
 void SsimHorizontal(const float* in, const float* weights, int r, int n, float* out);
+
+// Whether the CPU runs the AVX-512 (x86-64-v4) versions of the kernels that have one
+// (REPHOTO_HAVE_AVX512_KERNELS) besides their AVX2/baseline clones. Thread-safe.
+bool HasAvx512();
 
 // Fills a whole error row with NaN.
 void FillNaN(float* row, int width);

@@ -264,9 +264,7 @@ int CensusValues8(const float* const* photo_rows, const float* const* rephoto_ro
   return CensusBlocks<V8f, V8i>(photo_rows, rephoto_rows, r, w, inv_bits, values);
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
-    !defined(REPHOTO_METRICS_NO_AVX512)
-#define REPHOTO_CENSUS_AVX512 1
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
 // 16-wide: one zmm register each (15 % faster than ymm on the AMD EPYC this was measured on).
 __attribute__((target("arch=x86-64-v4"))) int CensusValues16(const float* const* photo_rows,
                                                              const float* const* rephoto_rows,
@@ -279,11 +277,10 @@ __attribute__((target("arch=x86-64-v4"))) int CensusValues16(const float* const*
 // The vectorised part of a census row (see CensusBlocks); the same values on every target.
 int CensusValues(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
                  float inv_bits, float* values) {
-#ifdef REPHOTO_CENSUS_AVX512
-  static const bool avx512 =
-      __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  if (avx512) return CensusValues16(photo_rows, rephoto_rows, r, w, inv_bits, values);
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (internal::HasAvx512()) {
+    return CensusValues16(photo_rows, rephoto_rows, r, w, inv_bits, values);
+  }
 #endif
   return CensusValues8(photo_rows, rephoto_rows, r, w, inv_bits, values);
 }
@@ -515,9 +512,7 @@ MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, const ErrorRows* ssi
         q_rows[k] = in.rephoto.row(yi - r + k) + e0;
       }
       SsimVertical(p_rows.data(), q_rows.data(), setup.weights.data(), r, m, vertical);
-      for (int q = 0; q < 5; ++q) {
-        SsimHorizontal(vertical + q * m, setup.weights.data(), r, m, moments + q * m);
-      }
+      SsimHorizontal(vertical, setup.weights.data(), r, m, moments);
       SsimFormula(moments, r, m, setup.cov_norm, element);
       const uint8_t* ok = band_ok + static_cast<size_t>(y - c0) * w;
       const int xa = std::max(x0, r), xb = std::min(x1, w - r);
