@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "rephoto/core/parallel.h"
@@ -80,6 +81,17 @@ void DecodeRow(const float* rgb, int w, double* linear) {
     const float c = planar[i];
     const int k = TableIndex(c);
     if (table.value[k] != c) linear[i] = SrgbDecode(c);
+  }
+}
+
+// DecodeRow of 8-bit pixels (`channels` values each, RGB first): the table entries of the bytes,
+// which are the values DecodeRow gives for the floats v / 255.f.
+void DecodeBytes(const uint8_t* __restrict pixels, int channels, int w, double* __restrict linear) {
+  const double* __restrict decoded = DecodeTable().decoded;
+  for (int x = 0; x < w; ++x) {
+    linear[x] = decoded[pixels[channels * x]];
+    linear[w + x] = decoded[pixels[channels * x + 1]];
+    linear[2 * w + x] = decoded[pixels[channels * x + 2]];
   }
 }
 
@@ -306,8 +318,14 @@ MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& w
     if (xa >= xb) continue;
     for (int j = 0; j < rows; ++j) {
       const int y = static_cast<int>(c0) - r + j;
-      DecodeRow(in.photo.row(y) + 3 * static_cast<size_t>(s0), sw, linear1);
-      DecodeRow(in.rephoto.row(y) + 3 * static_cast<size_t>(s0), sw, linear2);
+      for (const auto& [rgb, linear] : {std::pair{&in.photo, linear1}, {&in.rephoto, linear2}}) {
+        if (const uint8_t* bytes = rgb->bytes_row(y)) {
+          DecodeBytes(bytes + static_cast<size_t>(rgb->channels()) * s0, rgb->channels(), sw,
+                      linear);
+        } else {
+          DecodeRow(rgb->row(y) + 3 * static_cast<size_t>(s0), sw, linear);
+        }
+      }
       double* row_planes[kCount];
       for (int q = 0; q < kCount; ++q) {
         row_planes[q] = planes + q * plane + static_cast<size_t>(j) * sw;

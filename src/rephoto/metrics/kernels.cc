@@ -92,6 +92,9 @@ void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>*
   const int w = image.width(), channels = image.channels();
   first = std::max(first, 0);
   end = std::min(end, image.height());
+  bytes_ = image.bytes();
+  byte_stride_ = static_cast<ptrdiff_t>(w) * channels;
+  channels_ = channels;
   if (image.floats() && channels == 3) {
     base_ = image.floats();
     first_ = 0;

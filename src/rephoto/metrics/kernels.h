@@ -57,8 +57,17 @@ class RgbRows {
  public:
   void Load(const RgbView& image, int first, int end, std::vector<float>* scratch);
   const float* row(int y) const { return base_ + static_cast<ptrdiff_t>(y - first_) * stride_; }
+  // The 8-bit source row y (channels() values per pixel, RGB first) when the image is 8-bit,
+  // else null; row(y)[3 x + c] == bytes_row(y)[channels() x + c] / 255.f. Any row of the image.
+  const uint8_t* bytes_row(int y) const {
+    return bytes_ ? bytes_ + static_cast<ptrdiff_t>(y) * byte_stride_ : nullptr;
+  }
+  int channels() const { return channels_; }
 
  private:
+  const uint8_t* bytes_ = nullptr;
+  ptrdiff_t byte_stride_ = 0;
+  int channels_ = 3;
   const float* base_ = nullptr;
   int first_ = 0;
   ptrdiff_t stride_ = 0;

@@ -312,6 +312,29 @@ TEST(Metrics, IcidMatchesNaiveLoop) {
   }
 }
 
+// Wider than the column strips of the SSIM (256 pixels) and iCID (128 pixels) passes, with a
+// partial last strip, and wider than the 16-pixel vectors of census: every strip boundary and
+// vector tail against the naive loops.
+TEST(Metrics, WideImagesMatchNaiveLoopsAcrossStripsAndVectorTails) {
+  auto rng = testing::MakeRng();
+  const int w = 301, h = 15;
+  const Image photo = SmoothImage(rng, w, h, 0.02f);
+  const Image rephoto = SmoothImage(rng, w, h, 0.03f);
+  const Mask valid = RandomMask(rng, w, h, 0.995);
+  const auto results =
+      ComputeMetrics(photo, rephoto, valid, {Metric::kSsim, Metric::kIcid, Metric::kCensus}, {});
+  MetricOptions defaults;
+  ExpectMatches(results[0],
+                NaiveWindowMetric(photo, rephoto, valid, defaults.ssim_window,
+                                  [&](const Image& p, const Image& q, int x, int y, int r) {
+                                    return NaiveSsim(p, q, x, y, r, true, defaults.ssim_sigma);
+                                  }),
+                2e-5, "ssim");
+  ExpectMatches(results[1], NaiveWindowMetric(photo, rephoto, valid, 11, NaiveIcid), 1e-6, "icid");
+  ExpectMatches(results[2], NaiveWindowMetric(photo, rephoto, valid, defaults.window, NaiveCensus),
+                1e-7, "census");
+}
+
 TEST(Metrics, PixelMetricsMatchDefinitions) {
   auto rng = testing::MakeRng();
   for (const Case& c : RandomCases(rng)) {
