@@ -12,6 +12,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/metrics/icid.h"
+#include "rephoto/metrics/kernels.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::metrics {
@@ -604,6 +605,23 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
   const std::vector<Metric> some = {Metric::kPsnr, Metric::kCensus, Metric::kDssim};
   ExpectSameResults(ComputeInBands(photo8, rephoto8, {}, some),
                     ComputeMetrics(photo, rephoto, {}, some));
+}
+
+// Every 8-bit value, as the band pass converts it, equals v / 255.f (io::ReadImage's value).
+TEST(Metrics, EightBitRowsConvertToTheFloatsOfReadImage) {
+  const int w = 256;
+  Image8 bytes(w, 1, 3);
+  for (int x = 0; x < w; ++x) {
+    for (int c = 0; c < 3; ++c) bytes.at(x, 0, c) = static_cast<uint8_t>(x);
+  }
+  internal::RgbRows rows;
+  std::vector<float> scratch;
+  rows.Load(bytes, 0, 1, &scratch);
+  for (int x = 0; x < w; ++x) {
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_EQ(rows.row(0)[3 * x + c], static_cast<float>(x) / 255.f) << x;
+    }
+  }
 }
 
 TEST(Metrics, BandsTreatNonFinitePixelsAsComputeMetricsDoes) {
