@@ -118,12 +118,14 @@ void BuildBvh(benchmark::State& state, const Mesh& mesh) {
   state.counters["commit_ms"] = build * 1e3;  // rtcCommitScene only (rest: buffer copies)
 }
 
-// Rendering `model` at `camera` and `pose` with state.range(0) samples per pixel.
+// Rendering `model` at `camera` and `pose` with state.range(0) samples per pixel and packets of
+// `packet_width` rays (0: by CPU).
 void Render(benchmark::State& state, const rephoto::render::RenderModel& model,
-            const Camera& camera, const Pose& pose) {
+            const Camera& camera, const Pose& pose, int packet_width = 0) {
   const auto rays = model.RaysFor(camera);
   rephoto::render::RenderOptions options;
   options.samples_per_pixel = static_cast<int>(state.range(0));
+  options.packet_width = packet_width;
   rephoto::render::Rephoto out;
   rephoto::render::RenderRephoto(model, *rays, pose, options, &out);  // warm buffers
   {
@@ -146,6 +148,17 @@ BENCHMARK(BM_BuildBvh)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTim
 
 void BM_Render(benchmark::State& state) { Render(state, BenchModel(), BenchCamera(), BenchPose()); }
 BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The same with the packet width forced: samples per pixel, rays per packet (8 or 16).
+void BM_RenderPacket(benchmark::State& state) {
+  Render(state, BenchModel(), BenchCamera(), BenchPose(), static_cast<int>(state.range(1)));
+}
+BENCHMARK(BM_RenderPacket)
+    ->Args({1, 8})
+    ->Args({1, 16})
+    ->Args({4, 8})
+    ->Args({4, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The Embree floor of primary visibility: the same BVH (BenchModel's scene), camera and pose
 // as BM_Render at 1 sample per pixel (rays through the same sample positions), but only
