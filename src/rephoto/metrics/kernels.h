@@ -131,6 +131,15 @@ void SsimHorizontal(const float* in, const float* weights, int r, int n, float* 
 // (REPHOTO_HAVE_AVX512_KERNELS) besides their AVX2/baseline clones. Thread-safe.
 bool HasAvx512();
 
+// Census of a row of centres (census.cc): values[x] for x in [r, end) = the number of the
+// (2r+1)^2 - 1 window neighbours whose "darker than the centre" bit differs between the two
+// luma images, times inv_bits; `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the
+// window (each of width w). end = r + the whole blocks of 16 (AVX2, baseline) or 32 (AVX-512)
+// centres that fit before w - r; returns end (the caller does the rest). The same values on
+// every target.
+int CensusValues(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
+                 float inv_bits, float* values);
+
 // Fills a whole error row with NaN.
 void FillNaN(float* row, int width);
 
