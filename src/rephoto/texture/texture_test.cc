@@ -115,7 +115,9 @@ TEST(TextureMesh, HalvesTheErrorOfVertexColoursAtHeldOutViews) {
   geometry.positions = f.coarse.positions;
   geometry.faces = f.coarse.faces;
   const render::RenderModel model(std::move(geometry));
-  const Candidates seen = ComputeCandidates(model, f.scene, f.test, {});
+  CandidateOptions whole;
+  whole.partial_min_fraction = 0;  // faces a held-out photo sees whole
+  const Candidates seen = ComputeCandidates(model, f.scene, f.test, whole);
   size_t visible = 0, textured_visible = 0;
   for (size_t face = 0; face < seen.face_count(); ++face) {
     if (seen.offsets[face] == seen.offsets[face + 1]) continue;

@@ -53,15 +53,14 @@ struct Found {
   FaceCandidate candidate;
 };
 
-// True when no surface lies between the camera centre and the face's sample points: the
-// centroid and the points of a barycentric grid with n + 1 points per edge (n = 1: the
-// corners), each moved 1 % of the way towards the centroid so that the neighbours sharing a
-// corner or an edge do not count. n grows with the face's projected size (one row of points
-// per 24 pixels of its longest projected edge, at most 12), so that a large face is not
-// called visible when an object hides its middle but not its corners.
-bool Unoccluded(RTCScene scene, RTCIntersectContext& context, const Eigen::Vector3d& center,
-                const mesh::Mesh& mesh, size_t face, const Eigen::Vector3d& centroid,
-                const Eigen::Vector2d* pixels, float tfar, std::vector<Eigen::Vector3d>& points) {
+// The face's sample points for visibility: the centroid and the points of a barycentric grid
+// with n + 1 points per edge (n = 1: the corners), each moved 1 % of the way towards the
+// centroid so that the neighbours sharing a corner or an edge do not count. n grows with the
+// face's projected size (one row of points per 24 pixels of its longest projected edge, at
+// most 12), so that a large face is not called visible when an object hides its middle but
+// not its corners.
+void FacePoints(const mesh::Mesh& mesh, size_t face, const Eigen::Vector3d& centroid,
+                const Eigen::Vector2d* pixels, std::vector<Eigen::Vector3d>& points) {
   double longest = 0;
   for (int k = 0; k < 3; ++k) longest = std::max(longest, (pixels[(k + 1) % 3] - pixels[k]).norm());
   const int n = std::clamp(static_cast<int>(std::ceil(longest / 24.0)), 1, 12);
@@ -76,6 +75,14 @@ bool Unoccluded(RTCScene scene, RTCIntersectContext& context, const Eigen::Vecto
       points.push_back(p + 0.01 * (centroid - p));
     }
   }
+}
+
+// The fraction of `points` that no surface hides from the camera centre (Embree occlusion
+// rays, four at a time). With `all_or_nothing` it returns 0 at the first hidden point.
+double UnoccludedFraction(RTCScene scene, RTCIntersectContext& context,
+                          const Eigen::Vector3d& center, float tfar,
+                          const std::vector<Eigen::Vector3d>& points, bool all_or_nothing) {
+  size_t visible = 0;
   alignas(16) RTCRay4 rays;
   alignas(16) int valid[4];
   for (size_t first = 0; first < points.size(); first += 4) {
@@ -97,10 +104,31 @@ bool Unoccluded(RTCScene scene, RTCIntersectContext& context, const Eigen::Vecto
     }
     rtcOccluded4(valid, scene, &context, &rays);
     for (size_t k = 0; k < 4; ++k) {
-      if (valid[k] && rays.tfar[k] < 0) return false;
+      if (!valid[k]) continue;
+      if (rays.tfar[k] >= 0) {
+        ++visible;
+      } else if (all_or_nothing) {
+        return 0;
+      }
     }
   }
-  return true;
+  return points.empty() ? 0 : static_cast<double>(visible) / static_cast<double>(points.size());
+}
+
+// Keeps the points that project inside the photo (half a pixel from the border); returns the
+// fraction kept.
+double KeepInside(const Photo& photo, std::vector<Eigen::Vector3d>& points) {
+  const size_t total = points.size();
+  size_t kept = 0;
+  for (const Eigen::Vector3d& p : points) {
+    const auto pixel = photo.Project(p);
+    if (pixel && pixel->x() >= 0.5 && pixel->x() <= photo.width() - 0.5 && pixel->y() >= 0.5 &&
+        pixel->y() <= photo.height() - 0.5) {
+      points[kept++] = p;
+    }
+  }
+  points.resize(kept);
+  return total == 0 ? 0 : static_cast<double>(kept) / static_cast<double>(total);
 }
 
 }  // namespace
@@ -162,17 +190,29 @@ Candidates ComputeCandidates(const render::RenderModel& model, const scene::Scen
             continue;
           }
           Eigen::Vector2d pixels[3];
-          bool inside = true;
-          for (int k = 0; k < 3 && inside; ++k) {
+          bool projected = true, inside = true;
+          for (int k = 0; k < 3 && projected; ++k) {
             const auto pixel = photo.Project(mesh.positions[mesh.faces[f][k]].cast<double>());
-            inside = pixel && pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
+            projected = pixel.has_value();
+            if (!projected) break;
+            pixels[k] = *pixel;
+            inside = inside && pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
                      pixel->y() <= max_y;
-            if (inside) pixels[k] = *pixel;
           }
-          if (!inside) continue;
-          if (!Unoccluded(rtc_scene, context, center, mesh, f, centroids[f], pixels, tfar,
-                          points)) {
-            continue;
+          if (!projected) continue;
+          FacePoints(mesh, f, centroids[f], pixels, points);
+          double fraction = 0;
+          if (inside) {
+            fraction = UnoccludedFraction(rtc_scene, context, center, tfar, points, true);
+          }
+          bool partial = false;
+          if (fraction < 1) {
+            if (!(options.partial_min_fraction > 0 && options.partial_min_fraction <= 1)) continue;
+            fraction = KeepInside(photo, points);
+            if (fraction < options.partial_min_fraction) continue;
+            fraction *= UnoccludedFraction(rtc_scene, context, center, tfar, points, false);
+            if (fraction < options.partial_min_fraction) continue;
+            partial = true;
           }
           double quality = 0;
           Eigen::Vector3f color_sum;
@@ -191,7 +231,9 @@ Candidates ComputeCandidates(const render::RenderModel& model, const scene::Scen
             quality = area * (gradient.at(gx, gy) + floor);
             candidate.color = photo.Sample(c.x(), c.y());
           }
-          candidate.quality = static_cast<float>(quality);
+          candidate.quality =
+              static_cast<float>(partial ? quality * fraction * options.partial_weight : quality);
+          candidate.partial = partial;
           out.push_back({static_cast<uint32_t>(f), candidate});
         }
       }
@@ -217,6 +259,19 @@ Candidates ComputeCandidates(const render::RenderModel& model, const scene::Scen
       std::vector<Found>().swap(list);
     }
   }
+  // Partial candidates only serve faces that no photo sees whole.
+  size_t write = 0;
+  for (size_t f = 0; f < face_count; ++f) {
+    const uint32_t begin = result.offsets[f], end = result.offsets[f + 1];
+    const bool has_full = std::any_of(result.items.begin() + begin, result.items.begin() + end,
+                                      [](const FaceCandidate& c) { return !c.partial; });
+    result.offsets[f] = static_cast<uint32_t>(write);
+    for (uint32_t k = begin; k < end; ++k) {
+      if (!has_full || !result.items[k].partial) result.items[write++] = result.items[k];
+    }
+  }
+  result.offsets[face_count] = static_cast<uint32_t>(write);
+  result.items.resize(write);
   return result;
 }
 

@@ -12,6 +12,12 @@
 //     the way towards the centroid, so that the neighbouring faces sharing a corner or an edge
 //     do not count) meet no surface before (1 - occlusion_epsilon) of their length: a large
 //     face is not visible when something hides its middle but not its corners.
+//   Faces that no photo sees whole this way may use photos that see part of them (an
+//   extension for coarse meshes, whose large faces are often cut by the image border or
+//   partly hidden in every photo): "partial" candidates, where at least
+//   `partial_min_fraction` of the sample points project inside the photo and are unoccluded;
+//   their quality is multiplied by that fraction and by `partial_weight`. They are dropped
+//   for every face that has a whole view (0 = no partial candidates).
 // Quality (the data term's input): the gradient magnitude integral over the face's projection
 // (GMI, as the paper), plus `gradient_floor` per covered pixel: sum over the pixel centres
 // inside the projected triangle (straight edges between the distorted corners) of
@@ -38,6 +44,7 @@ struct FaceCandidate {
   uint32_t view = 0;      // position in the `views` list given to ComputeCandidates
   float quality = 0;      // see above, >= 0
   Eigen::Vector3f color;  // mean RGB of the face in that photo
+  bool partial = false;   // the photo sees only part of the face
 };
 
 // Candidates of every face: items[offsets[f] .. offsets[f + 1]), in increasing view order.
@@ -51,6 +58,8 @@ struct CandidateOptions {
   double min_facing_cosine = 0.05;
   double occlusion_epsilon = 1e-3;
   double gradient_floor = 0.02;
+  double partial_min_fraction = 0.5;
+  double partial_weight = 0.1;
   bool show_progress = false;
 };
 
