@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <random>
 
 #include "bench_cpu.h"
 #include "rephoto/core/file.h"
@@ -19,6 +20,7 @@
 #include "rephoto/render/colorize.h"
 #include "rephoto/render/render.h"
 #include "rephoto/synth/demo_scene.h"
+#include "rephoto/texture/mrf.h"
 #include "rephoto/texture/texture_mesh.h"
 
 namespace rephoto {
@@ -118,6 +120,41 @@ BENCHMARK(BM_ColorizeMeshPeer)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
+
+// The view-selection MRF alone: a 724 x 724 grid of nodes (~524k, like the faces above) with
+// 4-neighbour edges, `range(0)` labels, each node a candidate of a random half of them (at
+// least one) with costs from smooth random fields (so that regions prefer one label).
+void BM_SolvePottsGrid(benchmark::State& state) {
+  const int side = 724, labels = static_cast<int>(state.range(0));
+  texture::PottsProblem problem;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<float> uniform(0, 1);
+  std::vector<Eigen::Vector2f> centres(labels);
+  for (auto& c : centres) c = Eigen::Vector2f(uniform(rng), uniform(rng)) * side;
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const size_t start = problem.labels.size();
+      for (int l = 0; l < labels; ++l) {
+        const float d = (centres[l] - Eigen::Vector2f(x, y)).norm() / side;
+        if (d < 0.5f || (problem.labels.size() == start && l == labels - 1)) {
+          problem.labels.push_back(l);
+          problem.costs.push_back(std::min(1.0f, d + 0.3f * uniform(rng)));
+        }
+      }
+      problem.offsets.push_back(static_cast<uint32_t>(problem.labels.size()));
+      const uint32_t i = static_cast<uint32_t>(y * side + x);
+      if (x > 0) problem.edges.emplace_back(i - 1, i);
+      if (y > 0) problem.edges.emplace_back(i - side, i);
+    }
+  }
+  texture::PottsResult result;
+  for (auto _ : state) result = texture::SolvePotts(problem);
+  state.counters["nodes"] = static_cast<double>(problem.node_count());
+  state.counters["candidates"] = static_cast<double>(problem.labels.size());
+  state.counters["moves"] = static_cast<double>(result.moves);
+  state.counters["cycles"] = result.cycles;
+}
+BENCHMARK(BM_SolvePottsGrid)->Arg(10)->Arg(50)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace rephoto

@@ -1,8 +1,9 @@
 #include "rephoto/texture/mrf.h"
 
 #include <algorithm>
-#include <boost/graph/adjacency_list.hpp>
 #include <boost/graph/boykov_kolmogorov_max_flow.hpp>
+#include <boost/graph/compressed_sparse_row_graph.hpp>
+#include <boost/property_map/property_map.hpp>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -15,55 +16,88 @@ namespace {
 constexpr double kCostScale = 1e6;  // costs become integer capacities in units of 1e-6
 
 using Capacity = int64_t;
-using Traits = boost::adjacency_list_traits<boost::vecS, boost::vecS, boost::directedS>;
-using Graph = boost::adjacency_list<
-    boost::vecS, boost::vecS, boost::directedS,
-    boost::property<boost::vertex_index_t, int64_t,
-                    boost::property<boost::vertex_color_t, boost::default_color_type,
-                                    boost::property<boost::vertex_distance_t, int64_t,
-                                                    boost::property<boost::vertex_predecessor_t,
-                                                                    Traits::edge_descriptor>>>>,
-    boost::property<
-        boost::edge_capacity_t, Capacity,
-        boost::property<boost::edge_residual_capacity_t, Capacity,
-                        boost::property<boost::edge_reverse_t, Traits::edge_descriptor>>>>;
+using Graph = boost::compressed_sparse_row_graph<boost::directedS>;
+using Vertex = boost::graph_traits<Graph>::vertex_descriptor;
+using Edge = boost::graph_traits<Graph>::edge_descriptor;
 
-// An s-t graph: `nodes` inner vertices plus the source and the sink.
+// An s-t graph: `nodes` inner vertices plus the source and the sink, stored as a compressed
+// sparse row graph with the max-flow's properties in flat arrays (no allocation per vertex).
 class CutGraph {
  public:
-  explicit CutGraph(size_t nodes)
-      : graph_(nodes + 2),
-        source_(nodes),
-        sink_(nodes + 1),
-        capacity_(boost::get(boost::edge_capacity, graph_)),
-        reverse_(boost::get(boost::edge_reverse, graph_)) {}
-
-  // Capacity forward (u -> v) and backward (v -> u) on one pair of mutually reverse edges.
+  void Reset(size_t nodes) {
+    nodes_ = nodes;
+    arcs_.clear();
+  }
+  size_t source() const { return nodes_; }
+  size_t sink() const { return nodes_ + 1; }
+  // Capacity forward (u -> v) and backward (v -> u) on one pair of mutually reverse arcs. Each
+  // unordered pair {u, v} may be added once.
   void AddEdge(size_t u, size_t v, Capacity forward, Capacity backward) {
-    const auto e = boost::add_edge(u, v, graph_).first;
-    const auto r = boost::add_edge(v, u, graph_).first;
-    capacity_[e] = forward;
-    capacity_[r] = backward;
-    reverse_[e] = r;
-    reverse_[r] = e;
+    arcs_.push_back({u, v, forward});
+    arcs_.push_back({v, u, backward});
   }
   // Cutting source -> u costs `to_sink_side` (u ends on the sink side), u -> sink costs
   // `to_source_side`.
   void AddTerminal(size_t u, Capacity to_sink_side, Capacity to_source_side) {
-    if (to_sink_side > 0) AddEdge(source_, u, to_sink_side, 0);
-    if (to_source_side > 0) AddEdge(u, sink_, to_source_side, 0);
+    if (to_sink_side > 0) AddEdge(source(), u, to_sink_side, 0);
+    if (to_source_side > 0) AddEdge(u, sink(), to_source_side, 0);
   }
-  void Solve() { boost::boykov_kolmogorov_max_flow(graph_, source_, sink_); }
+  void Solve() {
+    // Counting sort of the arcs by source (stable); arc 2t and 2t + 1 are each other's reverse.
+    const size_t vertices = nodes_ + 2;
+    row_.assign(vertices + 1, 0);
+    for (const Arc& a : arcs_) ++row_[a.from + 1];
+    for (size_t v = 0; v < vertices; ++v) row_[v + 1] += row_[v];
+    position_.resize(arcs_.size());
+    pairs_.resize(arcs_.size());
+    capacity_.resize(arcs_.size());
+    {
+      std::vector<size_t>& fill = fill_;
+      fill.assign(row_.begin(), row_.end() - 1);
+      for (size_t k = 0; k < arcs_.size(); ++k) {
+        const size_t at = fill[arcs_[k].from]++;
+        position_[k] = at;
+        pairs_[at] = {arcs_[k].from, arcs_[k].to};
+        capacity_[at] = arcs_[k].capacity;
+      }
+    }
+    graph_ = Graph(boost::edges_are_sorted, pairs_.begin(), pairs_.end(), vertices);
+    residual_.resize(arcs_.size());
+    reverse_.resize(arcs_.size());
+    for (size_t k = 0; k < arcs_.size(); ++k) {
+      reverse_[position_[k]] = Edge(arcs_[k].to, position_[k ^ 1]);
+    }
+    colors_.resize(vertices);
+    distances_.resize(vertices);
+    predecessors_.resize(vertices);
+    const auto edge_index = boost::get(boost::edge_index, graph_);
+    const auto vertex_index = boost::get(boost::vertex_index, graph_);
+    boost::boykov_kolmogorov_max_flow(
+        graph_, boost::make_iterator_property_map(capacity_.begin(), edge_index),
+        boost::make_iterator_property_map(residual_.begin(), edge_index),
+        boost::make_iterator_property_map(reverse_.begin(), edge_index),
+        boost::make_iterator_property_map(predecessors_.begin(), vertex_index),
+        boost::make_iterator_property_map(colors_.begin(), vertex_index),
+        boost::make_iterator_property_map(distances_.begin(), vertex_index), vertex_index, source(),
+        sink());
+  }
   // After Solve: true when u lies on the source side of the minimum cut.
-  bool OnSourceSide(size_t u) const {
-    return boost::get(boost::vertex_color, graph_, u) == boost::black_color;
-  }
+  bool OnSourceSide(size_t u) const { return colors_[u] == boost::black_color; }
 
  private:
+  struct Arc {
+    size_t from, to;
+    Capacity capacity;
+  };
+  size_t nodes_ = 0;
+  std::vector<Arc> arcs_;
+  std::vector<std::pair<size_t, size_t>> pairs_;
+  std::vector<size_t> row_, fill_, position_;
   Graph graph_;
-  size_t source_, sink_;
-  boost::property_map<Graph, boost::edge_capacity_t>::type capacity_;
-  boost::property_map<Graph, boost::edge_reverse_t>::type reverse_;
+  std::vector<Capacity> capacity_, residual_;
+  std::vector<Edge> reverse_, predecessors_;
+  std::vector<boost::default_color_type> colors_;
+  std::vector<int64_t> distances_;
 };
 
 Capacity Scaled(double cost) { return static_cast<Capacity>(std::llround(cost * kCostScale)); }
@@ -138,43 +172,57 @@ PottsResult SolvePotts(const PottsProblem& p, const PottsOptions& options) {
 
   PottsResult result;
   result.labels.assign(n, -1);
-  std::vector<int> all_labels;
+  std::vector<float> current_cost(n, 0.0f);
   for (size_t i = 0; i < n; ++i) {
     float best = std::numeric_limits<float>::infinity();
     for (uint32_t k = p.offsets[i]; k < p.offsets[i + 1]; ++k) {
       if (p.costs[k] < best) best = p.costs[k], result.labels[i] = p.labels[k];
     }
+    if (result.labels[i] >= 0) current_cost[i] = best;
   }
-  all_labels = p.labels;
+  // Per label, the nodes that may take it with their costs (node order).
+  std::vector<int> all_labels = p.labels;
   std::sort(all_labels.begin(), all_labels.end());
   all_labels.erase(std::unique(all_labels.begin(), all_labels.end()), all_labels.end());
+  std::vector<std::vector<std::pair<uint32_t, float>>> takers(all_labels.size());
+  for (size_t i = 0; i < n; ++i) {
+    for (uint32_t k = p.offsets[i]; k < p.offsets[i + 1]; ++k) {
+      const size_t slot = static_cast<size_t>(
+          std::lower_bound(all_labels.begin(), all_labels.end(), p.labels[k]) - all_labels.begin());
+      takers[slot].emplace_back(static_cast<uint32_t>(i), p.costs[k]);
+    }
+  }
   result.initial_energy = PottsEnergy(p, result.labels);
   double energy = result.initial_energy;
   const Capacity smooth = Scaled(p.smoothness);
 
   std::vector<int64_t> graph_index(n, -1);
   std::vector<uint32_t> members;
+  std::vector<float> member_alpha_cost;
   std::vector<Capacity> keep_cost, alpha_cost;  // unary terms of x = 0 (keep) and x = 1 (alpha)
+  std::vector<uint8_t> changed(n, 0);
+  CutGraph graph;
   for (int cycle = 0; cycle < options.max_cycles; ++cycle) {
     ++result.cycles;
     bool improved = false;
-    for (const int alpha : all_labels) {
+    for (size_t slot = 0; slot < all_labels.size(); ++slot) {
+      const int alpha = all_labels[slot];
       members.clear();
-      for (size_t i = 0; i < n; ++i) {
-        if (result.labels[i] != alpha && result.labels[i] >= 0 &&
-            CandidateIndex(p, i, alpha) >= 0) {
-          graph_index[i] = static_cast<int64_t>(members.size());
-          members.push_back(static_cast<uint32_t>(i));
-        }
+      member_alpha_cost.clear();
+      for (const auto& [i, cost] : takers[slot]) {
+        if (result.labels[i] == alpha) continue;
+        graph_index[i] = static_cast<int64_t>(members.size());
+        members.push_back(i);
+        member_alpha_cost.push_back(cost);
       }
       if (members.empty()) continue;
-      CutGraph graph(members.size());
+      graph.Reset(members.size());
       keep_cost.assign(members.size(), 0);
       alpha_cost.assign(members.size(), 0);
       for (size_t m = 0; m < members.size(); ++m) {
         const uint32_t i = members[m];
-        keep_cost[m] += Scaled(p.costs[p.offsets[i] + CandidateIndex(p, i, result.labels[i])]);
-        alpha_cost[m] += Scaled(p.costs[p.offsets[i] + CandidateIndex(p, i, alpha)]);
+        keep_cost[m] += Scaled(current_cost[i]);
+        alpha_cost[m] += Scaled(member_alpha_cost[m]);
         for (uint32_t e = degree[i]; e < degree[i + 1]; ++e) {
           const uint32_t j = neighbours[e];
           const int lj = result.labels[j];
@@ -200,21 +248,42 @@ PottsResult SolvePotts(const PottsProblem& p, const PottsOptions& options) {
         graph.AddTerminal(m, alpha_cost[m] - low, keep_cost[m] - low);
       }
       graph.Solve();
-      std::vector<int> proposal = result.labels;
+      // Energy change of the move, from the changed nodes and their edges (each edge once).
+      double delta = 0;
       for (size_t m = 0; m < members.size(); ++m) {
-        if (!graph.OnSourceSide(m)) proposal[members[m]] = alpha;
+        if (!graph.OnSourceSide(m)) {
+          changed[members[m]] = 1;
+          delta += static_cast<double>(member_alpha_cost[m]) - current_cost[members[m]];
+        }
       }
-      for (uint32_t i : members) graph_index[i] = -1;
-      const double proposed = PottsEnergy(p, proposal);
-      if (proposed < energy - 1e-9) {
-        energy = proposed;
-        result.labels = std::move(proposal);
+      for (size_t m = 0; m < members.size(); ++m) {
+        const uint32_t i = members[m];
+        if (!changed[i]) continue;
+        for (uint32_t e = degree[i]; e < degree[i + 1]; ++e) {
+          const uint32_t j = neighbours[e];
+          const int lj = result.labels[j];
+          if (lj < 0 || (changed[j] && j < i)) continue;
+          const int new_j = changed[j] ? alpha : lj;
+          delta +=
+              p.smoothness * ((alpha != new_j ? 1.0 : 0.0) - (result.labels[i] != lj ? 1.0 : 0.0));
+        }
+      }
+      if (delta < -1e-9) {
+        for (size_t m = 0; m < members.size(); ++m) {
+          const uint32_t i = members[m];
+          if (!changed[i]) continue;
+          result.labels[i] = alpha;
+          current_cost[i] = member_alpha_cost[m];
+        }
+        energy += delta;
         ++result.moves;
         improved = true;
       }
+      for (uint32_t i : members) graph_index[i] = -1, changed[i] = 0;
     }
     if (!improved) break;
   }
+  energy = PottsEnergy(p, result.labels);  // exact, without the accumulated rounding
   result.energy = energy;
   return result;
 }
