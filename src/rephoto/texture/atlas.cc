@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
@@ -81,6 +82,47 @@ std::vector<std::pair<int, int>> Pack(std::vector<Patch>& patches, int max_size)
   return sizes;
 }
 
+// A texel of a partially seen face that its own photo does not see (outside the photo or
+// hidden); it takes its colour from another photo afterwards.
+struct PendingTexel {
+  int atlas, x, y;
+  Eigen::Vector3f point;
+  uint32_t face;
+};
+
+// Visibility of single points (the texels of partially seen faces).
+struct Occlusion {
+  RTCScene scene = nullptr;
+  float tfar = 1.0f;
+  const std::vector<uint8_t>& partial;  // per face: textured from a photo that sees part of it
+  bool Sees(const Photo& photo, const Eigen::Vector3d& point,
+            const std::optional<Eigen::Vector2d>& pixel) const {
+    if (!pixel || !(pixel->x() >= 0.5 && pixel->x() <= photo.width() - 0.5 && pixel->y() >= 0.5 &&
+                    pixel->y() <= photo.height() - 0.5)) {
+      return false;
+    }
+    const Eigen::Vector3d center = photo.cam_from_world().Center();
+    const Eigen::Vector3d direction = point - center;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRay ray;
+    ray.org_x = static_cast<float>(center.x());
+    ray.org_y = static_cast<float>(center.y());
+    ray.org_z = static_cast<float>(center.z());
+    ray.dir_x = static_cast<float>(direction.x());
+    ray.dir_y = static_cast<float>(direction.y());
+    ray.dir_z = static_cast<float>(direction.z());
+    ray.tnear = 0.0f;
+    ray.tfar = tfar;
+    ray.mask = 0xFFFFFFFFu;
+    ray.time = 0.0f;
+    ray.flags = 0;
+    ray.id = 0;
+    rtcOccluded1(scene, &context, &ray);
+    return ray.tfar >= 0;
+  }
+};
+
 // Barycentric coordinates of c in triangle q (may be negative outside it).
 Eigen::Vector3d Barycentric(const Eigen::Vector2d* q, const Eigen::Vector2d& c) {
   const Eigen::Vector2d e1 = q[1] - q[0], e2 = q[2] - q[0], d = c - q[0];
@@ -98,7 +140,8 @@ Eigen::Vector3d Barycentric(const Eigen::Vector2d* q, const Eigen::Vector2d& c) 
 // reaches take the photo straight below them.
 void FillPatch(const Patch& patch, const mesh::Mesh& mesh,
                const std::vector<Eigen::Vector2d>& corners, const ColorAdjustment& adjustment,
-               const Photo& photo, int padding, Image8* atlas) {
+               const Photo& photo, int padding, const Occlusion& occlusion, Image8* atlas,
+               std::vector<PendingTexel>* pending) {
   const int w = patch.width, h = patch.height;
   std::vector<int32_t> owner(static_cast<size_t>(w) * h, -1);  // index into patch.faces
   const Eigen::Vector2d origin(patch.min_x, patch.min_y);
@@ -171,6 +214,9 @@ void FillPatch(const Patch& patch, const mesh::Mesh& mesh,
                                       b[1] * mesh.positions[t[1]].cast<double>() +
                                       b[2] * mesh.positions[t[2]].cast<double>();
         const auto pixel = photo.Project(point);
+        if (occlusion.partial[f] && o >= 0 && !occlusion.Sees(photo, point, pixel)) {
+          pending->push_back({patch.atlas, patch.x + x, patch.y + y, point.cast<float>(), f});
+        }
         c = pixel ? photo.Sample(pixel->x(), pixel->y())
                   : photo.Sample(patch.min_x + (x + 0.5 - padding) / patch.scale,
                                  patch.min_y + (y + 0.5 - padding) / patch.scale);
@@ -186,13 +232,62 @@ void FillPatch(const Patch& patch, const mesh::Mesh& mesh,
   }
 }
 
+// Colours the pending texels from the photo that sees their point best (facing, inside the
+// photo, unoccluded; largest cos x (focal / distance)^2, as colorize.h weighs photos); texels
+// that no photo sees keep their own photo's colour. Reads every photo once more when there is
+// anything pending. Returns how many texels got a colour.
+size_t ReassignTexels(const mesh::Mesh& mesh, const std::vector<PendingTexel>& pending,
+                      const Occlusion& occlusion, const scene::Scene& scene,
+                      const std::vector<size_t>& views, Photo* photo, Atlases* out) {
+  if (pending.empty()) return 0;
+  std::vector<float> best(pending.size(), 0.0f);
+  std::vector<Eigen::Vector3f> colors(pending.size());
+  for (size_t l = 0; l < views.size(); ++l) {
+    photo->Load(scene, scene.views[views[l]]);
+    const Eigen::Vector3d center = photo->cam_from_world().Center();
+    const double focal = photo->camera().MeanFocalLength();
+    ParallelFor(0, static_cast<int64_t>(pending.size()), 4096, [&](int64_t begin, int64_t end) {
+      for (int64_t i = begin; i < end; ++i) {
+        const PendingTexel& texel = pending[i];
+        const Eigen::Vector3d point = texel.point.cast<double>();
+        const mesh::Triangle& t = mesh.faces[texel.face];
+        const Eigen::Vector3d p0 = mesh.positions[t[0]].cast<double>();
+        const Eigen::Vector3d normal = (mesh.positions[t[1]].cast<double>() - p0)
+                                           .cross(mesh.positions[t[2]].cast<double>() - p0)
+                                           .normalized();
+        const Eigen::Vector3d to_camera = center - point;
+        const double distance = to_camera.norm();
+        const double cosine = normal.dot(to_camera) / distance;
+        if (!(cosine > 0)) continue;
+        const double score = cosine * (focal / distance) * (focal / distance);
+        if (!(score > best[i])) continue;
+        const auto pixel = photo->Project(point);
+        if (!occlusion.Sees(*photo, point, pixel)) continue;
+        best[i] = static_cast<float>(score);
+        colors[i] = photo->Sample(pixel->x(), pixel->y());
+      }
+    });
+  }
+  size_t assigned = 0;
+  for (size_t i = 0; i < pending.size(); ++i) {
+    if (!(best[i] > 0)) continue;
+    ++assigned;
+    for (int k = 0; k < 3; ++k) {
+      out->images[pending[i].atlas].at(pending[i].x, pending[i].y, k) =
+          static_cast<uint8_t>(std::lround(std::clamp(colors[i][k], 0.0f, 1.0f) * 255.0f));
+    }
+  }
+  return assigned;
+}
+
 }  // namespace
 
 Atlases BuildAtlases(const mesh::Mesh& mesh,
                      const std::vector<std::pair<uint32_t, uint32_t>>& face_pairs,
                      const std::vector<int>& face_labels,
                      const std::vector<Eigen::Vector3f>& fill_colors,
-                     const ColorAdjustment& adjustment, const scene::Scene& scene,
+                     const ColorAdjustment& adjustment, const render::RenderModel& model,
+                     const std::vector<uint8_t>& partial_faces, const scene::Scene& scene,
                      const std::vector<size_t>& views, const AtlasOptions& options) {
   REPHOTO_CHECK(options.texel_scale > 0 && options.texel_scale <= 1,
                 "texture: texel scale {} must be in (0, 1]", options.texel_scale);
@@ -302,6 +397,9 @@ Atlases BuildAtlases(const mesh::Mesh& mesh,
     if (patches[i].label >= 0) patches_of[patches[i].label].push_back(i);
   }
   Photo photo;
+  const Occlusion occlusion{model.scene(), static_cast<float>(1.0 - options.occlusion_epsilon),
+                            partial_faces};
+  std::vector<std::vector<PendingTexel>> pending_of_patch(patches.size());
   for (size_t l = 0; l < views.size(); ++l) {
     if (patches_of[l].empty()) continue;
     photo.Load(scene, scene.views[views[l]]);
@@ -309,11 +407,14 @@ Atlases BuildAtlases(const mesh::Mesh& mesh,
     ParallelFor(0, static_cast<int64_t>(list.size()), 1, [&](int64_t begin, int64_t end) {
       for (int64_t i = begin; i < end; ++i) {
         const Patch& patch = patches[list[i]];
-        FillPatch(patch, mesh, corners, adjustment, photo, options.padding,
-                  &out.images[patch.atlas]);
+        FillPatch(patch, mesh, corners, adjustment, photo, options.padding, occlusion,
+                  &out.images[patch.atlas], &pending_of_patch[list[i]]);
       }
     });
   }
+  std::vector<PendingTexel> pending;
+  for (auto& list : pending_of_patch) pending.insert(pending.end(), list.begin(), list.end());
+  out.reassigned_texels = ReassignTexels(mesh, pending, occlusion, scene, views, &photo, &out);
   return out;
 }
 

@@ -26,6 +26,7 @@
 
 #include "rephoto/core/image.h"
 #include "rephoto/mesh/mesh.h"
+#include "rephoto/render/render_model.h"
 #include "rephoto/scene/scene.h"
 #include "rephoto/texture/leveling.h"
 
@@ -35,6 +36,7 @@ struct AtlasOptions {
   double texel_scale = 1.0;  // texels per photo pixel, (0, 1]
   int max_atlas_size = 8192;
   int padding = 2;
+  double occlusion_epsilon = 1e-3;  // as view_selection.h
 };
 
 struct Atlases {
@@ -43,17 +45,24 @@ struct Atlases {
   std::vector<int> face_atlas;                   // per face: index into images
   size_t patches = 0;
   size_t fill_cells = 0;
-  size_t texels = 0;  // sum of the atlases' areas
+  size_t texels = 0;             // sum of the atlases' areas
+  size_t reassigned_texels = 0;  // texels of partially seen faces coloured from another photo
 };
 
+// Faces textured from a photo that sees only part of them (partial_faces[f] != 0,
+// view_selection.h): each texel whose point that photo does not see (outside it, or an
+// occlusion ray through the model's BVH is blocked) takes the colour of the photo that sees the
+// point best (facing, unoccluded; largest cos x (focal / distance)^2), so an occluder in front
+// of part of the face is not painted onto it; texels no photo sees keep their photo's colour.
 // face_labels: position in `views` per face (-1 = none); fill_colors: per face, used for the
-// faces with label -1. Reads each used photo once. Throws Error naming a photo that cannot be
-// read.
+// faces with label -1. Reads each used photo once (every photo once more when some texels of
+// partially seen faces are hidden). Throws Error naming a photo that cannot be read.
 Atlases BuildAtlases(const mesh::Mesh& mesh,
                      const std::vector<std::pair<uint32_t, uint32_t>>& face_pairs,
                      const std::vector<int>& face_labels,
                      const std::vector<Eigen::Vector3f>& fill_colors,
-                     const ColorAdjustment& adjustment, const scene::Scene& scene,
+                     const ColorAdjustment& adjustment, const render::RenderModel& model,
+                     const std::vector<uint8_t>& partial_faces, const scene::Scene& scene,
                      const std::vector<size_t>& views, const AtlasOptions& options);
 
 }  // namespace rephoto::texture

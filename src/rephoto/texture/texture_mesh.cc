@@ -65,6 +65,8 @@ void TextureOptions::Check() const {
                       "texture: occlusion epsilon {} must be in [0, 1)", occlusion_epsilon);
   REPHOTO_CHECK_USAGE(gradient_floor >= 0 && std::isfinite(gradient_floor),
                       "texture: gradient floor {} must be >= 0", gradient_floor);
+  REPHOTO_CHECK_USAGE(partial_min_fraction >= 0 && partial_min_fraction <= 1,
+                      "texture: partial fraction {} must be in [0, 1]", partial_min_fraction);
   REPHOTO_CHECK_USAGE(consistency_bandwidth > 0 && consistency_min_threshold >= 0,
                       "texture: consistency bandwidth {} must be > 0 and threshold {} >= 0",
                       consistency_bandwidth, consistency_min_threshold);
@@ -104,17 +106,18 @@ TexturedMesh TextureMesh(const mesh::Mesh& input, const scene::Scene& scene,
   auto stage = std::chrono::steady_clock::now();
   const std::vector<std::pair<uint32_t, uint32_t>> pairs = FacePairs(mesh);
   Candidates candidates;
+  mesh::Mesh geometry;
+  geometry.positions = mesh.positions;
+  geometry.faces = mesh.faces;
+  render::ModelOptions model_options;
+  model_options.load_textures = false;
+  const render::RenderModel model(std::move(geometry), model_options, "mesh");
   {
-    mesh::Mesh geometry;
-    geometry.positions = mesh.positions;
-    geometry.faces = mesh.faces;
-    render::ModelOptions model_options;
-    model_options.load_textures = false;
-    const render::RenderModel model(std::move(geometry), model_options, "mesh");
     CandidateOptions candidate_options;
     candidate_options.min_facing_cosine = options.min_facing_cosine;
     candidate_options.occlusion_epsilon = options.occlusion_epsilon;
     candidate_options.gradient_floor = options.gradient_floor;
+    candidate_options.partial_min_fraction = options.partial_min_fraction;
     candidate_options.show_progress = options.show_progress;
     candidates = ComputeCandidates(model, scene, view_indices, candidate_options);
   }
@@ -158,6 +161,7 @@ TexturedMesh TextureMesh(const mesh::Mesh& input, const scene::Scene& scene,
   stage = std::chrono::steady_clock::now();
   std::vector<Eigen::Vector3f> colors(mesh.faces.size(), Eigen::Vector3f::Zero());
   std::vector<uint8_t> view_used(view_indices.size(), 0);
+  std::vector<uint8_t> partial(mesh.faces.size(), 0);
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     if (labels[f] < 0) continue;
     view_used[labels[f]] = 1;
@@ -165,6 +169,8 @@ TexturedMesh TextureMesh(const mesh::Mesh& input, const scene::Scene& scene,
     for (uint32_t k = candidates.offsets[f]; k < candidates.offsets[f + 1]; ++k) {
       if (static_cast<int>(candidates.items[k].view) == labels[f]) {
         colors[f] = candidates.items[k].color;
+        partial[f] = candidates.items[k].partial ? 1 : 0;
+        report.partial_faces += partial[f];
       }
     }
     for (int k = 0; k < 3; ++k) colors[f] += adjustment.At(mesh.faces[f][k], labels[f]) / 3.0f;
@@ -177,8 +183,10 @@ TexturedMesh TextureMesh(const mesh::Mesh& input, const scene::Scene& scene,
   atlas_options.texel_scale = options.texel_scale;
   atlas_options.max_atlas_size = options.max_atlas_size;
   atlas_options.padding = options.padding;
-  Atlases atlases =
-      BuildAtlases(mesh, pairs, labels, colors, adjustment, scene, view_indices, atlas_options);
+  atlas_options.occlusion_epsilon = options.occlusion_epsilon;
+  Atlases atlases = BuildAtlases(mesh, pairs, labels, colors, adjustment, model, partial, scene,
+                                 view_indices, atlas_options);
+  report.reassigned_texels = atlases.reassigned_texels;
   report.patches = atlases.patches;
   report.atlases = atlases.images.size();
   report.atlas_texels = atlases.texels;

@@ -50,6 +50,9 @@ struct TextureOptions {
   double min_facing_cosine = 0.05;  // a photo sees a face only above this cosine
   double occlusion_epsilon = 1e-3;  // relative length of occlusion rays left out at the face
   double gradient_floor = 0.02;     // added per pixel to the gradient magnitude (see above)
+  // Faces no photo sees whole may take a photo that sees at least this fraction of their
+  // sample points (view_selection.h; 0 = only whole views, as the paper).
+  double partial_min_fraction = 0.5;
   // Photo-consistency check.
   bool photo_consistency = true;
   double consistency_bandwidth = 0.1;      // mean-shift kernel, RGB units
@@ -74,13 +77,14 @@ struct TextureOptions {
 struct TextureReport {
   size_t vertices = 0;
   size_t faces = 0;
-  size_t views_given = 0;              // photos offered
-  size_t views_used = 0;               // photos that texture at least one face
-  size_t visible_faces = 0;            // seen by at least one photo (after the consistency check)
-  size_t textured_faces = 0;           // faces with texels from a photo (= visible_faces)
-  size_t filled_faces = 0;             // unseen faces coloured from the nearest textured face
-  size_t default_faces = 0;            // unseen faces without any textured face connected: grey
-  size_t candidates = 0;               // visible (face, photo) pairs
+  size_t views_given = 0;     // photos offered
+  size_t views_used = 0;      // photos that texture at least one face
+  size_t visible_faces = 0;   // seen by at least one photo (after the consistency check)
+  size_t textured_faces = 0;  // faces with texels from a photo (= visible_faces)
+  size_t partial_faces = 0;   // of those, textured from a photo that sees only part of them
+  size_t filled_faces = 0;    // unseen faces coloured from the nearest textured face
+  size_t default_faces = 0;   // unseen faces without any textured face connected: grey
+  size_t candidates = 0;      // visible (face, photo) pairs
   size_t inconsistent_candidates = 0;  // of those, dropped by the photo-consistency check
   double mrf_initial_energy = 0;       // every face at its best photo
   double mrf_energy = 0;               // after alpha-expansion
@@ -90,6 +94,7 @@ struct TextureReport {
   int leveling_iterations = 0;
   size_t atlases = 0;
   size_t atlas_texels = 0;
+  size_t reassigned_texels = 0;  // texels of partial faces hidden in their photo, from another
   // Wall-clock seconds per stage.
   double seconds_visibility = 0;  // photo decoding, gradients, ray casting, data term
   double seconds_consistency = 0;

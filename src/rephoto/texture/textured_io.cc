@@ -133,6 +133,7 @@ std::string TextureReportJson(const TextureReport& r) {
   json["views_used"] = r.views_used;
   json["visible_faces"] = r.visible_faces;
   json["textured_faces"] = r.textured_faces;
+  json["partial_faces"] = r.partial_faces;
   json["filled_faces"] = r.filled_faces;
   json["default_faces"] = r.default_faces;
   json["candidates"] = r.candidates;
@@ -145,6 +146,7 @@ std::string TextureReportJson(const TextureReport& r) {
   json["leveling_iterations"] = r.leveling_iterations;
   json["atlases"] = r.atlases;
   json["atlas_texels"] = r.atlas_texels;
+  json["reassigned_texels"] = r.reassigned_texels;
   json["seconds"] = {{"visibility", r.seconds_visibility}, {"consistency", r.seconds_consistency},
                      {"selection", r.seconds_selection},   {"leveling", r.seconds_leveling},
                      {"atlas", r.seconds_atlas},           {"total", r.seconds_total}};
