@@ -7,6 +7,9 @@
 //    sees the whole face (facing, inside the image with the camera's distortion, four Embree
 //    occlusion rays: the renderer's BVH), and the face's quality there: the gradient magnitude
 //    integral over its projection plus a per-pixel floor (close, frontal and sharp views win).
+//    Faces that no photo sees whole (large faces of coarse meshes) may take a photo that sees
+//    part of them (`partial_min_fraction`); their texels hidden in that photo come from the
+//    photo that sees them best (atlas.h).
 // 2. Photo-consistency check (view_selection.h): per face, views whose mean colour is far
 //    from the mean-shift mode of all its views' colours are dropped (they see an occluder).
 // 3. View selection as a Potts MRF over faces sharing an edge (mrf.h): data cost
