@@ -56,6 +56,11 @@ CommandRunner SetupTexture(CLI::App& app) {
   app.add_option("--min-cosine", args->options.min_facing_cosine,
                  "A photo sees a face only if cos(face normal, direction to camera) exceeds this")
       ->capture_default_str();
+  app.add_option("--partial-fraction", args->options.partial_min_fraction,
+                 "A face no photo sees whole may take a photo that sees this fraction of it "
+                 "(0 = whole faces only)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_option("--max-atlas-size", args->options.max_atlas_size,
                  "Width and greatest height of an atlas image in texels")
       ->capture_default_str();
