@@ -9,7 +9,7 @@ packages=(
   clang libclang-rt-14-dev
   libembree-dev libtbb-dev libeigen3-dev
   libturbojpeg0-dev libspng-dev libdeflate-dev libtinyexr-dev zlib1g-dev
-  libmeshoptimizer-dev libtinyobjloader-dev
+  libmeshoptimizer-dev libtinyobjloader-dev libboost-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev libxxhash-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-skimage python3-numpy python3-scipy
