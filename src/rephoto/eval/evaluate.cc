@@ -388,7 +388,7 @@ bool FoldReady(RunState& s, ViewWorkspace& ws, FoldState& fold) {
   }
   if (!s.DerivesModel() || fold.gaussians) return true;
   std::error_code ec;
-  return fs::is_regular_file(fold.dir / "model.ply", ec) &&
+  return fs::is_regular_file(DerivedModelPath(s, fold), ec) &&
          fs::is_regular_file(fold.dir / "model.key", ec) &&
          ReadFileToString(fold.dir / "model.key") == fold.colorize_key;
 }
@@ -469,7 +469,9 @@ const std::vector<std::string>& CommandPlaceholders() {
 
 std::string ResolvedScheme(const EvaluateOptions& options, size_t photo_count) {
   if (!options.scheme.empty()) return options.scheme;
-  if (options.source() == ModelSource::kModel && !options.colorize) return "none";
+  if (options.source() == ModelSource::kModel && !options.colorize && !options.texture) {
+    return "none";
+  }
   return photo_count >= 5 ? "kfold:5" : "loo";
 }
 
@@ -509,8 +511,12 @@ void EvaluateOptions::Check() const {
   if (!render.empty() && !model.empty()) {
     throw UsageError("evaluate: --render renders by itself; --model is not used with it");
   }
-  if (!render.empty() && colorize) {
-    throw UsageError("evaluate: --colorize needs a model (not --render)");
+  if (colorize && texture) {
+    throw UsageError("evaluate: give either --colorize (vertex colours) or --texture, not both");
+  }
+  if (!render.empty() && (colorize || texture)) {
+    throw UsageError(fmt::format("evaluate: --{} needs a model (not --render)",
+                                 colorize ? "colorize" : "texture"));
   }
   if (!render.empty() && HasDefects(degrade)) {
     throw UsageError(

@@ -160,6 +160,10 @@ struct EvaluateOptions {
   // stereo/depth_maps/<name>.geometric.bin, <stem>.pfm, <stem>.exr, ...); "" = estimate.
   std::filesystem::path depth_maps;
   bool colorize = false;  // colour the model from each fold's training photos
+  // Texture the model (a mesh) from each fold's training photos (texture/texture_mesh.h, default
+  // options): RUN/folds/fold_XX/textured/model.obj + model.mtl + atlases and texture.json, the
+  // paper's best representation (Table I), cross-validated like --colorize. Not with --colorize.
+  bool texture = false;
 
   // ---- sweeps
   // Synthetic defects (paper Section 4.1, degrade/degrade.h) applied to each fold's model after

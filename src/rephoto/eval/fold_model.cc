@@ -10,6 +10,7 @@
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/colorize.h"
+#include "rephoto/texture/texture_mesh.h"
 
 namespace rephoto::eval {
 namespace fs = std::filesystem;
@@ -70,6 +71,33 @@ render::ModelOptions ModelOptions(const EvaluateOptions& o) {
   return model_options;
 }
 
+// Textures `mesh` from the fold's training photos (textured/model.obj, its atlases and
+// texture.json) and replaces it by the textured mesh as read back from the OBJ.
+void TextureFoldModel(RunState& s, FoldState& fold, mesh::Mesh& mesh) {
+  REPHOTO_CHECK(!mesh.is_point_cloud(), "{}: --texture needs a mesh with faces",
+                fold.model_path.string());
+  const auto start = Clock::now();
+  const fs::path out = fold.dir / "textured" / "model.obj";
+  std::error_code ec;
+  fs::remove(fold.dir / "model.key", ec);
+  const scene::Scene train = TrainingScene(s, fold);
+  std::vector<size_t> views(train.views.size());
+  for (size_t v = 0; v < views.size(); ++v) views[v] = v;
+  const texture::TexturedMesh textured = texture::TextureMesh(mesh, train, views);
+  texture::WriteTexturedObj(out, textured);
+  texture::WriteTextureReport(fold.dir / "textured" / "texture.json", textured.report);
+  mesh = mesh::ReadMesh(out);
+  if (!HasDefects(s.o.degrade)) WriteTextFileAtomically(fold.dir / "model.key", fold.colorize_key);
+  fold.colorize_seconds = Seconds(start);
+  s.timings.colorize += fold.colorize_seconds;
+  ++s.counters.models_colorized;
+  const texture::TextureReport& r = textured.report;
+  LogInfo(fmt::format(
+      "{}: textured {} of {} faces from {} of {} training photos ({} filled) in {:.1f} s",
+      fold.name, r.textured_faces, r.faces, r.views_used, r.views_given,
+      r.filled_faces + r.default_faces, fold.colorize_seconds));
+}
+
 // Colours (from the fold's training photos) and/or degrades `mesh`, writes model.ply and its
 // key. Returns the render model when colouring already built it (colours leave the BVH as it is).
 std::unique_ptr<render::RenderModel> DeriveModel(RunState& s, FoldState& fold, mesh::Mesh& mesh) {
@@ -106,6 +134,7 @@ std::unique_ptr<render::RenderModel> DeriveModel(RunState& s, FoldState& fold, m
                         fold.name, report.colored_vertices, report.vertices, train.views.size(),
                         fold.colorize_seconds));
   }
+  if (s.o.texture) TextureFoldModel(s, fold, mesh);
   if (HasDefects(s.o.degrade)) {
     const auto degrade_start = Clock::now();
     fs::remove(coloured_key, ec);
@@ -124,6 +153,11 @@ std::unique_ptr<render::RenderModel> DeriveModel(RunState& s, FoldState& fold, m
 }
 
 }  // namespace
+
+fs::path DerivedModelPath(const RunState& s, const FoldState& fold) {
+  if (s.o.texture && !HasDefects(s.o.degrade)) return fold.dir / "textured" / "model.obj";
+  return fold.dir / "model.ply";
+}
 
 bool IsGaussianModel(const RunState& s, ModelCache& cache, const fs::path& path) {
   if (path.empty() || render::IsImageBased(s.representation)) return false;
@@ -168,7 +202,7 @@ std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache
   if (fold.model_path.empty()) return nullptr;  // image-based rendering from depth maps alone
   if (cache.model && cache.model_key == fold.model_key) return cache.model;
   cache.model.reset();
-  const fs::path coloured = fold.dir / "model.ply";
+  const fs::path coloured = DerivedModelPath(s, fold);
   const fs::path coloured_key = fold.dir / "model.key";
   std::error_code ec;
   std::string previous_colorize;
@@ -178,7 +212,7 @@ std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache
   }
   std::unique_ptr<render::RenderModel> built;  // set when colouring built it already
   if (s.DerivesModel() && previous_colorize == fold.colorize_key) {
-    mesh->emplace(mesh::ReadPly(coloured));
+    mesh->emplace(mesh::ReadMesh(coloured));
   } else {
     if (!*mesh) mesh->emplace(mesh::ReadMesh(fold.model_path));
     if (s.DerivesModel()) {

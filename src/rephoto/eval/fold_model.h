@@ -8,8 +8,11 @@
 // LoadFoldModel     the fold's render model: the cached one when the key is the same (one model
 //                   for all folds is built once), else model.ply when its key file matches,
 //                   else the model read and, with --colorize, coloured from the fold's training
-//                   photos only (render/colorize.h), with defects degraded (degrade/degrade.h),
-//                   written to RUN/folds/fold_XX/model.ply + model.key; then its BVH built.
+//                   photos only (render/colorize.h), or with --texture textured from them
+//                   (texture/texture_mesh.h: textured/model.obj, atlases, texture.json), with
+//                   defects degraded (degrade/degrade.h), written to DerivedModelPath +
+//                   model.key; then its BVH built. Colours and texels are rendered as the files
+//                   store them (8 bits), so a run that reads the files renders the same pixels.
 // MakeFoldRenderer  the renderer of the representation for the fold (render::ViewRenderer).
 //
 // Thread safety: one thread; the ModelCache holds the last models built.
@@ -58,6 +61,10 @@ std::shared_ptr<const splat::GaussianModel> LoadGaussians(ModelCache& cache,
                                                           const std::filesystem::path& path,
                                                           const std::string& key);
 splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o);
+
+// Where the fold's derived model is written: RUN/folds/fold_XX/model.ply (colours, defects), or
+// textured/model.obj with --texture and no defects; its key is RUN/folds/fold_XX/model.key.
+std::filesystem::path DerivedModelPath(const RunState& s, const FoldState& fold);
 
 // The renderer of the fold's representation (loads the model as above).
 std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& cache,

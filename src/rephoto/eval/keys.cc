@@ -75,6 +75,7 @@ std::string DerivedModelKey(const EvaluateOptions& o, const std::string& model_k
   Hasher h;
   h.Add(kKeyVersion).Add("colorize").Add(model_key);
   if (o.colorize) h.Add(train_key);
+  if (o.texture) h.Add("texture").Add(train_key);
   if (HasDefects(o.degrade)) {
     h.Add("degrade")
         .AddDouble(o.degrade.texture_noise)

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "rephoto/core/process.h"
+#include "rephoto/eval/fold_model.h"
 #include "rephoto/eval/settings.h"
 
 namespace rephoto::eval {
@@ -100,7 +101,9 @@ void WriteFoldJson(const RunState& s, const FoldState& fold, const std::string& 
   j["model"] = fold.model_path.empty() ? Json() : Json(fold.model_path.string());
   j["model_key"] = fold.model_key;
   j["colorize_key"] = fold.colorize_key;
-  if (s.DerivesModel()) j["colorized_model"] = "model.ply";
+  if (s.DerivesModel()) {
+    j["colorized_model"] = DerivedModelPath(s, fold).lexically_relative(fold.dir).generic_string();
+  }
   j["train"] = {{"folder", fold.train_dir.string()},
                 {"images", fold.images_dir.string()},
                 {"count", fold.train_names.size()},

@@ -46,6 +46,9 @@ const std::vector<SettingInfo>& Settings() {
        "sweep"},
       {"colorize", SettingType::kBool,
        "Colour each fold's mesh from that fold's training photos before rendering"},
+      {"texture", SettingType::kBool,
+       "Texture each fold's mesh from that fold's training photos before rendering (Waechter "
+       "et al. 2014, texture/texture_mesh.h): the paper's textured row, cross-validated"},
       {"texture-noise", SettingType::kDouble,
        "Defect: offset colours/texels by simplex noise of this maximum (colour units)"},
       {"geometry-noise", SettingType::kDouble,
@@ -245,6 +248,8 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->depth_maps = AsPath(value, source, base_dir);
   } else if (n == "colorize") {
     o->colorize = AsBool(value, source);
+  } else if (n == "texture") {
+    o->texture = AsBool(value, source);
   } else if (n == "texture-noise" || n == "geometry-noise" || n == "simplify") {
     const double v = AsDouble(value, source);
     if (!(v >= 0) || (n == "simplify" && !(v < 1))) {
@@ -477,6 +482,7 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["representation"] = o.representation;
   j["depth-maps"] = o.depth_maps.string();
   j["colorize"] = o.colorize;
+  j["texture"] = o.texture;
   j["train-count"] = o.train_count;
   j["train-seed"] = o.train_seed;
   j["train-short-side"] = o.train_short_side;

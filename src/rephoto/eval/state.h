@@ -163,7 +163,7 @@ struct RunState {
   // Threads a command should use: all threads / jobs (at least 1).
   int CommandThreads() const;
   // The rendered model is made from the fold's model: coloured and/or degraded (model.ply).
-  bool DerivesModel() const { return o.colorize || HasDefects(o.degrade); }
+  bool DerivesModel() const { return o.colorize || o.texture || HasDefects(o.degrade); }
   // A path inside RUN as written in the run folder's files ("folds/fold_00/renders/a.png").
   std::string Relative(const std::filesystem::path& path) const {
     return path.lexically_relative(run).generic_string();
