@@ -17,6 +17,7 @@
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
+#include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/splat/gaussians.h"
@@ -711,6 +712,42 @@ TEST(EvaluateTest, ColorizeUsesEachFoldsTrainingPhotos) {
   EXPECT_EQ(ReadFileToString(run / "per_fold.csv"), per_fold);
   EXPECT_EQ(again.counters.models_colorized, 0u);
   EXPECT_EQ(again.counters.views_rendered, 0u);
+}
+
+// Issue 22: --texture textures each fold's mesh from that fold's training photos only; the
+// rendered model is the textured OBJ as stored, and a rerun reuses it.
+TEST(EvaluateTest, TextureUsesEachFoldsTrainingPhotos) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().plain;
+  o.texture = true;
+  o.scheme = "kfold:3";
+  o.error_images = false;
+  const EvaluateResult textured = RunEvaluate(o);
+  EXPECT_EQ(textured.exit_code, ExitCode::kOk);
+  EXPECT_EQ(textured.counters.models_colorized, 3u);
+  const nlohmann::json fold = ReadJson(run / "folds/fold_01/fold.json");
+  EXPECT_EQ(fold["colorized_model"], "textured/model.obj");
+  EXPECT_EQ(fold["train"]["count"], 4);
+  const nlohmann::json report = ReadJson(run / "folds/fold_01/textured/texture.json");
+  EXPECT_EQ(report["views_given"], 4);
+  EXPECT_GT(report["textured_faces"].get<size_t>(), 0u);
+  const mesh::Mesh model = mesh::ReadMesh(run / "folds/fold_01/textured/model.obj");
+  EXPECT_FALSE(model.materials.empty());
+  // Flat grey without texture: 1-NCC near 1; the textured mesh is far below it.
+  EvaluateOptions g = BaseOptions(testing::MakeTempDir() / "grey");
+  g.model = Files().plain;
+  g.scheme = "kfold:3";
+  g.error_images = false;
+  const EvaluateResult grey = RunEvaluate(g);
+  EXPECT_LT(textured.metrics[0].over_images.median, 0.6 * grey.metrics[0].over_images.median);
+  const std::string per_image = ReadFileToString(run / "per_image.csv");
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
+  EXPECT_EQ(again.counters.models_colorized, 0u);
+  EXPECT_EQ(again.counters.views_rendered, 0u);
+  o.colorize = true;
+  EXPECT_THAT(testing::ErrorOf([&] { RunEvaluate(o); }), HasSubstr("either --colorize"));
 }
 
 // Issue 7: view-dependent texturing renders a test view from the fold's training photos only.
