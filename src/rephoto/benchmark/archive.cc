@@ -111,6 +111,7 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
   std::vector<ExtractedFile> files;
   std::set<std::string> seen;
   int64_t total = 0;
+  size_t entries = 0;
   for (;;) {
     struct archive_entry* entry = nullptr;
     const int rc = archive_read_next_header(reader.get(), &entry);
@@ -121,15 +122,15 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
     }
     const char* raw_name = archive_entry_pathname(entry);
     const std::string raw = raw_name ? raw_name : "";
+    if (++entries > limits.max_files) {
+      Refuse(413, fmt::format("archive entry '{}': more than {} entries", raw, limits.max_files));
+    }
     const mode_t type = archive_entry_filetype(entry);
     if (type == AE_IFDIR) continue;
     if (type != AE_IFREG || archive_entry_hardlink(entry) != nullptr) {
       Refuse(400, fmt::format("archive entry '{}': not a regular file (links, devices and "
                               "FIFOs are refused)",
                               raw));
-    }
-    if (files.size() >= limits.max_files) {
-      Refuse(413, fmt::format("archive entry '{}': more than {} files", raw, limits.max_files));
     }
     const auto [stem, extension] = CheckEntryName(raw, stems);
     if (!seen.insert(stem).second) {

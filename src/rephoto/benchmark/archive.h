@@ -7,7 +7,7 @@
 //   - the entry's name must pass scene::CheckedImageName (no "..", no absolute path, no
 //     backslash or control character: 400); its last component must end in .png, .jpg, .jpeg
 //     or .exr (any case) and its stem must be one of `stems` (the test images), once (400);
-//   - more than `limits.max_files` image entries, or more than `limits.max_bytes` extracted
+//   - more than `limits.max_files` entries (of any type), or more than `limits.max_bytes` extracted
 //     bytes in total, stop the extraction at once (413): the count runs while data is copied,
 //     so a bomb that declares a small size is stopped by what it really inflates to;
 //   - a malformed or unsupported archive is refused (400) with libarchive's reason.
@@ -39,7 +39,7 @@ class Refused : public Error {
 
 struct ArchiveLimits {
   int64_t max_bytes = int64_t{2} << 30;  // extracted bytes, all entries together
-  size_t max_files = 10000;              // image entries
+  size_t max_files = 10000;              // entries of any type (folders too)
 };
 
 struct ExtractedFile {
