@@ -43,7 +43,8 @@ document.querySelectorAll('table.sortable th').forEach((th, column) => {
 std::string Page(const std::string& title, const std::string& body) {
   return fmt::format(
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-      "<meta name=\"viewport\" content=\"width=device-width\"><title>{0}</title><style>"
+      "<meta name=\"viewport\" content=\"width=device-width\"><link rel=\"icon\" href=\"data:,\">"
+      "<title>{0}</title><style>"
       "body{{font-family:sans-serif;margin:1.5em;max-width:70em}}"
       "table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:.2em .5em}}"
       "th{{cursor:pointer;background:#eee}}td.num{{text-align:right}}"
