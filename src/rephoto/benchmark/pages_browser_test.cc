@@ -42,8 +42,8 @@ TEST(PagesBrowserTest, PagesWorkInHeadlessChromium) {
 
   const fs::path log = base / "browser.log";
   const std::string command = "timeout 180 node '" + (tooling / "benchmark_pages.mjs").string() +
-                              "' http://127.0.0.1:" + std::to_string(port) + " >'" +
-                              log.string() + "' 2>&1";
+                              "' http://127.0.0.1:" + std::to_string(port) + " >'" + log.string() +
+                              "' 2>&1";
   const int status = std::system(command.c_str());
   server.Stop();
   thread.join();

@@ -71,6 +71,8 @@ Server::Server(const fs::path& root, const ServerOptions& options)
   http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   http_->set_payload_max_length(options.max_body);
   http_->set_read_timeout(60);
+  // Without it a response written in two parts waits for the client's delayed ACK (~25 ms).
+  http_->set_tcp_nodelay(true);
   http_->set_exception_handler(
       [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
         std::string message = "internal error";
