@@ -1,7 +1,7 @@
 // rephoto benchmark add-dataset --root DIR --name NAME --scene SCENE [--image-root DIR]
 //                               --scheme every:N|fraction:F|lists:TRAIN,TEST [--shortcut PATH]...
 //                               [--description TEXT] [--metrics LIST] [--headline METRIC]
-//                               [--window N]
+//                               [--window N] [--eval-short-side PX] [--photo-masks DIR]
 // rephoto benchmark add-participant --root DIR --name NAME   (prints the token on the last line)
 // rephoto benchmark revoke --root DIR --name NAME
 // rephoto benchmark list --root DIR
@@ -36,6 +36,8 @@ struct BenchmarkArguments {
   std::string metrics = "all";
   std::string headline = "1-ncc";
   int window = 9;
+  int eval_short_side = 0;
+  std::string photo_masks;
 };
 
 void AddRootAndName(CLI::App* app, BenchmarkArguments* args, const std::string& what) {
@@ -56,6 +58,8 @@ int RunAddDataset(const BenchmarkArguments& args) {
   options.metrics = metrics::ParseMetricList(args.metrics);
   options.headline = args.headline;
   options.window = args.window;
+  options.eval_short_side = args.eval_short_side;
+  options.photo_masks = args.photo_masks;
   benchmark::AddDataset(store, options);
   const auto dataset = store.FindDataset(args.name);
   LogInfo(fmt::format("dataset '{}': {} training photos, {} test cameras (photos kept secret)",
@@ -96,6 +100,13 @@ CommandRunner SetupBenchmark(CLI::App& app) {
       ->capture_default_str();
   add->add_option("--window", args->window, "Metric and completeness window (odd)")
       ->capture_default_str();
+  add->add_option("--eval-short-side", args->eval_short_side,
+                  "Compare at this shorter side in pixels (test cameras scaled, photos "
+                  "downscaled; 0 = original)")
+      ->capture_default_str();
+  add->add_option("--photo-masks", args->photo_masks,
+                  "Folder of test-photo masks by stem (0 = ignore the pixel); default: the "
+                  "scene's own mask paths, if any");
   CLI::App* participant =
       app.add_subcommand("add-participant", "Add a participant; prints its API token (last line)");
   AddRootAndName(participant, args.get(), "Participant name");

@@ -4,9 +4,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <set>
 
 #include "rephoto/benchmark/archive.h"
+#include "rephoto/compare/pairing.h"
+#include "rephoto/compare/resample.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
@@ -94,6 +98,85 @@ nlohmann::json ImageList(const scene::Scene& scene, const std::vector<std::strin
   return list;
 }
 
+// Size whose shorter side is `short_side` (never larger than the original; 0 = original), as
+// `rephoto evaluate --eval-short-side` computes it.
+std::pair<int, int> ScaledSize(int width, int height, int short_side) {
+  const int shorter = std::min(width, height);
+  if (short_side <= 0 || shorter <= short_side) return {width, height};
+  const double scale = static_cast<double>(short_side) / shorter;
+  int w = std::max(1, static_cast<int>(std::lround(width * scale)));
+  int h = std::max(1, static_cast<int>(std::lround(height * scale)));
+  (width <= height ? w : h) = short_side;
+  return {w, h};
+}
+
+scene::Scene ScaledScene(scene::Scene scene, int short_side) {
+  for (auto& [id, camera] : scene.cameras) {
+    const auto [w, h] = ScaledSize(camera.width, camera.height, short_side);
+    if (w != camera.width || h != camera.height) camera = camera.Scaled(w, h);
+  }
+  return scene;
+}
+
+// The mask file of each test view (empty paths when the dataset has no masks).
+std::vector<fs::path> TestMasks(const scene::Scene& test, const std::vector<std::string>& stems,
+                                const fs::path& folder) {
+  std::map<std::string, fs::path> by_stem;
+  if (!folder.empty()) by_stem = compare::ImagesByStem(compare::ListImages(folder, "photo masks"));
+  std::vector<fs::path> masks;
+  size_t found = 0;
+  for (size_t i = 0; i < test.views.size(); ++i) {
+    fs::path mask;
+    if (!folder.empty()) {
+      const auto it = by_stem.find(stems[i]);
+      if (it != by_stem.end()) mask = it->second;
+    } else if (test.views[i].mask_path) {
+      mask = *test.views[i].mask_path;
+    }
+    found += mask.empty() ? 0 : 1;
+    masks.push_back(mask);
+  }
+  REPHOTO_CHECK(found == 0 || found == masks.size(),
+                "{}: {} of {} test photos have a mask: give every test photo a mask or none",
+                folder.empty() ? "the scene's mask paths" : folder.string(), found, masks.size());
+  if (found == 0) masks.clear();
+  return masks;
+}
+
+// secret/<name>/photos (and masks/): copies, or downscaled 16-bit PNGs for eval_short_side.
+void WriteSecretPhotos(const scene::Scene& original, const scene::Scene& scaled,
+                       const std::vector<std::string>& stems, const DatasetOptions& options,
+                       const fs::path& folder) {
+  fs::create_directories(folder / "photos");
+  const std::vector<fs::path> masks = TestMasks(original, stems, options.photo_masks);
+  if (!masks.empty()) fs::create_directories(folder / "masks");
+  for (size_t i = 0; i < original.views.size(); ++i) {
+    const camera::Camera& from = original.cameras.at(original.views[i].camera_id);
+    const camera::Camera& to = scaled.cameras.at(scaled.views[i].camera_id);
+    const fs::path& photo = original.views[i].image_path;
+    const bool resize = from.width != to.width || from.height != to.height;
+    if (!resize) {
+      fs::copy_file(photo, folder / "photos" / (stems[i] + photo.extension().string()));
+    } else {
+      Image image, small;
+      io::ReadImage(photo, &image);
+      compare::ResizeImage(image, to.width, to.height, &small);
+      io::WritePng(folder / "photos" / (stems[i] + ".png"), small, io::PngDepth::k16);
+    }
+    if (masks.empty()) continue;
+    Mask mask = io::ReadMask(masks[i]);
+    REPHOTO_CHECK(mask.width() == from.width && mask.height() == from.height,
+                  "{}: the mask is {}x{}, its photo {}x{}", masks[i].string(), mask.width(),
+                  mask.height(), from.width, from.height);
+    if (resize) {
+      Mask small;
+      compare::ResizeMask(mask, to.width, to.height, &small);
+      mask = std::move(small);
+    }
+    io::WritePng(folder / "masks" / (stems[i] + ".png"), mask);
+  }
+}
+
 nlohmann::json Settings(const DatasetOptions& options) {
   nlohmann::json metric_names = nlohmann::json::array();
   for (metrics::Metric metric : options.metrics)
@@ -102,12 +185,15 @@ nlohmann::json Settings(const DatasetOptions& options) {
   REPHOTO_CHECK_USAGE(
       headline && std::count(options.metrics.begin(), options.metrics.end(), *headline) == 1,
       "--headline '{}': not one of the dataset's metrics", options.headline);
+  REPHOTO_CHECK_USAGE(options.eval_short_side >= 0, "--eval-short-side {}: must be >= 0",
+                      options.eval_short_side);
   REPHOTO_CHECK_USAGE(options.window >= 3 && options.window <= 101 && options.window % 2 == 1,
                       "--window {}: must be odd, 3..101", options.window);
   return {{"metrics", metric_names},
           {"headline", options.headline},
           {"higher_is_better", metrics::HigherIsBetter(*headline)},
-          {"window", options.window}};
+          {"window", options.window},
+          {"eval_short_side", options.eval_short_side}};
 }
 
 }  // namespace
@@ -126,9 +212,13 @@ fs::path SecretPhotoFolder(const fs::path& root, const std::string& name) {
   return root / "secret" / name / "photos";
 }
 
+fs::path SecretMaskFolder(const fs::path& root, const std::string& name) {
+  return root / "secret" / name / "masks";
+}
+
 int64_t AddDataset(Store& store, const DatasetOptions& options) {
   CheckDatasetName(options.name);
-  const nlohmann::json settings = Settings(options);
+  nlohmann::json settings = Settings(options);
   REPHOTO_CHECK_USAGE(!store.FindDataset(options.name), "dataset '{}' exists already",
                       options.name);
   const fs::path& root = store.root();
@@ -147,7 +237,8 @@ int64_t AddDataset(Store& store, const DatasetOptions& options) {
                       "(every:N, fraction:F, lists:TRAIN,TEST)",
                       options.scheme);
   const scene::Scene train = split::SubsetScene(scene, split.folds[0].train, true);
-  const scene::Scene test = split::SubsetScene(scene, split.folds[0].test, false);
+  const scene::Scene original_test = split::SubsetScene(scene, split.folds[0].test, false);
+  const scene::Scene test = ScaledScene(original_test, options.eval_short_side);
   const std::vector<std::string> stems = scene::OutputStems(test);
   for (const std::string& stem : stems) {
     REPHOTO_CHECK(stem.find('/') == std::string::npos,
@@ -185,11 +276,8 @@ int64_t AddDataset(Store& store, const DatasetOptions& options) {
   for (const fs::path& shortcut : options.shortcuts) AddShortcutMembers(shortcut, &shortcuts);
   if (!shortcuts.empty()) WriteTar(public_stage.path / "shortcuts.tar", shortcuts);
 
-  fs::create_directories(secret_stage.path / "photos");
-  for (size_t i = 0; i < test.views.size(); ++i) {
-    const fs::path& photo = test.views[i].image_path;
-    fs::copy_file(photo, secret_stage.path / "photos" / (stems[i] + photo.extension().string()));
-  }
+  WriteSecretPhotos(original_test, test, stems, options, secret_stage.path);
+  settings["masks"] = fs::exists(secret_stage.path / "masks");
 
   fs::rename(public_stage.path, public_folder);
   public_stage.path.clear();

@@ -71,6 +71,7 @@ compare::CompareOptions ScoringOptions(const fs::path& root, const DatasetRecord
     options.metrics.push_back(*metrics::ParseMetric(name.get<std::string>()));
   }
   options.metric_options.window = settings.at("window").get<int>();
+  if (settings.value("masks", false)) options.photo_masks = SecretMaskFolder(root, dataset.name);
   return options;
 }
 
