@@ -105,6 +105,9 @@ std::optional<nlohmann::json> LeaderboardJson(Store& store, const std::string& n
     if (s.status != SubmissionStatus::kDone || !s.summary.is_object()) continue;
     const nlohmann::json& metric = s.summary.at("metrics").at(headline);
     const double mean = JsonNumber(metric.at("mean"));
+    nlohmann::json means = nlohmann::json::object();
+    for (const auto& [name, values] : s.summary.at("metrics").items())
+      means[name] = values.at("mean");
     entries.push_back(
         {mean,
          {{"id", s.id},
@@ -113,7 +116,8 @@ std::optional<nlohmann::json> LeaderboardJson(Store& store, const std::string& n
           {"description", s.description},
           {"created", s.created},
           {"headline", {{"mean", metric.at("mean")}, {"median", metric.at("median")}}},
-          {"completeness", Number(LeaderboardCompleteness(s.summary))}}});
+          {"completeness", Number(LeaderboardCompleteness(s.summary))},
+          {"metrics", means}}});
   }
   // Best first; NaN last; ties by submission time (earlier first), kept by stable_sort.
   std::reverse(entries.begin(), entries.end());  // DatasetSubmissions is newest first

@@ -22,7 +22,8 @@ nlohmann::json DatasetListJson(Store& store);
 std::optional<nlohmann::json> DatasetJson(Store& store, const std::string& name);
 
 // GET /api/datasets/NAME/leaderboard: {dataset, headline, higher_is_better, entries: [{rank,
-// id, participant, method, description, created, headline: {mean, median}, completeness}]}
+// id, participant, method, description, created, headline: {mean, median}, completeness,
+// metrics: {<name>: mean over images}}]}
 // ordered by the headline metric's mean over images (best first; no value last), only
 // submissions that are done. completeness is LeaderboardCompleteness (over all test photos).
 std::optional<nlohmann::json> LeaderboardJson(Store& store, const std::string& name);

@@ -2,10 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "rephoto/benchmark/api.h"
 #include "rephoto/benchmark/submissions.h"
+#include "rephoto/compare/compare.h"
+#include "rephoto/metrics/metrics.h"
 #include "rephoto/report/boxplot.h"
 #include "rephoto/report/html.h"
 
@@ -84,6 +87,21 @@ std::string FileLinks(const nlohmann::json& files) {
   return html + "</ul>";
 }
 
+// Header cells "<metric> mean" of the dataset's other metrics, sorted by name: the order in
+// which nlohmann::json iterates a summary's metrics, as the rows write them.
+std::string OtherMetricHeaders(Store& store, const std::string& dataset_name,
+                               const std::string& headline) {
+  const auto dataset = store.FindDataset(dataset_name);
+  std::vector<std::string> names;
+  for (const auto& metric : dataset->info.at("settings").at("metrics")) {
+    if (metric != headline) names.push_back(metric.get<std::string>());
+  }
+  std::sort(names.begin(), names.end());
+  std::string html;
+  for (const std::string& metric : names) html += "<th>" + HtmlEscape(metric) + " mean</th>";
+  return html;
+}
+
 }  // namespace
 
 std::string DatasetListPage(Store& store) {
@@ -147,21 +165,25 @@ std::optional<std::string> LeaderboardPage(Store& store, const std::string& name
       "<p>Ordered by the mean of <b>{}</b> over the test photos ({}); completeness is over all "
       "test photos (a missing render counts as not covered).</p>"
       "<table class=\"sortable\" id=\"leaderboard\"><thead><tr><th>rank</th><th>method</th>"
-      "<th>participant</th><th>{} mean</th><th>{} median</th><th>completeness</th></tr></thead>"
-      "<tbody>",
+      "<th>participant</th><th>{} mean</th><th>{} median</th><th>completeness</th>{}</tr>"
+      "</thead><tbody>",
       HtmlEscape(headline), board->at("higher_is_better") ? "higher is better" : "lower is better",
-      HtmlEscape(headline), HtmlEscape(headline));
+      HtmlEscape(headline), HtmlEscape(headline), OtherMetricHeaders(store, name, headline));
   report::BoxPlot plot{.title = headline + " per test photo", .y_label = headline};
   for (const auto& entry : board->at("entries")) {
     const std::string id = entry.at("id");
+    std::string others;
+    for (const auto& [metric, mean] : entry.at("metrics").items()) {
+      if (metric != headline) others += NumberCell(mean);
+    }
     body += fmt::format(
         "<tr data-id=\"{}\"><td class=\"num\" data-value=\"{}\">{}</td>"
-        "<td><a href=\"/submissions/{}\">{}</a></td><td>{}</td>{}{}{}</tr>",
+        "<td><a href=\"/submissions/{}\">{}</a></td><td>{}</td>{}{}{}{}</tr>",
         id, entry.at("rank").get<int>(), entry.at("rank").get<int>(), id,
         HtmlEscape(entry.at("method").get<std::string>()),
         HtmlEscape(entry.at("participant").get<std::string>()),
         NumberCell(entry.at("headline").at("mean")), NumberCell(entry.at("headline").at("median")),
-        NumberCell(entry.at("completeness")));
+        NumberCell(entry.at("completeness")), others);
     const auto submission = SubmissionJson(store, id);
     report::BoxPlotBox box{.category = static_cast<int>(plot.categories.size())};
     for (const auto& row : submission->at("images")) {
@@ -200,6 +222,7 @@ std::optional<std::string> SubmissionPage(Store& store, const std::string& id) {
     body += "<th>" + HtmlEscape(metric.get<std::string>()) + "</th>";
   }
   body += "<th>" + HtmlEscape(headline) + " error</th></tr></thead><tbody>";
+  const auto [low, high] = compare::ErrorColourRange(*metrics::ParseMetric(headline));
   for (const auto& row : submission->at("images")) {
     const std::string name = row.at("name");
     body += "<tr><td>" + HtmlEscape(name) + "</td><td>" +
@@ -216,7 +239,9 @@ std::optional<std::string> SubmissionPage(Store& store, const std::string& id) {
                                   UrlComponent(headline))
                             : "<td></td></tr>";
   }
-  body += "</tbody></table>";
+  body += "</tbody></table><p>Error images: " + report::JetColourBarSvg(low, high, headline) +
+          " (transparent: not evaluated). They show the error of the uploaded renders against "
+          "the secret photos, never the photos.</p>";
   return Page("Submission " + id, body);
 }
 

@@ -240,6 +240,8 @@ TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
   EXPECT_EQ(board["entries"][0]["completeness"], 1.0);
   EXPECT_EQ(board["entries"][1]["id"], noisy_id);
   EXPECT_GT(JsonNumber(board["entries"][1]["headline"]["mean"]), 0.01);
+  EXPECT_EQ(board["entries"][1]["metrics"]["cb+cr"],
+            Json("/api/submissions/" + noisy_id)["summary"]["metrics"]["cb+cr"]["mean"]);
 
   // Pages: 200 and the method names; the error image of a done submission is a PNG.
   for (const std::string& path : std::vector<std::string>{
@@ -331,6 +333,22 @@ TEST_F(ServerTest, RefusesBadArchivesWithTheDocumentedStatusAndKeepsServing) {
   // Still serving, the accepted submission intact and scored.
   ASSERT_TRUE(server_->submissions().WaitIdle(60));
   EXPECT_EQ(Json("/api/datasets/tiny/leaderboard")["entries"].size(), 1u);
+}
+
+TEST_F(ServerTest, ARenderThatCannotBeDecodedIsScoredAsFailedWithTheReason) {
+  // Its header (size) is right, so intake accepts it; decoding fails while scoring.
+  const std::string png = ReadFileToString(SecretPhotoFolder(root_, "tiny") / "00.png");
+  const auto res =
+      Submit(alice_, MakeArchive({{"00.png", png.substr(0, png.size() / 2)}}, ArchiveFormat::kTar));
+  ASSERT_EQ(res->status, 202) << res->body;
+  ASSERT_TRUE(server_->submissions().WaitIdle(60));
+  const nlohmann::json submission =
+      Json("/api/submissions/" + nlohmann::json::parse(res->body)["id"].get<std::string>());
+  EXPECT_EQ(submission["status"], "failed");
+  EXPECT_NE(submission["reason"].get<std::string>().find("00.png"), std::string::npos)
+      << submission["reason"];
+  EXPECT_FALSE(submission.contains("summary"));
+  EXPECT_TRUE(Json("/api/datasets/tiny/leaderboard")["entries"].empty());
 }
 
 TEST_F(ServerTest, RateLimitsEachParticipantWith429) {
