@@ -1,7 +1,10 @@
 #include "rephoto/benchmark/server.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <httplib.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <memory>
@@ -109,6 +112,10 @@ Server::Server(const fs::path& root, const ServerOptions& options)
 
 Server::~Server() { Stop(); }
 
+Server::RootLock::~RootLock() {
+  if (fd >= 0) close(fd);  // releases the flock
+}
+
 void Server::SetupApiRoutes() {
   httplib::Server& http = *http_;
   http.Get("/api/datasets", [this](const httplib::Request&, httplib::Response& res) {
@@ -183,6 +190,11 @@ void Server::SetupPageRoutes() {
 }
 
 int Server::Bind() {
+  const fs::path lock = store_.root() / ".rephoto-serve";
+  lock_.fd = open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  REPHOTO_CHECK(lock_.fd >= 0, "{}: cannot open the server lock", lock.string());
+  REPHOTO_CHECK(flock(lock_.fd, LOCK_EX | LOCK_NB) == 0,
+                "{}: another rephoto serve is running on this folder", store_.root().string());
   if (options_.port == 0) {
     port_ = http_->bind_to_any_port(options_.host);
     REPHOTO_CHECK(port_ > 0, "cannot listen on {}:<any port>", options_.host);

@@ -41,8 +41,10 @@ class Server {
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
 
-  // Binds the address (throws Error when it cannot), starts the scoring workers (re-queueing
-  // unfinished submissions) and returns the port.
+  // Takes the root's server lock (<root>/.rephoto-serve, flock(2), held until destruction; a
+  // second server on the same root is refused with an Error), binds the address (throws Error
+  // when it cannot), starts the scoring workers (re-queueing unfinished submissions) and
+  // returns the port.
   int Bind();
   // Serves until Stop(). Bind() first.
   void Run();
@@ -56,6 +58,12 @@ class Server {
   void SetupApiRoutes();
   void SetupPageRoutes();
 
+  // The root's server lock: declared first, so released after the workers stopped.
+  struct RootLock {
+    ~RootLock();
+    int fd = -1;
+  };
+  RootLock lock_;
   ServerOptions options_;
   Store store_;
   Submissions submissions_;

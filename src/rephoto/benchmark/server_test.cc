@@ -328,7 +328,7 @@ TEST_F(ServerTest, RefusesBadArchivesWithTheDocumentedStatusAndKeepsServing) {
   for (const auto& entry : fs::directory_iterator(root_)) top.push_back(entry.path().filename());
   std::sort(top.begin(), top.end());
   EXPECT_EQ(top,
-            (std::vector<std::string>{"benchmark.sqlite", "benchmark.sqlite-shm",
+            (std::vector<std::string>{".rephoto-serve", "benchmark.sqlite", "benchmark.sqlite-shm",
                                       "benchmark.sqlite-wal", "public", "secret", "submissions"}));
   // Still serving, the accepted submission intact and scored.
   ASSERT_TRUE(server_->submissions().WaitIdle(60));
@@ -349,6 +349,33 @@ TEST_F(ServerTest, ARenderThatCannotBeDecodedIsScoredAsFailedWithTheReason) {
       << submission["reason"];
   EXPECT_FALSE(submission.contains("summary"));
   EXPECT_TRUE(Json("/api/datasets/tiny/leaderboard")["entries"].empty());
+}
+
+TEST_F(ServerTest, OneServerPerRootAndUnacceptedUploadsAreRemovedOnStart) {
+  ServerOptions options;
+  options.port = 0;
+  {
+    Server second(root_, options);
+    EXPECT_NE(rephoto::testing::ErrorOf([&] { second.Bind(); }).find("another rephoto serve"),
+              std::string::npos);
+  }
+  // What a server killed in the middle of an upload leaves behind.
+  const fs::path submissions = root_ / "submissions";
+  fs::create_directories(submissions / ".incoming-0123" / "renders");
+  fs::create_directories(submissions / std::string(32, 'a') / "renders");
+  const auto accepted = Submit(alice_, testing::RendersFromPhotos(root_, "tiny", 0.0, rng_));
+  ASSERT_EQ(accepted->status, 202);
+  ASSERT_TRUE(server_->submissions().WaitIdle(60));
+  server_->Stop();
+  thread_.join();
+  server_.reset();
+  server_ = std::make_unique<Server>(root_, options);
+  port_ = server_->Bind();
+  thread_ = std::thread([this] { server_->Run(); });
+  EXPECT_FALSE(fs::exists(submissions / ".incoming-0123"));
+  EXPECT_FALSE(fs::exists(submissions / std::string(32, 'a')));
+  const std::string id = nlohmann::json::parse(accepted->body)["id"];
+  EXPECT_TRUE(fs::exists(SubmissionRunFolder(root_, id) / "summary.json"));
 }
 
 TEST_F(ServerTest, RateLimitsEachParticipantWith429) {

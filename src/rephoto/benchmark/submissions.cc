@@ -113,7 +113,26 @@ Submissions::~Submissions() {
   for (std::thread& worker : workers_) worker.join();
 }
 
+// Removes what a killed server left of uploads it had not accepted: incoming folders, and
+// submission folders without a database row (killed between the rename and the insert).
+void RemoveUnacceptedUploads(Store& store) {
+  const fs::path folder = store.root() / "submissions";
+  if (!fs::is_directory(folder)) return;
+  std::vector<fs::path> stale;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(".incoming-", 0) == 0 || (IsSubmissionId(name) && !store.FindSubmission(name))) {
+      stale.push_back(entry.path());
+    }
+  }
+  for (const fs::path& path : stale) {
+    LogInfo(fmt::format("removing {} (an upload that was never accepted)", path.string()));
+    fs::remove_all(path);
+  }
+}
+
 void Submissions::Start() {
+  RemoveUnacceptedUploads(store_);
   for (const SubmissionRecord& record :
        store_.SubmissionsWithStatus({SubmissionStatus::kQueued, SubmissionStatus::kScoring})) {
     LogInfo(fmt::format("re-queueing submission {} ({})", record.id, StatusName(record.status)));

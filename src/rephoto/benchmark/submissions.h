@@ -16,8 +16,10 @@
 // <root>/submissions/<id>/run (a `rephoto compare` run folder: per_image.csv, summary.json,
 // errors/); status done with summary.json's content, or failed with the error's message.
 // Missing renders are not an error: they count as not covered (see LeaderboardCompleteness).
-// Recovery: Start() first re-queues every submission whose status is queued or scoring (a
-// killed server's backlog; RunCompare replaces a half-written run folder), oldest first.
+// Recovery: Start() first removes what a killed server left of uploads it never accepted
+// (submissions/.incoming-*, and submission folders without a database row), then re-queues
+// every submission whose status is queued or scoring (a killed server's backlog; RunCompare
+// replaces a half-written run folder), oldest first. One server per root (Server locks it).
 // Thread safety: Submit and the accessors may be called from any thread.
 #pragma once
 
