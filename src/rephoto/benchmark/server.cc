@@ -6,8 +6,10 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <fstream>
 #include <memory>
+#include <thread>
 
 #include "rephoto/benchmark/api.h"
 #include "rephoto/benchmark/pages.h"
@@ -207,10 +209,28 @@ int Server::Bind() {
   return port_;
 }
 
-void Server::Run() { http_->listen_after_bind(); }
+void Server::Run() {
+  {
+    std::lock_guard lock(run_mutex_);
+    if (stop_requested_) return;
+    running_ = true;
+  }
+  http_->listen_after_bind();
+  running_ = false;
+}
 
 void Server::Stop() {
-  if (http_) http_->stop();
+  {
+    std::lock_guard lock(run_mutex_);
+    stop_requested_ = true;
+    if (!running_) return;  // Run() has not started (and now will not) or has returned
+  }
+  // Run() may not be listening yet, and httplib's stop() does nothing until it is.
+  while (running_ && !http_->is_running()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  http_->stop();
+  while (running_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
 }  // namespace rephoto::benchmark

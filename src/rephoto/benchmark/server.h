@@ -11,8 +11,10 @@
 // Thread safety: Run() blocks its caller; Stop() may be called from any thread.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "rephoto/benchmark/store.h"
@@ -46,8 +48,9 @@ class Server {
   // when it cannot), starts the scoring workers (re-queueing unfinished submissions) and
   // returns the port.
   int Bind();
-  // Serves until Stop(). Bind() first.
+  // Serves until Stop(). Bind() first. Returns at once when Stop() came first.
   void Run();
+  // Makes Run() return (or not start) and waits until it has returned. Not from a handler.
   void Stop();
   int port() const { return port_; }
 
@@ -69,6 +72,9 @@ class Server {
   Submissions submissions_;
   std::unique_ptr<httplib::Server> http_;
   int port_ = 0;
+  std::mutex run_mutex_;
+  bool stop_requested_ = false;
+  std::atomic<bool> running_ = false;
 };
 
 }  // namespace rephoto::benchmark

@@ -191,6 +191,22 @@ TEST_F(ServiceTest, ASubmissionOfTheTrueModelScoresAsRephotoCompare) {
   EXPECT_GT(ncc, 0.05);
   EXPECT_LT(ncc, 0.9);
 
+  // Administration while the server runs: a participant added by the CLI can submit at once
+  // (an empty archive: 400, not 401), and revoked by the CLI cannot (401).
+  const std::string out =
+      Cli(fmt::format("-q benchmark add-participant --root '{}' --name late", root_.string()));
+  std::string late = out.substr(out.rfind('\n', out.size() - 2) + 1);
+  late.pop_back();  // the line break
+  const auto try_late = [&] {
+    return client
+        .Post("/api/datasets/sceaux/submissions?method=x", {{"Authorization", "Bearer " + late}},
+              "", "application/x-tar")
+        ->status;
+  };
+  EXPECT_EQ(try_late(), 400);
+  Cli(fmt::format("-q benchmark revoke --root '{}' --name late", root_.string()));
+  EXPECT_EQ(try_late(), 401);
+
   const auto board = nlohmann::json::parse(client.Get("/api/datasets/sceaux/leaderboard")->body);
   ASSERT_GE(board["entries"].size(), 1u);
   bool listed = false;

@@ -168,11 +168,17 @@ Store::Store(const std::filesystem::path& root) : root_(root), db_path_(root / "
     db_ = nullptr;
     ThrowError("{}: cannot open the database ({})", db_path_.string(), message);
   }
-  sqlite3_busy_timeout(db_, 10000);
-  Execute("PRAGMA journal_mode=WAL");
-  Execute("PRAGMA foreign_keys=ON");
-  Execute("PRAGMA synchronous=NORMAL");
-  Migrate();
+  try {
+    sqlite3_busy_timeout(db_, 10000);
+    Execute("PRAGMA journal_mode=WAL");
+    Execute("PRAGMA foreign_keys=ON");
+    Execute("PRAGMA synchronous=NORMAL");
+    Migrate();
+  } catch (...) {
+    sqlite3_close(db_);  // no destructor runs for a constructor that throws
+    db_ = nullptr;
+    throw;
+  }
 }
 
 Store::~Store() { sqlite3_close(db_); }
