@@ -8,6 +8,13 @@
 // rendering) through ComputeMetricsInBands, as `rephoto compare` does for JPEG/PNG files; older
 // builds have no such cases: compare them with the float cases of an older binary run in turns.
 //
+// Kernels: the names of the cases stay the same from build to build, so an older binary's
+// figures compare case by case with a newer one's (run both in turns). Census and the SSIM
+// filters have a 16-wide AVX-512 version and 8-wide AVX2/baseline clones (picked at run time);
+// to measure the AVX2 code that CPUs without AVX-512 run, configure a build with
+// -DREPHOTO_METRICS_NO_AVX512=ON (before that option existed, the AVX2 clones used 16-wide
+// GCC vectors, lowered to scalar code: census ~10x, DSSIM ~7x slower than the AVX-512 code).
+//
 // Images, masks and result buffers are allocated and touched once, outside the timed loop (the
 // first touch of fresh pages costs ~10 us per 4 KiB page on the target machines and would
 // otherwise dominate).

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -117,12 +118,14 @@ void BuildBvh(benchmark::State& state, const Mesh& mesh) {
   state.counters["commit_ms"] = build * 1e3;  // rtcCommitScene only (rest: buffer copies)
 }
 
-// Rendering `model` at `camera` and `pose` with state.range(0) samples per pixel.
+// Rendering `model` at `camera` and `pose` with state.range(0) samples per pixel and packets of
+// `packet_width` rays (0: by CPU).
 void Render(benchmark::State& state, const rephoto::render::RenderModel& model,
-            const Camera& camera, const Pose& pose) {
+            const Camera& camera, const Pose& pose, int packet_width = 0) {
   const auto rays = model.RaysFor(camera);
   rephoto::render::RenderOptions options;
   options.samples_per_pixel = static_cast<int>(state.range(0));
+  options.packet_width = packet_width;
   rephoto::render::Rephoto out;
   rephoto::render::RenderRephoto(model, *rays, pose, options, &out);  // warm buffers
   {
@@ -145,6 +148,116 @@ BENCHMARK(BM_BuildBvh)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTim
 
 void BM_Render(benchmark::State& state) { Render(state, BenchModel(), BenchCamera(), BenchPose()); }
 BENCHMARK(BM_Render)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The same with the packet width forced: samples per pixel, rays per packet (8 or 16).
+void BM_RenderPacket(benchmark::State& state) {
+  Render(state, BenchModel(), BenchCamera(), BenchPose(), static_cast<int>(state.range(1)));
+}
+BENCHMARK(BM_RenderPacket)
+    ->Args({1, 8})
+    ->Args({1, 16})
+    ->Args({4, 8})
+    ->Args({4, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The Embree floor of primary visibility: the same BVH (BenchModel's scene), camera and pose
+// as BM_Render at 1 sample per pixel (rays through the same sample positions), but only
+// rtcIntersect8 (4 x 2 pixel tiles) or rtcIntersect16 (4 x 4 tiles, BM_Render's): the ray
+// directions are made once outside the timed loop, no backface filter, no shading, only the
+// depth written. Arg: the packet width. BM_Render/1 over this is rephoto's overhead on top of
+// Embree.
+void BM_EmbreeFloor(benchmark::State& state) {
+  const int lanes = static_cast<int>(state.range(0));
+  const auto& model = BenchModel();
+  const Camera camera = BenchCamera();
+  const Pose pose = BenchPose();
+  const auto rays = model.RaysFor(camera);
+  const Eigen::Matrix3f world_from_cam = pose.rotation.transpose().cast<float>();
+  const Eigen::Vector3f origin = pose.Center().cast<float>();
+  const int width = camera.width, height = camera.height;
+  const rephoto::render::RenderOptions options;  // 1 sample per pixel, as BM_Render/1
+  std::vector<float> dirs(3 * static_cast<size_t>(width) * height);
+  std::vector<uint8_t> has_ray(static_cast<size_t>(width) * height);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector2f offset = rephoto::render::SampleOffset(x, y, 0, options);
+      float xn, yn;
+      const size_t i = static_cast<size_t>(y) * width + x;
+      has_ray[i] = rays->Ray(x + offset.x(), y + offset.y(), &xn, &yn);
+      const Eigen::Vector3f d =
+          world_from_cam.col(0) * xn + world_from_cam.col(1) * yn + world_from_cam.col(2);
+      for (int c = 0; c < 3; ++c) dirs[3 * i + c] = d[c];
+    }
+  }
+  std::vector<float> depth(static_cast<size_t>(width) * height);
+  const int tile_h = lanes / 4;
+  const int tile_rows = (height + tile_h - 1) / tile_h;
+  RTCScene scene = model.scene();
+  auto frame = [&] {
+    rephoto::ParallelFor(0, tile_rows, 1, [&](int64_t row_begin, int64_t row_end) {
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+      alignas(64) RTCRayHit16 packet16;
+      alignas(64) RTCRayHit8 packet8;
+      alignas(64) int valid[16];
+      for (int64_t tile_row = row_begin; tile_row < row_end; ++tile_row) {
+        const int y0 = static_cast<int>(tile_row) * tile_h;
+        for (int x0 = 0; x0 < width; x0 += 4) {
+          auto fill = [&](auto& packet) {
+            for (int k = 0; k < lanes; ++k) {
+              const int px = x0 + (k & 3), py = y0 + (k >> 2);
+              const size_t i = static_cast<size_t>(py) * width + px;
+              valid[k] = px < width && py < height && has_ray[i] ? -1 : 0;
+              packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+              if (!valid[k]) continue;
+              packet.ray.org_x[k] = origin.x();
+              packet.ray.org_y[k] = origin.y();
+              packet.ray.org_z[k] = origin.z();
+              packet.ray.dir_x[k] = dirs[3 * i];
+              packet.ray.dir_y[k] = dirs[3 * i + 1];
+              packet.ray.dir_z[k] = dirs[3 * i + 2];
+              packet.ray.tnear[k] = 0.0f;
+              packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
+              packet.ray.time[k] = 0.0f;
+              packet.ray.mask[k] = 0xFFFFFFFFu;
+              packet.ray.id[k] = static_cast<unsigned>(k);
+              packet.ray.flags[k] = 0;
+            }
+          };
+          auto store = [&](const auto& packet) {
+            for (int k = 0; k < lanes; ++k) {
+              if (!valid[k]) continue;
+              const int px = x0 + (k & 3), py = y0 + (k >> 2);
+              depth[static_cast<size_t>(py) * width + px] =
+                  packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID ? 0.0f : packet.ray.tfar[k];
+            }
+          };
+          if (lanes == 16) {
+            fill(packet16);
+            rtcIntersect16(valid, scene, &context, &packet16);
+            store(packet16);
+          } else {
+            fill(packet8);
+            rtcIntersect8(valid, scene, &context, &packet8);
+            store(packet8);
+          }
+        }
+      }
+    });
+  };
+  frame();  // warm
+  {
+    rephoto::bench::CpuCounter cpu(state, "cpu_ms_per_frame");
+    for (auto _ : state) {
+      frame();
+      benchmark::DoNotOptimize(depth.data());
+    }
+  }
+  state.counters["Mrays/s"] = benchmark::Counter(
+      static_cast<double>(width) * height * state.iterations() / 1e6, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_EmbreeFloor)->Arg(8)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Your own model and scene: REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE (read once). False, with
 // the benchmark skipped, unless they are set (the scene only when `scene` is asked for).

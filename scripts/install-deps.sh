@@ -17,6 +17,7 @@ packages=(
   python3-setuptools python3-wheel python3-pandas python3-matplotlib
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   chromium
+  slurmctld slurmd slurm-client munge
   libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev nodejs
 )
 # npm for the browser tests' tooling; a nodejs from elsewhere (NodeSource) bundles its own npm

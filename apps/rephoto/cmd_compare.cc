@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "command.h"
+#include "rephoto/run/summary_table.h"
 #include "rephoto/compare/compare.h"
 #include "rephoto/compare/compat_compare.h"
 #include "rephoto/core/error.h"
@@ -29,12 +30,6 @@ struct CompareArguments {
   std::string compat;
   std::vector<float> compat_background;
 };
-
-std::string FormatValue(double value) {
-  if (std::isnan(value)) return "-";
-  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
-  return fmt::format("{:.4f}", value);
-}
 
 CommandRunner SetupCompare(CLI::App& app) {
   auto args = std::make_shared<CompareArguments>();
@@ -117,17 +112,11 @@ CommandRunner SetupCompare(CLI::App& app) {
 
     fmt::print("{} pairs compared, {} without counterpart\n", result.images.size(),
                result.missing.size());
-    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "over images", "mean", "min",
-               "median", "max", "pooled");
-    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "completeness",
-               FormatValue(result.completeness.mean), FormatValue(result.completeness.min),
-               FormatValue(result.completeness.median), FormatValue(result.completeness.max), "");
+    std::vector<run::SummaryRow> rows = {{"completeness", result.completeness, 0, false}};
     for (const compare::MetricSummary& m : result.metrics) {
-      fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", metrics::MetricName(m.metric),
-                 FormatValue(m.over_images.mean), FormatValue(m.over_images.min),
-                 FormatValue(m.over_images.median), FormatValue(m.over_images.max),
-                 FormatValue(m.pooled));
+      rows.push_back({std::string(metrics::MetricName(m.metric)), m.over_images, m.pooled});
     }
+    fmt::print("{}", run::FormatSummaryTable("over images", "mean", rows));
     for (const compare::MissingImage& missing : result.missing) {
       fmt::print("missing {} for {}\n",
                  missing.missing == compare::Missing::kRender ? "rendering" : "photo",

@@ -16,7 +16,11 @@
 #include "command.h"
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
+#include "rephoto/eval/slurm_executor.h"
+#include "rephoto/cluster/slurm_settings.h"
+#include "slurm_args.h"
 
 namespace rephoto::cli {
 namespace {
@@ -26,6 +30,9 @@ struct EvaluateArguments {
   std::map<std::string, std::string> strings;  // by setting name
   std::map<std::string, bool> flags;
   std::map<std::string, CLI::Option*> options;
+  std::string only;
+  int views_per_task = 16;
+  ExecutorArguments executor;
 };
 
 // The process's arguments (Linux /proc/self/cmdline), recorded in run.json.
@@ -37,9 +44,22 @@ std::vector<std::string> CommandLine() {
   return args;
 }
 
-std::string FormatValue(double value) {
-  if (std::isnan(value)) return "-";
-  return fmt::format("{:.4f}", value);
+// The [slurm] table of a config file (cluster/slurm_settings.h keys) as SlurmOptions.
+cluster::SlurmOptions SlurmTable(const nlohmann::json& tables, const std::string& config) {
+  cluster::SlurmOptions base;
+  if (!tables.is_object() || !tables.contains("slurm")) return base;
+  for (const auto& [name, value] : tables["slurm"].items()) {
+    const std::string where = fmt::format("{}: [slurm] {}", config, name);
+    const auto set = [&](const nlohmann::json& v) {
+      cluster::SetSlurmSetting(base, name, v.is_string() ? v.get<std::string>() : v.dump(), where);
+    };
+    if (value.is_array()) {
+      for (const nlohmann::json& v : value) set(v);
+    } else {
+      set(value);
+    }
+  }
+  return base;
 }
 
 CommandRunner SetupEvaluate(CLI::App& app) {
@@ -48,6 +68,15 @@ CommandRunner SetupEvaluate(CLI::App& app) {
                  "Experiment file (.toml or .json) with the same settings as the flags; flags "
                  "override it")
       ->check(CLI::ExistingFile);
+  app.add_option("--only", args->only,
+                 "Run one task of a prepared run instead of the whole run: fold:F, "
+                 "views:F:FIRST:COUNT or aggregate (what --executor slurm submits; see "
+                 "docs/cluster.md)");
+  app.add_option("--views-per-task", args->views_per_task,
+                 "Held-out views per Slurm task (--executor slurm)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  AddExecutorOptions(app, &args->executor);
   const nlohmann::ordered_json defaults = eval::SettingsJson(eval::EvaluateOptions{});
   for (const eval::SettingInfo& info : eval::Settings()) {
     const std::string flag = "--" + info.name;
@@ -83,7 +112,8 @@ CommandRunner SetupEvaluate(CLI::App& app) {
     eval::EvaluateOptions options;
     options.handle_interrupts = true;
     try {
-      if (!args->config.empty()) eval::LoadConfigFile(args->config, &options);
+      nlohmann::json tables;
+      if (!args->config.empty()) eval::LoadConfigFile(args->config, &options, {"slurm"}, &tables);
       for (const eval::SettingInfo& info : eval::Settings()) {
         const CLI::Option* option = args->options.at(info.name);
         if (option->count() == 0) continue;
@@ -94,52 +124,33 @@ CommandRunner SetupEvaluate(CLI::App& app) {
           eval::ApplySetting(&options, info.name, args->strings.at(info.name), source);
         }
       }
+      options.only = args->only;
+      options.views_per_task = args->views_per_task;
+      const std::optional<cluster::SlurmOptions> slurm =
+          MakeSlurmOptions(args->executor, SlurmTable(tables, args->config));
+      if (slurm) {
+        options.executor = "slurm";
+        options.slurm = *slurm;
+      }
       options.Check();
     } catch (const eval::UsageError& e) {
       fmt::print(stderr, "rephoto: {}\nRun 'rephoto evaluate --help' for the options.\n", e.what());
       return static_cast<int>(ExitCode::kUsage);
     }
     options.command_line = CommandLine();
+    if (options.executor == "slurm") {
+      const eval::SlurmRunOutcome outcome = eval::RunEvaluateOnSlurm(options);
+      PrintSlurmOutcome(outcome.run, "rephoto evaluate ... (the same command)");
+      if (!outcome.finished) {
+        return static_cast<int>(outcome.run.finished ? ExitCode::kIncomplete : ExitCode::kOk);
+      }
+      fmt::print("{}", eval::ResultText(outcome.result, options.out));
+      return static_cast<int>(outcome.result.exit_code);
+    }
     const eval::EvaluateResult result = eval::RunEvaluate(options);
+    if (!options.only.empty()) return static_cast<int>(result.exit_code);  // a task: no table
 
-    fmt::print(
-        "{} folds, {} of {} test images evaluated ({} views reused, {} rendered, {} "
-        "commands run)\n",
-        result.folds.size(), result.evaluated_images, result.images, result.counters.views_reused,
-        result.counters.views_rendered, result.counters.commands_run);
-    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "", "fold mean", "min", "median",
-               "max", "pooled");
-    fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "completeness",
-               FormatValue(result.completeness_across_folds.mean),
-               FormatValue(result.completeness_across_folds.min),
-               FormatValue(result.completeness_across_folds.median),
-               FormatValue(result.completeness_across_folds.max), "");
-    for (const eval::MetricAggregate& m : result.metrics) {
-      fmt::print("{:<14} {:>10} {:>10} {:>10} {:>10} {:>10}\n", metrics::MetricName(m.metric),
-                 FormatValue(m.across_folds.mean), FormatValue(m.across_folds.min),
-                 FormatValue(m.across_folds.median), FormatValue(m.across_folds.max),
-                 FormatValue(m.pooled));
-    }
-    for (const eval::FoldResult& fold : result.folds) {
-      if (!fold.ok) fmt::print("failed: {}\n", fold.message);
-    }
-    for (const std::string& name : result.missing_photos) fmt::print("missing photo: {}\n", name);
-    const eval::EvaluateTimings& t = result.timings;
-    const std::string cpu = t.external_cpu > 0
-                                ? fmt::format(
-                                      "; CPU: commands {:.1f} s, rephoto {:.1f} s "
-                                      "= {:.1f} %",
-                                      t.external_cpu, t.rephoto_cpu, 100 * t.rephoto_cpu_share())
-                                : "";
-    // The commands of several folds run at once and beside rephoto's own work, so their
-    // summed times can exceed the wall-clock total; the line says so when they do.
-    const bool overlapped = t.external + t.rephoto() > t.total + 0.05;
-    fmt::print(
-        "Time {:.1f} s wall clock (external commands {:.1f} s, rephoto {:.1f} s{}{}). "
-        "Results in {}\n",
-        t.total, t.external, t.rephoto(),
-        overlapped ? ", summed over work that ran at the same time" : "", cpu,
-        options.out.string());
+    fmt::print("{}", eval::ResultText(result, options.out));
     return static_cast<int>(result.exit_code);
   };
 }

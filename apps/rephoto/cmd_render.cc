@@ -40,6 +40,7 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
+#include "rephoto/render/view_renderer.h"
 #include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/splat/gaussians.h"
@@ -101,61 +102,49 @@ std::vector<size_t> SelectViews(const scene::Scene& scene, const std::string& li
 }
 
 // Output names, one per view; throws Error when two views map to the same name.
-std::vector<std::filesystem::path> OutputStems(const RenderArguments& args,
-                                               const scene::Scene& scene,
-                                               const std::vector<size_t>& views) {
+std::vector<std::string> OutputStems(const RenderArguments& args, const scene::Scene& scene,
+                                     const std::vector<size_t>& views) {
   std::set<std::filesystem::path> seen;
-  std::vector<std::filesystem::path> stems;
+  std::vector<std::string> stems;
   for (size_t v : views) {
     const std::filesystem::path stem =
         std::filesystem::path(scene.views[v].name).replace_extension("");
     REPHOTO_CHECK(seen.insert(stem).second,
                   "{}: two selected images map to the same output name '{}'", args.scene,
                   stem.string());
-    stems.push_back(stem);
+    stems.push_back(stem.string());
   }
   return stems;
-}
-
-void WriteRephoto(const std::filesystem::path& out, const std::filesystem::path& stem,
-                  const render::Rephoto& rephoto) {
-  io::WritePng(out / (stem.string() + ".png"), rephoto.color);
-  io::WriteExr(out / (stem.string() + ".depth.exr"), rephoto.depth);
 }
 
 void RenderModelFile(const RenderArguments& args, const scene::Scene& scene,
                      const std::vector<size_t>& views) {
   REPHOTO_CHECK(!args.model.empty(), "render: MODEL is required for --representation auto");
-  const std::vector<std::filesystem::path> stems = OutputStems(args, scene, views);
+  const std::vector<std::string> stems = OutputStems(args, scene, views);
   const auto start = std::chrono::steady_clock::now();
   render::ModelOptions model_options;
   model_options.point_radius = args.point_radius;
   model_options.point_radius_neighbors = args.point_neighbors;
-  const render::RenderModel model(mesh::ReadMesh(args.model), model_options, args.model);
+  auto model = std::make_shared<const render::RenderModel>(mesh::ReadMesh(args.model),
+                                                           model_options, args.model);
   LogInfo(
       fmt::format("{}: {} vertices, {} triangles, prepared in {:.2f} s (BVH {:.2f} s)", args.model,
-                  model.mesh().vertex_count(), model.mesh().face_count(),
+                  model->mesh().vertex_count(), model->mesh().face_count(),
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                  model.build_seconds()));
+                  model->build_seconds()));
   render::RenderOptions options;
   options.samples_per_pixel = args.spp;
   options.backfaces = !args.no_backfaces;
-  render::Rephoto rephoto;
+  render::ModelViewRenderer renderer(std::move(model), options);
   Progress progress("render", views.size());
-  for (size_t i = 0; i < views.size(); ++i) {
-    const scene::View& view = scene.views[views[i]];
-    const auto rays = model.RaysFor(scene.CameraOf(view));
-    render::RenderRephoto(model, *rays, view.cam_from_world, options, &rephoto);
-    WriteRephoto(args.out, stems[i], rephoto);
-    progress.Advance(view.name);
-  }
+  render::RenderViews(renderer, scene, views, stems, args.out, &progress);
   progress.Finish();
 }
 
 void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
                         const std::vector<size_t>& views) {
   REPHOTO_CHECK(!args.model.empty(), "render: MODEL is required for Gaussians");
-  const std::vector<std::filesystem::path> stems = OutputStems(args, scene, views);
+  const std::vector<std::string> stems = OutputStems(args, scene, views);
   splat::GaussianRenderOptions options;
   options.mode = args.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
                                                      : splat::GaussianMode::kClassic;
@@ -165,30 +154,25 @@ void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
   }
   const auto start = std::chrono::steady_clock::now();
   splat::GaussianFormat format;
-  const splat::GaussianModel model = splat::ReadGaussians(args.model, &format);
+  auto model =
+      std::make_shared<const splat::GaussianModel>(splat::ReadGaussians(args.model, &format));
   LogInfo(
-      fmt::format("{}: {} Gaussians ({}, SH degree {}), read in {:.2f} s", args.model, model.size(),
-                  splat::GaussianFormatName(format), model.sh_degree,
+      fmt::format("{}: {} Gaussians ({}, SH degree {}), read in {:.2f} s", args.model,
+                  model->size(), splat::GaussianFormatName(format), model->sh_degree,
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
-  splat::GaussianRendering rendering;
+  render::GaussianViewRenderer renderer(std::move(model), options);
   Progress progress("render", views.size());
-  for (size_t i = 0; i < views.size(); ++i) {
-    const scene::View& view = scene.views[views[i]];
-    splat::RenderGaussians(model, scene.CameraOf(view), view.cam_from_world, options, &rendering);
-    const std::filesystem::path out(args.out);
-    io::WritePng(out / (stems[i].string() + ".png"), rendering.color);
-    io::WriteExr(out / (stems[i].string() + ".depth.exr"), rendering.depth);
-    progress.Advance(view.name);
-  }
+  render::RenderViews(renderer, scene, views, stems, args.out, &progress);
   progress.Finish();
 }
 
 void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
                       const std::vector<size_t>& views) {
-  const bool vdt = args.representation == "vdt";
+  const bool vdt = render::ParseRepresentation(args.representation) ==
+                   render::ViewRepresentation::kVdt;
   REPHOTO_CHECK(!vdt || !args.model.empty(),
                 "render: --representation vdt needs MODEL (the proxy)");
-  const std::vector<std::filesystem::path> stems = OutputStems(args, scene, views);
+  const std::vector<std::string> stems = OutputStems(args, scene, views);
   ibr::ImageBasedOptions options = args.ibr_options;
   options.scene_points = ibr::ScenePoints(scene);
   options.show_progress = true;
@@ -212,14 +196,9 @@ void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
                         scene.views[v].name));
       }
     }
-    const ibr::ImageBasedRenderer renderer = build(training);
+    ibr::ImageBasedViewRenderer renderer(build(training));
     Progress progress("render", views.size());
-    for (size_t i = 0; i < views.size(); ++i) {
-      const scene::View& view = scene.views[views[i]];
-      renderer.Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
-      WriteRephoto(args.out, stems[i], rephoto);
-      progress.Advance(view.name);
-    }
+    render::RenderViews(renderer, scene, views, stems, args.out, &progress);
     progress.Finish();
     return;
   }
@@ -232,7 +211,7 @@ void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
     const ibr::ImageBasedRenderer renderer = build(training);
     const scene::View& view = scene.views[views[i]];
     renderer.Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
-    WriteRephoto(args.out, stems[i], rephoto);
+    render::WriteRephoto(args.out, stems[i], &rephoto);
     LogInfo(fmt::format("rendered {} ({}/{})", view.name, i + 1, views.size()));
   }
 }
@@ -303,11 +282,14 @@ CommandRunner SetupRender(CLI::App& app) {
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     const std::vector<size_t> views = SelectViews(scene, args->images);
 
-    if (args->representation == "gaussians" ||
-        (args->representation == "auto" && !args->model.empty() &&
+    using render::ViewRepresentation;
+    const ViewRepresentation representation =
+        render::ParseRepresentation(args->representation).value_or(ViewRepresentation::kAuto);
+    if (representation == ViewRepresentation::kGaussians ||
+        (representation == ViewRepresentation::kAuto && !args->model.empty() &&
          splat::IsGaussianFile(args->model))) {
       RenderGaussianFile(*args, scene, views);
-    } else if (args->representation != "auto") {
+    } else if (render::IsImageBased(representation)) {
       RenderImageBased(*args, scene, views);
     } else {
       RenderModelFile(*args, scene, views);

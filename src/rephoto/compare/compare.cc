@@ -31,6 +31,7 @@
 #include "rephoto/core/progress.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
+#include "rephoto/run/records.h"
 #include "rephoto/run/run_folder.h"
 
 #ifndef REPHOTO_VERSION
@@ -526,24 +527,9 @@ std::string PerImageCsv(const CompareOptions& options, const CompareResult& resu
 
 using Json = nlohmann::ordered_json;
 
-// JSON has no NaN or infinity: NaN (nothing evaluated) -> null, infinity -> "inf"/"-inf".
-Json Number(double value) {
-  if (std::isnan(value)) return nullptr;
-  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
-  return value;
-}
+using run::JsonNumber;
 
-Json SummaryJson(const Summary& s) {
-  Json j;
-  j["mean"] = Number(s.mean);
-  j["min"] = Number(s.min);
-  j["q1"] = Number(s.q1);
-  j["median"] = Number(s.median);
-  j["q3"] = Number(s.q3);
-  j["max"] = Number(s.max);
-  j["images"] = s.count;
-  return j;
-}
+Json SummaryJson(const Summary& s) { return run::SummaryJson(s, "images"); }
 
 Json OptionalPath(const fs::path& path) {
   if (path.empty()) return nullptr;
@@ -593,7 +579,7 @@ std::string SummaryJsonText(const CompareOptions& options, const CompareResult& 
   Json metrics_json = Json::object();
   for (const MetricSummary& summary : result.metrics) {
     Json m = SummaryJson(summary.over_images);
-    m["pooled"] = Number(summary.pooled);
+    m["pooled"] = JsonNumber(summary.pooled);
     m["evaluated"] = summary.evaluated;
     m["higher_is_better"] = metrics::HigherIsBetter(summary.metric);
     const auto [low, high] = ErrorColourRange(summary.metric);

@@ -126,6 +126,7 @@
 #include <string>
 #include <vector>
 
+#include "rephoto/cluster/slurm.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/degrade/degrade.h"
@@ -210,6 +211,28 @@ struct EvaluateOptions {
   std::string projection_metric = "1-ncc";
   bool report = true;              // write report.html
   bool handle_interrupts = false;  // install SIGINT/SIGTERM handlers (the CLI does)
+  // One task of a run instead of the whole run ("" = everything), for executors that run the
+  // tasks elsewhere (a cluster job) on the same run folder, which a whole run with the same
+  // settings prepared first (split, fold folders). Tasks:
+  //   fold:F               fold F's command (--reconstruct/--render) and derived model
+  //                        (--colorize, defects): RUN/folds/fold_FF/{reconstruction,model.ply}
+  //   views:F:FIRST:COUNT  render and compare views FIRST..FIRST+COUNT-1 of fold F (the fold's
+  //                        test views in name order); needs the fold's finished command
+  //   aggregate            per_image.csv, per_fold.csv, summary.json, projection, report from
+  //                        the view records; views without a valid record count as failed
+  // A task takes no run-folder lock and writes only its own outputs (atomically), so tasks of
+  // one run can run at once; each reuses what is already done, like a whole run. Its exit code:
+  // kOk, or kIncomplete when its fold or a view failed (the reason is in fold.json / logged);
+  // aggregate exits kOk once the tables are written (the run's state is in summary.json).
+  std::string only;
+  // Where the work runs: "local" (this process) or "slurm" (eval/slurm_executor.h: the tasks
+  // above as Slurm job arrays; `slurm` holds the resources and --wait). `program` is the
+  // rephoto binary the jobs run (absolute, the same path on every node; "" = this process's
+  // executable, /proc/self/exe).
+  std::string executor = "local";
+  cluster::SlurmOptions slurm;
+  int views_per_task = 16;  // held-out views per Slurm task (a task of minutes, not seconds)
+  std::filesystem::path program;
   // Recorded in run.json only.
   std::vector<std::string> command_line;
   std::filesystem::path config_file;
@@ -289,6 +312,30 @@ struct EvaluateResult {
 // settings, Error for bad input that stops everything (unreadable scene, another scene's run
 // directory, interrupt); failures of single folds or views are recorded, not thrown.
 EvaluateResult RunEvaluate(const EvaluateOptions& options);
+
+// One task of a run (EvaluateOptions::only) and whether its results are already in the run
+// folder with valid keys.
+struct EvaluateTask {
+  enum class Kind { kFold, kViews, kAggregate };
+  Kind kind = Kind::kAggregate;
+  std::string id;     // the --only value: "fold:2", "views:2:0:8", "aggregate"
+  size_t fold = 0;    // kFold, kViews
+  size_t views = 0;   // kViews: views in the task
+  std::string key;    // what its results depend on (changes when it must run again)
+  bool done = false;  // nothing to do: every result it writes is there with a matching key
+};
+
+struct EvaluatePlan {
+  std::filesystem::path run;  // absolute
+  std::vector<EvaluateTask> tasks;  // fold tasks, then view tasks, then "aggregate"
+  size_t folds = 0, views = 0;
+};
+
+// Prepares the run folder as a whole run does before its work (inputs, split, fold folders,
+// run.json; with the run folder's lock while it does) and lists the tasks of the run: a fold
+// task for each fold with a command or a derived model (--colorize, defects), its views in
+// chunks of at most `views_per_task`, and "aggregate". Throws as RunEvaluate.
+EvaluatePlan PlanEvaluate(const EvaluateOptions& options, size_t views_per_task);
 
 // The split scheme a run uses: options.scheme, or the default described above for
 // `photo_count` photos on disk.

@@ -21,7 +21,7 @@
 #include "rephoto/scene/colmap.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/splat/rasterize.h"
-#include "rephoto/synth/demo_scene.h"
+#include "rephoto/synth/demo_files.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::eval {
@@ -45,10 +45,6 @@ const SceneFiles& Files() {
   static const SceneFiles files = [] {
     SceneFiles f;
     f.root = testing::MakeTempDir() / "scene with space";
-    f.sparse = f.root / "sparse";
-    f.images = f.root / "images";
-    f.truth = f.root / "truth.ply";
-    f.plain = f.root / "plain.ply";
     f.by_hand = f.root / "by_hand";
     synth::DemoSceneOptions options;
     options.image_width = 160;
@@ -56,26 +52,18 @@ const SceneFiles& Files() {
     options.camera_count = kViews;
     options.ground_cells = 40;
     options.object_bands = 24;
-    const mesh::Mesh truth = synth::MakeDemoMesh(options);
-    f.scene = synth::MakeDemoScene(options, f.images);
-    mesh::WritePly(f.truth, truth);
-    mesh::Mesh plain = truth;
-    plain.colors.clear();
-    mesh::WritePly(f.plain, plain);
-    scene::WriteColmap(f.scene, f.sparse, scene::ColmapFormat::kText);
-    render::RenderModel model(truth);
+    const synth::DemoSceneFiles demo = synth::WriteDemoSceneFiles(options, f.root, [](size_t i) {
+      return synth::PhotoSettings{1.0 + 0.02 * static_cast<double>(i % 3), 0.01, 100 + i};
+    });
+    f.sparse = demo.sparse;
+    f.images = demo.images;
+    f.truth = demo.truth;
+    f.plain = demo.plain;
+    f.scene = demo.scene;
     // By hand = as `rephoto render truth.ply` renders it: from the file (8-bit colours).
     render::RenderModel from_file(mesh::ReadPly(f.truth));
-    render::RenderOptions photo_options;
-    photo_options.samples_per_pixel = 9;
     render::RenderOptions by_hand_options;  // evaluate's defaults: 4 spp, seed 0
-    for (size_t i = 0; i < f.scene.views.size(); ++i) {
-      const scene::View& view = f.scene.views[i];
-      const render::Rephoto clean =
-          render::RenderRephoto(model, f.scene.CameraOf(view), view.cam_from_world, photo_options);
-      io::WritePng(view.image_path,
-                   synth::SimulatePhoto(clean.color, 1.0 + 0.02 * static_cast<double>(i % 3), 0.01,
-                                        100 + i));
+    for (const scene::View& view : f.scene.views) {
       const render::Rephoto rephoto = render::RenderRephoto(from_file, f.scene.CameraOf(view),
                                                             view.cam_from_world, by_hand_options);
       io::WritePng(f.by_hand / fs::path(view.name).replace_extension(".png"), rephoto.color);

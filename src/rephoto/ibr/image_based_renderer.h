@@ -73,6 +73,7 @@
 #include "rephoto/core/image.h"
 #include "rephoto/ibr/plane_sweep.h"
 #include "rephoto/mesh/mesh.h"
+#include "rephoto/render/view_renderer.h"
 #include "rephoto/render/render.h"
 
 namespace rephoto::ibr {
@@ -149,6 +150,21 @@ class ImageBasedRenderer {
  private:
   explicit ImageBasedRenderer(std::unique_ptr<State> state);
   std::unique_ptr<State> state_;
+};
+
+// An ImageBasedRenderer as a render::ViewRenderer (render/view_renderer.h: RenderViews, the
+// renderers of `rephoto evaluate`).
+class ImageBasedViewRenderer : public render::ViewRenderer {
+ public:
+  explicit ImageBasedViewRenderer(ImageBasedRenderer renderer) : renderer_(std::move(renderer)) {}
+  void Render(const camera::Camera& camera, const camera::Pose& cam_from_world,
+              render::Rephoto* out) override {
+    renderer_.Render(camera, cam_from_world, out);
+  }
+  const ImageBasedRenderer& renderer() const { return renderer_; }
+
+ private:
+  ImageBasedRenderer renderer_;
 };
 
 // Plane-sweep depth maps (ImageBasedOptions::plane_sweep, sweep_neighbors, scene_points,

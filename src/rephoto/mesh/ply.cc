@@ -723,6 +723,14 @@ uint8_t ToByte(float value) {
 
 }  // namespace
 
+void QuantizeColorsAsPly(std::vector<Eigen::Vector3f>* colors) {
+  for (Eigen::Vector3f& color : *colors) {
+    for (int k = 0; k < 3; ++k) {
+      color[k] = static_cast<float>(ToByte(color[k]) * ColorScale(Type::kUInt8));
+    }
+  }
+}
+
 Mesh ReadPly(std::istream& stream, std::string_view name, const std::filesystem::path& base_dir) {
   PlyReader reader(stream, name, base_dir);
   return reader.Read();

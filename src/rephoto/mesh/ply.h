@@ -44,6 +44,11 @@ enum class PlyEncoding { kBinaryLittleEndian, kAscii };
 // coordinates and texnumber (int) when there are face materials. Materials with textures are
 // written as "comment TextureFile <path>" (paths as stored in the mesh). Throws Error naming the
 // path when it cannot be written.
+// Vertex colours exactly as WritePly stores them (8 bits per channel, rounded, clamped to
+// [0, 1]) and ReadPly reads them back: a model rendered from memory then gives the same pixels
+// as the same model read from its PLY.
+void QuantizeColorsAsPly(std::vector<Eigen::Vector3f>* colors);
+
 void WritePly(const std::filesystem::path& path, const Mesh& mesh,
               PlyEncoding encoding = PlyEncoding::kBinaryLittleEndian);
 

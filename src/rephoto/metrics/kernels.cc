@@ -92,6 +92,9 @@ void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>*
   const int w = image.width(), channels = image.channels();
   first = std::max(first, 0);
   end = std::min(end, image.height());
+  bytes_ = image.bytes();
+  byte_stride_ = static_cast<ptrdiff_t>(w) * channels;
+  channels_ = channels;
   if (image.floats() && channels == 3) {
     base_ = image.floats();
     first_ = 0;
@@ -138,6 +141,16 @@ std::vector<float> FilterWeights(int radius, double sigma) {
   std::vector<float> out(w.size());
   for (size_t i = 0; i < w.size(); ++i) out[i] = static_cast<float>(w[i] / total);
   return out;
+}
+
+bool HasAvx512() {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  return has;
+#else
+  return false;
+#endif
 }
 
 void FillNaN(float* row, int width) { std::fill(row, row + width, kNaN); }

@@ -13,11 +13,20 @@
 // baseline, and the loader picks one at start-up. Floating-point contraction is off for this
 // library (CMakeLists.txt), so the clones compute bit-identical results (except the SSIM
 // filters, see ssim_filter.cc).
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+// REPHOTO_METRICS_NO_AVX512 (CMake option of the same name) drops the AVX-512 clone, so that
+// the AVX2 code that CPUs without AVX-512 run can be measured on one that has it.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(REPHOTO_METRICS_NO_AVX512)
+#define REPHOTO_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define REPHOTO_SIMD_CLONES \
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define REPHOTO_SIMD_CLONES
+#endif
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    !defined(REPHOTO_METRICS_NO_AVX512)
+#define REPHOTO_HAVE_AVX512_KERNELS 1
 #endif
 
 namespace rephoto::metrics::internal {
@@ -48,8 +57,17 @@ class RgbRows {
  public:
   void Load(const RgbView& image, int first, int end, std::vector<float>* scratch);
   const float* row(int y) const { return base_ + static_cast<ptrdiff_t>(y - first_) * stride_; }
+  // The 8-bit source row y (channels() values per pixel, RGB first) when the image is 8-bit,
+  // else null; row(y)[3 x + c] == bytes_row(y)[channels() x + c] / 255.f. Any row of the image.
+  const uint8_t* bytes_row(int y) const {
+    return bytes_ ? bytes_ + static_cast<ptrdiff_t>(y) * byte_stride_ : nullptr;
+  }
+  int channels() const { return channels_; }
 
  private:
+  const uint8_t* bytes_ = nullptr;
+  ptrdiff_t byte_stride_ = 0;
+  int channels_ = 3;
   const float* base_ = nullptr;
   int first_ = 0;
   ptrdiff_t stride_ = 0;
@@ -100,12 +118,27 @@ class WindowValidityRows {
 // sigma <= 0.
 std::vector<float> FilterWeights(int radius, double sigma);
 
-// SSIM filters on interleaved RGB rows of n = 3 * width values, shifted by -0.5 (ssim_filter.cc).
-// Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy = weighted sum over the 2r+1 rows.
+// SSIM filters on interleaved RGB rows of n = 3 * width values (ssim_filter.cc).
+// Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy of the values shifted by -0.5 = weighted
+// sum over the 2r+1 rows.
 void SsimVertical(const float* const* p_rows, const float* const* q_rows, const float* weights,
                   int r, int n, float* out);
-// Horizontal: out[i] = weighted sum of in[i + 3k], k in [-r, r], for i in [3r, n - 3r).
+// Horizontal, for the 5 planes of n values of SsimVertical's output: out[q * n + i] = weighted
+// sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
 void SsimHorizontal(const float* in, const float* weights, int r, int n, float* out);
+
+// Whether the CPU runs the AVX-512 (x86-64-v4) versions of the kernels that have one
+// (REPHOTO_HAVE_AVX512_KERNELS) besides their AVX2/baseline clones. Thread-safe.
+bool HasAvx512();
+
+// Census of a row of centres (census.cc): values[x] for x in [r, end) = the number of the
+// (2r+1)^2 - 1 window neighbours whose "darker than the centre" bit differs between the two
+// luma images, times inv_bits; `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the
+// window (each of width w). end = r + the whole blocks of 16 (AVX2, baseline) or 32 (AVX-512)
+// centres that fit before w - r; returns end (the caller does the rest). The same values on
+// every target.
+int CensusValues(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
+                 float inv_bits, float* values);
 
 // Fills a whole error row with NaN.
 void FillNaN(float* row, int width);

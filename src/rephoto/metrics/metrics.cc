@@ -15,6 +15,7 @@
 namespace rephoto::metrics {
 namespace {
 
+using internal::CensusValues;
 using internal::FillNaN;
 using internal::kBandRows;
 using internal::kNaN;
@@ -69,6 +70,29 @@ void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, floa
     c1[x] = rgb[3 * x + 1];
     c2[x] = rgb[3 * x + 2];
   }
+}
+
+// Luma 0.299 R + 0.587 G + 0.114 B of an interleaved RGB row, the arithmetic of LumaPlanar on
+// the planes Deinterleave makes (same values), in one pass: census alone needs no planes.
+REPHOTO_SIMD_CLONES
+void LumaInterleaved(const float* __restrict rgb, int w, float* __restrict luma) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    V8f a, b, c;
+    __builtin_memcpy(&a, rgb + 3 * x, 32);
+    __builtin_memcpy(&b, rgb + 3 * x + 8, 32);
+    __builtin_memcpy(&c, rgb + 3 * x + 16, 32);
+    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+    const V8f r = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
+    const V8f g = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
+    const V8f bl = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    const V8f y = 0.299f * r + 0.587f * g + 0.114f * bl;
+    __builtin_memcpy(luma + x, &y, 32);
+  }
+  for (; x < w; ++x)
+    luma[x] = 0.299f * rgb[3 * x] + 0.587f * rgb[3 * x + 1] + 0.114f * rgb[3 * x + 2];
 }
 
 // cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes).
@@ -187,42 +211,6 @@ void LumaPlanar(const float* __restrict red, const float* __restrict green,
   for (int x = 0; x < w; ++x) luma[x] = 0.299f * red[x] + 0.587f * green[x] + 0.114f * blue[x];
 }
 
-typedef float V16f __attribute__((vector_size(64)));
-typedef int V16i __attribute__((vector_size(64)));
-
-// counts[x - r] for x in [r, r + 32 * blocks): number of window neighbours whose census bit
-// differs. `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the window. GCC vector
-// extensions: native 16-wide in the AVX-512 clone, lowered to narrower vectors elsewhere.
-REPHOTO_SIMD_CLONES
-void CensusCounts(const float* const* photo_rows, const float* const* rephoto_rows, int r,
-                  int blocks, int* counts) {
-  for (int b = 0; b < blocks; ++b) {
-    const int x = r + 32 * b;
-    V16f cp0, cp1, cr0, cr1;
-    __builtin_memcpy(&cp0, photo_rows[r] + x, 64);
-    __builtin_memcpy(&cp1, photo_rows[r] + x + 16, 64);
-    __builtin_memcpy(&cr0, rephoto_rows[r] + x, 64);
-    __builtin_memcpy(&cr1, rephoto_rows[r] + x + 16, 64);
-    V16i n0 = {}, n1 = {};
-    for (int dy = 0; dy <= 2 * r; ++dy) {
-      const float* pr = photo_rows[dy] + x;
-      const float* rr = rephoto_rows[dy] + x;
-      for (int dx = -r; dx <= r; ++dx) {
-        // The centre compares false with itself in both images and adds nothing.
-        V16f p0, p1, q0, q1;
-        __builtin_memcpy(&p0, pr + dx, 64);
-        __builtin_memcpy(&p1, pr + dx + 16, 64);
-        __builtin_memcpy(&q0, rr + dx, 64);
-        __builtin_memcpy(&q1, rr + dx + 16, 64);
-        n0 -= (p0 < cp0) ^ (q0 < cr0);
-        n1 -= (p1 < cp1) ^ (q1 < cr1);
-      }
-    }
-    __builtin_memcpy(counts + 32 * b, &n0, 64);
-    __builtin_memcpy(counts + 32 * b + 16, &n1, 64);
-  }
-}
-
 // 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
 // planes and converted to luma once, and kept in a ring of 2r+2 rows (the window plus the row
 // that leaves the column sums).
@@ -250,13 +238,18 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
   double* cols =
       box ? Scratch(double_buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1)) : nullptr;
   double* prefix = box ? cols + kBoxQuantities * w : nullptr;
-  thread_local std::vector<int> count_buffer;
-  int* counts = census ? Scratch(count_buffer, static_cast<size_t>(w)) : nullptr;
   auto slot = [&](int64_t j) { return slots + static_cast<size_t>(j % ring) * slot_size; };
   auto load = [&](int64_t j) {
     float* s = slot(j);
-    Deinterleave(in.photo.row(static_cast<int>(j)), w, s, s + w, s + 2 * w);
-    Deinterleave(in.rephoto.row(static_cast<int>(j)), w, s + 3 * w, s + 4 * w, s + 5 * w);
+    const float* p = in.photo.row(static_cast<int>(j));
+    const float* q = in.rephoto.row(static_cast<int>(j));
+    if (!box) {  // census alone: luma only
+      LumaInterleaved(p, w, s + 6 * w);
+      LumaInterleaved(q, w, s + 7 * w);
+      return;
+    }
+    Deinterleave(p, w, s, s + w, s + 2 * w);
+    Deinterleave(q, w, s + 3 * w, s + 4 * w, s + 5 * w);
     if (census) {
       LumaPlanar(s, s + w, s + 2 * w, w, s + 6 * w);
       LumaPlanar(s + 3 * w, s + 4 * w, s + 5 * w, w, s + 7 * w);
@@ -271,7 +264,6 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
   const double inv_count = 1.0 / (static_cast<double>(window) * window);
   const float inv_bits = 1.0f / static_cast<float>(window * window - 1);
   std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
-  const int blocks = (w - 2 * r) / 32;
   for (int64_t y = c0; y < c1; ++y) {
     const int yi = static_cast<int>(y);
     if (y > c0) {
@@ -296,8 +288,10 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
         photo_rows[k] = slot(y - r + k) + 6 * w;
         rephoto_rows[k] = slot(y - r + k) + 7 * w;
       }
-      CensusCounts(photo_rows.data(), rephoto_rows.data(), r, blocks, counts);
-      for (int x = r + 32 * blocks; x < w - r; ++x) {  // tail
+      float* census_values = zssd_values + w;
+      const int done =
+          CensusValues(photo_rows.data(), rephoto_rows.data(), r, w, inv_bits, census_values);
+      for (int x = done; x < w - r; ++x) {  // tail
         int n = 0;
         const float cp = photo_rows[r][x], cr = rephoto_rows[r][x];
         for (int k = 0; k <= 2 * r; ++k) {
@@ -305,11 +299,8 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
             n += (photo_rows[k][x + dx] < cp) != (rephoto_rows[k][x + dx] < cr);
           }
         }
-        counts[x - r] = n;
+        census_values[x] = static_cast<float>(n) * inv_bits;
       }
-      float* census_values = zssd_values + w;
-      for (int x = r; x < w - r; ++x)
-        census_values[x] = static_cast<float>(counts[x - r]) * inv_bits;
       const double s = MaskRow(census_values, ok, w, census->row(yi));
       sums.sum[2] += s;
       sums.count[2] += evaluated;
@@ -395,6 +386,43 @@ void SsimFormula(const float* __restrict moments, int r, int n, float cov_norm,
   }
 }
 
+// ssim[x] = mean of the 3 channel values e[3x..3x+2] ((e0 + e1) + e2) / 3, dssim[x] =
+// (1 - ssim[x]) / 2, for x in [0, n): eight pixels at a time by Deinterleave's shuffles.
+REPHOTO_SIMD_CLONES
+void ChannelMeans(const float* __restrict e, int n, float* __restrict ssim,
+                  float* __restrict dssim) {
+  int x = 0;
+  for (; x + 8 <= n; x += 8) {
+    V8f a, b, c;
+    __builtin_memcpy(&a, e + 3 * x, 32);
+    __builtin_memcpy(&b, e + 3 * x + 8, 32);
+    __builtin_memcpy(&c, e + 3 * x + 16, 32);
+    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
+    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
+    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
+    const V8f e0 = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
+    const V8f e1 = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
+    const V8f e2 = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    const V8f v = (e0 + e1 + e2) / 3.0f;
+    const V8f d = (1.0f - v) * 0.5f;
+    __builtin_memcpy(ssim + x, &v, 32);
+    __builtin_memcpy(dssim + x, &d, 32);
+  }
+  for (; x < n; ++x) {
+    const float v = (e[3 * x] + e[3 * x + 1] + e[3 * x + 2]) / 3.0f;
+    ssim[x] = v;
+    dssim[x] = (1.0f - v) * 0.5f;
+  }
+}
+
+// Number of nonzero ok[x], x in [begin, end).
+REPHOTO_SIMD_CLONES
+size_t CountRange(const uint8_t* __restrict ok, int begin, int end) {
+  size_t n = 0;
+  for (int x = begin; x < end; ++x) n += ok[x] != 0;
+  return n;
+}
+
 struct SsimSetup {
   int window;
   std::vector<float> weights;
@@ -447,20 +475,14 @@ MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, const ErrorRows* ssi
         q_rows[k] = in.rephoto.row(yi - r + k) + e0;
       }
       SsimVertical(p_rows.data(), q_rows.data(), setup.weights.data(), r, m, vertical);
-      for (int q = 0; q < 5; ++q) {
-        SsimHorizontal(vertical + q * m, setup.weights.data(), r, m, moments + q * m);
-      }
+      SsimHorizontal(vertical, setup.weights.data(), r, m, moments);
       SsimFormula(moments, r, m, setup.cov_norm, element);
       const uint8_t* ok = band_ok + static_cast<size_t>(y - c0) * w;
       const int xa = std::max(x0, r), xb = std::min(x1, w - r);
-      for (int x = xa; x < xb; ++x) {
-        const float* e = element + 3 * x - e0;
-        const float v = (e[0] + e[1] + e[2]) / 3.0f;
-        ssim_values[x] = v;
-        dssim_values[x] = (1.0f - v) * 0.5f;
+      if (xa < xb) {
+        ChannelMeans(element + 3 * xa - e0, xb - xa, ssim_values + xa, dssim_values + xa);
       }
-      size_t evaluated = 0;
-      for (int x = x0; x < x1; ++x) evaluated += ok[x] != 0;
+      const size_t evaluated = CountRange(ok, x0, x1);
       if (ssim) sums.sum[0] += MaskRange(ssim_values, ok, x0, x1, ssim->row(yi));
       if (dssim) sums.sum[1] += MaskRange(dssim_values, ok, x0, x1, dssim->row(yi));
       sums.count[0] += evaluated;

@@ -12,6 +12,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/metrics/icid.h"
+#include "rephoto/metrics/kernels.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::metrics {
@@ -312,6 +313,29 @@ TEST(Metrics, IcidMatchesNaiveLoop) {
   }
 }
 
+// Wider than the column strips of the SSIM (256 pixels) and iCID (128 pixels) passes, with a
+// partial last strip, and wider than the 16-pixel vectors of census: every strip boundary and
+// vector tail against the naive loops.
+TEST(Metrics, WideImagesMatchNaiveLoopsAcrossStripsAndVectorTails) {
+  auto rng = testing::MakeRng();
+  const int w = 301, h = 15;
+  const Image photo = SmoothImage(rng, w, h, 0.02f);
+  const Image rephoto = SmoothImage(rng, w, h, 0.03f);
+  const Mask valid = RandomMask(rng, w, h, 0.995);
+  const auto results =
+      ComputeMetrics(photo, rephoto, valid, {Metric::kSsim, Metric::kIcid, Metric::kCensus}, {});
+  MetricOptions defaults;
+  ExpectMatches(results[0],
+                NaiveWindowMetric(photo, rephoto, valid, defaults.ssim_window,
+                                  [&](const Image& p, const Image& q, int x, int y, int r) {
+                                    return NaiveSsim(p, q, x, y, r, true, defaults.ssim_sigma);
+                                  }),
+                2e-5, "ssim");
+  ExpectMatches(results[1], NaiveWindowMetric(photo, rephoto, valid, 11, NaiveIcid), 1e-6, "icid");
+  ExpectMatches(results[2], NaiveWindowMetric(photo, rephoto, valid, defaults.window, NaiveCensus),
+                1e-7, "census");
+}
+
 TEST(Metrics, PixelMetricsMatchDefinitions) {
   auto rng = testing::MakeRng();
   for (const Case& c : RandomCases(rng)) {
@@ -581,6 +605,23 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
   const std::vector<Metric> some = {Metric::kPsnr, Metric::kCensus, Metric::kDssim};
   ExpectSameResults(ComputeInBands(photo8, rephoto8, {}, some),
                     ComputeMetrics(photo, rephoto, {}, some));
+}
+
+// Every 8-bit value, as the band pass converts it, equals v / 255.f (io::ReadImage's value).
+TEST(Metrics, EightBitRowsConvertToTheFloatsOfReadImage) {
+  const int w = 256;
+  Image8 bytes(w, 1, 3);
+  for (int x = 0; x < w; ++x) {
+    for (int c = 0; c < 3; ++c) bytes.at(x, 0, c) = static_cast<uint8_t>(x);
+  }
+  internal::RgbRows rows;
+  std::vector<float> scratch;
+  rows.Load(bytes, 0, 1, &scratch);
+  for (int x = 0; x < w; ++x) {
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_EQ(rows.row(0)[3 * x + c], static_cast<float>(x) / 255.f) << x;
+    }
+  }
 }
 
 TEST(Metrics, BandsTreatNonFinitePixelsAsComputeMetricsDoes) {

@@ -40,6 +40,10 @@ struct RenderOptions {
   SamplePattern pattern = SamplePattern::kStratifiedJittered;
   uint32_t seed = 0;
   bool backfaces = true;  // render the back sides of triangles
+  // Rays per Embree packet, 8 or 16; 0: by CPU (16 where Embree has native 16-ray packets, i.e.
+  // AVX-512, else 8). The image is the same either way (each ray's hit, then each pixel's
+  // samples summed in increasing order).
+  int packet_width = 0;
 };
 
 struct Rephoto {

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 
 #include <cmath>
+#include <cstring>
 
 #include "rephoto/core/error.h"
 #include "rephoto/io/image_io.h"
@@ -212,6 +213,66 @@ TEST(RenderTest, DistortedCameraUsesItsOwnModel) {
   EXPECT_GT(differs_from_pinhole, 20);  // the distortion matters for this test
 }
 
+// A bumpy sphere of 2 x 24 x 48 triangles at z = 3 with coloured vertices: partly occluded
+// triangles, silhouettes and back faces.
+mesh::Mesh MakeBumpySphere() {
+  mesh::Mesh m;
+  const int rows = 24, cols = 48;
+  for (int i = 0; i <= rows; ++i) {
+    const double theta = M_PI * i / rows;
+    for (int j = 0; j < cols; ++j) {
+      const double phi = 2 * M_PI * j / cols;
+      const double r = 1.0 + 0.1 * std::sin(5 * theta) * std::cos(7 * phi);
+      m.positions.emplace_back(r * std::sin(theta) * std::cos(phi),
+                               r * std::sin(theta) * std::sin(phi), 3.0 + r * std::cos(theta));
+      m.colors.emplace_back(0.5 + 0.5 * std::sin(3 * phi), 0.5 + 0.5 * std::cos(2 * theta),
+                            0.5 + 0.5 * std::sin(theta + phi));
+    }
+  }
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) {
+      const uint32_t a = i * cols + j, b = i * cols + (j + 1) % cols;
+      const uint32_t c = (i + 1) * cols + j, d = (i + 1) * cols + (j + 1) % cols;
+      m.faces.push_back({a, c, b});
+      m.faces.push_back({b, c, d});
+    }
+  }
+  return m;
+}
+
+TEST(RenderTest, PacketWidthsGiveTheSameImage) {
+  // Odd size: partial tiles of both widths at the right and bottom edges.
+  const Camera camera = MakePinhole(53, 39, 30.0, 26.2, 19.7);
+  RenderModel model(MakeBumpySphere());
+  for (int spp : {1, 2, 3, 4, 5, 16}) {
+    for (bool backfaces : {true, false}) {
+      SCOPED_TRACE(::testing::Message() << "spp " << spp << " backfaces " << backfaces);
+      RenderOptions options;
+      options.samples_per_pixel = spp;
+      options.backfaces = backfaces;
+      options.packet_width = 8;
+      const Rephoto eight = RenderRephoto(model, camera, Pose(), options);
+      options.packet_width = 16;
+      const Rephoto sixteen = RenderRephoto(model, camera, Pose(), options);
+      options.packet_width = 0;
+      const Rephoto by_cpu = RenderRephoto(model, camera, Pose(), options);
+      double coverage = 0;
+      for (int y = 0; y < camera.height; ++y) {
+        for (int x = 0; x < camera.width; ++x) coverage += eight.color.at(x, y, 3);
+      }
+      EXPECT_GT(coverage, 300);  // the sphere covers ~380 pixels (radius ~11 px)
+      for (const Rephoto* other : {&sixteen, &by_cpu}) {
+        EXPECT_EQ(std::memcmp(eight.color.data(), other->color.data(),
+                              eight.color.size() * sizeof(float)),
+                  0);
+        EXPECT_EQ(std::memcmp(eight.depth.data(), other->depth.data(),
+                              eight.depth.size() * sizeof(float)),
+                  0);
+      }
+    }
+  }
+}
+
 TEST(RenderTest, RejectsBadInput) {
   RenderModel model(MakeTriangle());
   Camera camera = MakePinhole(40, 30, 0.0, 20, 15);
@@ -219,6 +280,9 @@ TEST(RenderTest, RejectsBadInput) {
   camera = MakePinhole(40, 30, 30.0, 20, 15);
   RenderOptions options;
   options.samples_per_pixel = 0;
+  EXPECT_THROW(RenderRephoto(model, camera, Pose(), options), Error);
+  options.samples_per_pixel = 1;
+  options.packet_width = 4;
   EXPECT_THROW(RenderRephoto(model, camera, Pose(), options), Error);
   mesh::Mesh bad = MakeTriangle();
   bad.faces[0][2] = 5;

@@ -1,3 +1,4 @@
+#include "rephoto/run/records.h"
 #include "rephoto/report/report_page.h"
 
 #include <fmt/format.h>
@@ -186,26 +187,16 @@ std::string Fact(const Json& j, std::initializer_list<const char*> path) {
   return JsonText(*node);
 }
 
-double JsonNumber(const Json& j) {
-  if (j.is_number()) return j.get<double>();
-  if (j.is_string()) {
-    const std::string s = j.get<std::string>();
-    if (s == "inf") return INFINITY;
-    if (s == "-inf") return -INFINITY;
-  }
-  return NAN;
-}
-
 // summary.json's pooled value of a metric (compare: metrics.<m>.pooled; evaluate: <m>.pooled).
 double Pooled(const RunData& run, const std::string& metric) {
   const Json& s = run.summary;
   if (!s.is_object()) return NAN;
   if (s.contains("metrics") && s["metrics"].is_object() && s["metrics"].contains(metric) &&
       s["metrics"][metric].is_object() && s["metrics"][metric].contains("pooled")) {
-    return JsonNumber(s["metrics"][metric]["pooled"]);
+    return run::NumberFromJson(s["metrics"][metric]["pooled"]);
   }
   if (s.contains(metric) && s[metric].is_object() && s[metric].contains("pooled")) {
-    return JsonNumber(s[metric]["pooled"]);
+    return run::NumberFromJson(s[metric]["pooled"]);
   }
   return NAN;
 }

@@ -11,6 +11,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/metrics/metrics.h"
+#include "rephoto/run/records.h"
 
 namespace rephoto::report {
 namespace fs = std::filesystem;
@@ -43,16 +44,10 @@ class Table {
   // A number; "" = NaN; "inf"/"-inf" accepted. Throws naming line and column otherwise.
   double Number(size_t row, int column) const {
     const std::string& text = Field(row, column);
-    if (text.empty()) return kNaN;
-    if (text == "inf" || text == "+inf") return std::numeric_limits<double>::infinity();
-    if (text == "-inf") return -std::numeric_limits<double>::infinity();
-    double value = 0;
-    const char* end = text.data() + text.size();
-    const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-    REPHOTO_CHECK(ec == std::errc() && ptr == end,
-                  "{}: line {}: column \"{}\": \"{}\" is not a number", name_, row + 2,
-                  header()[column], text);
-    return value;
+    const std::optional<double> value = run::ParseCsvNumber(text);
+    REPHOTO_CHECK(value.has_value(), "{}: line {}: column \"{}\": \"{}\" is not a number", name_,
+                  row + 2, header()[column], text);
+    return *value;
   }
   int Integer(size_t row, int column) const {
     const double value = Number(row, column);

@@ -7,10 +7,13 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "rephoto/cluster/slurm_settings.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/eval/command.h"
+#include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
+#include "rephoto/eval/slurm_executor.h"
 #include "rephoto/report/report.h"
 #include "rephoto/run/run_folder.h"
 #include "rephoto/scene/read_scene.h"
@@ -43,6 +46,24 @@ int SmallestTrainingSet(const eval::EvaluateOptions& base) {
   for (const auto& fold : split.folds) smallest = std::min(smallest, fold.train.size());
   REPHOTO_CHECK(!split.folds.empty(), "{}: the split has no folds", base.scene.string());
   return static_cast<int>(smallest);
+}
+
+// A config file's [slurm] table (cluster/slurm_settings.h names) into `slurm`.
+void ApplySlurmTable(const nlohmann::json& table, const fs::path& file,
+                     cluster::SlurmOptions* slurm) {
+  REPHOTO_CHECK_USAGE(table.is_object(), "{}: [slurm] must be a table", file.string());
+  for (const auto& [name, value] : table.items()) {
+    const std::string where = fmt::format("{}: [slurm] {}", file.string(), name);
+    const auto set = [&](const nlohmann::json& v) {
+      cluster::SetSlurmSetting(*slurm, name, v.is_string() ? v.get<std::string>() : v.dump(),
+                               where);
+    };
+    if (value.is_array()) {
+      for (const nlohmann::json& v : value) set(v);
+    } else {
+      set(value);
+    }
+  }
 }
 
 void ApplySetting(const SweepSetting& setting, eval::EvaluateOptions* options) {
@@ -81,7 +102,8 @@ SweepOptions LoadSweepConfig(const fs::path& file) {
 SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
   SweepOptions options;
   nlohmann::json tables;
-  eval::LoadConfigText(text, file, &options.base, {"sweep"}, &tables);
+  eval::LoadConfigText(text, file, &options.base, {"sweep", "slurm"}, &tables);
+  if (tables.contains("slurm")) ApplySlurmTable(tables["slurm"], file, &options.base.slurm);
   REPHOTO_CHECK(tables.contains("sweep") && tables["sweep"].is_object(),
                 "{}: no [sweep] table (the settings to vary)", file.string());
   const fs::path base_dir = fs::absolute(file).parent_path();
@@ -133,105 +155,192 @@ SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
   return options;
 }
 
-SweepResult RunSweep(const SweepOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
+namespace {
+
+// What the settings need before they run: the resolved axes, the x axis and the grid.
+struct SweepPlan {
+  std::vector<SweepSetting> settings;
+  std::string x_axis;
+};
+
+SweepPlan PlanSweep(const SweepOptions& options, SweepResult* result) {
   REPHOTO_CHECK(!options.out.empty(), "sweep: no output folder");
-  SweepResult result;
-  result.axes = options.axes;
-  for (auto& axis : result.axes) {
+  result->axes = options.axes;
+  for (auto& axis : result->axes) {
     if (axis.parameter == "train_count" && options.halve_train_count && axis.values.empty()) {
       axis.values = HalvingSeries(SmallestTrainingSet(options.base), options.min_train_count);
       LogInfo(fmt::format("sweep: |T| halved from the smallest fold's training set: {}",
                           fmt::join(axis.values, ", ")));
     }
   }
-  CheckAxes(result.axes, "sweep");
-  std::string x_axis = options.x_axis;
-  if (x_axis.empty() && !result.axes.empty()) x_axis = result.axes.back().parameter;
+  CheckAxes(result->axes, "sweep");
+  SweepPlan plan;
+  plan.x_axis = options.x_axis;
+  if (plan.x_axis.empty() && !result->axes.empty()) plan.x_axis = result->axes.back().parameter;
   REPHOTO_CHECK(
-      x_axis.empty() || std::any_of(result.axes.begin(), result.axes.end(),
-                                    [&](const SweepAxis& a) { return a.parameter == x_axis; }),
-      "sweep: the x axis '{}' is not a swept parameter", x_axis);
-  const bool defects = std::any_of(result.axes.begin(), result.axes.end(), [](const auto& a) {
+      plan.x_axis.empty() ||
+          std::any_of(result->axes.begin(), result->axes.end(),
+                      [&](const SweepAxis& a) { return a.parameter == plan.x_axis; }),
+      "sweep: the x axis '{}' is not a swept parameter", plan.x_axis);
+  const bool defects = std::any_of(result->axes.begin(), result->axes.end(), [](const auto& a) {
     return a.parameter == "texture_noise" || a.parameter == "geometry_noise" ||
            a.parameter == "simplify" || a.parameter == "seed";
   });
   REPHOTO_CHECK(!defects || options.base.source() != eval::ModelSource::kRender,
                 "sweep: model defects need a model rendered by rephoto, not an external renderer");
+  plan.settings = ExpandGrid(result->axes);
+  return plan;
+}
 
-  const std::vector<SweepSetting> settings = ExpandGrid(result.axes);
-  // One writer; only a folder that holds a sweep (or nothing). Each setting's evaluate run
-  // locks its own folder below it.
-  const run::RunFolder run_folder =
-      run::OpenRunFolder(options.out, "sweep", [](const fs::path& dir) {
-        std::error_code ec;
-        return fs::exists(dir / "sweep.json", ec) || fs::is_directory(dir / "settings", ec);
-      });
-  fs::create_directories(options.out / "settings");
-  std::vector<fs::path> run_dirs;
-  for (size_t s = 0; s < settings.size(); ++s) {
-    SettingOutcome outcome{.setting = settings[s],
-                           .run_dir = options.out / "settings" / settings[s].name};
-    LogInfo(
-        fmt::format("sweep: setting {}/{}: {}", s + 1, settings.size(), SettingLabel(settings[s])));
-    eval::EvaluateOptions evaluate = options.base;
-    evaluate.out = outcome.run_dir;
-    // One cache of hashes and downscaled photos for all settings (keyed by content and size).
-    if (evaluate.cache_dir.empty()) evaluate.cache_dir = options.out / "cache";
-    ApplySetting(settings[s], &evaluate);
+// The evaluate options of one setting.
+eval::EvaluateOptions SettingOptions(const SweepOptions& options, const SweepSetting& setting) {
+  eval::EvaluateOptions evaluate = options.base;
+  evaluate.out = options.out / "settings" / setting.name;
+  // One cache of hashes and downscaled photos for all settings (keyed by content and size).
+  if (evaluate.cache_dir.empty()) evaluate.cache_dir = options.out / "cache";
+  ApplySetting(setting, &evaluate);
+  return evaluate;
+}
+
+void AddTimings(const eval::EvaluateResult& r, SweepResult* result) {
+  result->external_seconds += r.timings.external;
+  result->rephoto_seconds += r.timings.rephoto();
+  result->external_cpu_seconds += r.timings.external_cpu;
+  result->rephoto_cpu_seconds += r.timings.rephoto_cpu;
+}
+
+// Each setting's evaluation in this process, one after the other.
+void RunSettings(const SweepOptions& options, const SweepPlan& plan, SweepResult* result) {
+  for (size_t s = 0; s < plan.settings.size(); ++s) {
+    const SweepSetting& setting = plan.settings[s];
+    SettingOutcome outcome{.setting = setting, .run_dir = options.out / "settings" / setting.name};
+    LogInfo(fmt::format("sweep: setting {}/{}: {}", s + 1, plan.settings.size(),
+                        SettingLabel(setting)));
+    eval::EvaluateOptions evaluate = SettingOptions(options, setting);
+    evaluate.executor = "local";
     try {
       outcome.result = eval::RunEvaluate(evaluate);
-      if (outcome.result.exit_code != ExitCode::kOk) result.exit_code = ExitCode::kIncomplete;
-      result.external_seconds += outcome.result.timings.external;
-      result.rephoto_seconds += outcome.result.timings.rephoto();
-      result.external_cpu_seconds += outcome.result.timings.external_cpu;
-      result.rephoto_cpu_seconds += outcome.result.timings.rephoto_cpu;
-    } catch (const eval::UsageError&) {
+      if (outcome.result.exit_code != ExitCode::kOk) result->exit_code = ExitCode::kIncomplete;
+      AddTimings(outcome.result, result);
+    } catch (const UsageError&) {
       throw;  // the same bad setting would fail every setting
+    } catch (const Interrupted&) {
+      throw;
     } catch (const Error& e) {
-      if (std::string_view(e.what()).find("interrupted") != std::string_view::npos) throw;
       outcome.ok = false;
       outcome.message = e.what();
-      result.exit_code = ExitCode::kIncomplete;
-      LogWarning(fmt::format("sweep: setting {} failed: {}", settings[s].name, e.what()));
+      result->exit_code = ExitCode::kIncomplete;
+      LogWarning(fmt::format("sweep: setting {} failed: {}", setting.name, e.what()));
     }
-    run_dirs.push_back(outcome.run_dir);
-    result.settings.push_back(std::move(outcome));
+    result->settings.push_back(std::move(outcome));
   }
+}
 
-  result.table = ReadSweepTable(settings, run_dirs);
-  WriteTextFileAtomically(options.out / "sweep.csv", SweepSummaryCsv(result.table, result.axes));
-  WriteTextFileAtomically(options.out / "sweep_per_fold.csv",
-                          SweepPerFoldCsv(result.table, result.axes));
+// Each setting's results as its run folder holds them (the sweep's aggregation task, after the
+// settings ran elsewhere).
+void CollectSettings(const SweepOptions& options, const SweepPlan& plan, SweepResult* result) {
+  for (const SweepSetting& setting : plan.settings) {
+    SettingOutcome outcome{.setting = setting, .run_dir = options.out / "settings" / setting.name};
+    try {
+      outcome.result = eval::ReadEvaluateResult(outcome.run_dir);
+      if (outcome.result.exit_code != ExitCode::kOk) result->exit_code = ExitCode::kIncomplete;
+    } catch (const Error& e) {
+      outcome.ok = false;
+      outcome.message = e.what();
+      result->exit_code = ExitCode::kIncomplete;
+    }
+    result->settings.push_back(std::move(outcome));
+  }
+}
 
-  if (options.report) {
-    std::vector<report::CollectionEntry> entries;
-    for (const auto& outcome : result.settings) {
-      if (!fs::exists(outcome.run_dir / "per_fold.csv")) continue;
-      report::CollectionEntry entry;
-      entry.label = SettingLabel(outcome.setting);
-      entry.run_dir = outcome.run_dir;
-      if (!x_axis.empty()) {
-        entry.setting = outcome.setting.Value(x_axis);
-        for (const auto& [name, value] : outcome.setting.values) {
-          if (name == x_axis) continue;
-          if (!entry.series.empty()) entry.series += ", ";
-          entry.series += name + " " + FormatValue(value);
-        }
+// The settings as Slurm job arrays: every setting's fold, view and aggregation tasks, then one
+// task that aggregates the sweep (`rephoto sweep CONFIG --out OUT --only-aggregate`).
+bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
+                        SweepResult* result) {
+  std::vector<cluster::TaskGroup> groups = {{"fold", {}, options.base.source() !=
+                                                             eval::ModelSource::kModel},
+                                            {"views", {}, false},
+                                            {"aggregate", {}, false},
+                                            {"sweep", {}, false}};
+  size_t tasks = 0, done_before = 0;
+  for (const SweepSetting& setting : plan.settings) {
+    eval::EvaluatePlan evaluate_plan;
+    const std::vector<cluster::TaskGroup> setting_groups =
+        eval::PrepareEvaluateTasks(SettingOptions(options, setting), setting.name + "/",
+                                   &evaluate_plan);
+    for (size_t g = 0; g < setting_groups.size(); ++g) {
+      for (const cluster::Task& task : setting_groups[g].tasks) groups[g].tasks.push_back(task);
+    }
+    tasks += evaluate_plan.tasks.size();
+    for (const eval::EvaluateTask& task : evaluate_plan.tasks) done_before += task.done;
+  }
+  REPHOTO_CHECK_USAGE(!options.base.config_file.empty(),
+                      "sweep: --executor slurm needs the sweep's config file");
+  const fs::path program =
+      options.base.program.empty() ? eval::ThisExecutable() : options.base.program;
+  std::vector<std::string> argv = {program.string(),
+                                   "-q",
+                                   "sweep",
+                                   fs::absolute(options.base.config_file).string(),
+                                   "--out",
+                                   fs::absolute(options.out).string(),
+                                   "--only-aggregate"};
+  if (!options.report) argv.push_back("--no-report");
+  const bool sweep_done = done_before == tasks && fs::exists(options.out / "sweep.json");
+  if (!sweep_done) {
+    std::string key;
+    for (const cluster::TaskGroup& group : groups) {
+      for (const cluster::Task& task : group.tasks) key += task.key;
+    }
+    groups[3].tasks.push_back({"sweep/aggregate", argv, key, std::nullopt});
+  }
+  cluster::SlurmOptions slurm = cluster::ResolveReconstructResources(options.base.slurm);
+  slurm.interrupted = [] { return eval::InterruptRequested(); };
+  slurm.job_name = "rephoto-sweep";
+  LogInfo(fmt::format("sweep on Slurm: {} settings, {} tasks ({} done before) -> {}",
+                      plan.settings.size(), tasks + 1, done_before + (sweep_done ? 1 : 0),
+                      options.out.string()));
+  const cluster::RunOutcome run = cluster::RunTaskGroups(
+      options.out, groups, slurm, [](const cluster::Progress& p) {
+        LogInfo(fmt::format("slurm: {} of {} tasks done, {} failed, {} running, {} pending",
+                            p.done, p.total, p.failed, p.running, p.pending));
+      });
+  result->slurm = run;
+  for (const std::string& line : run.FailureLines()) LogWarning("slurm: failed: " + line);
+  if (!run.finished) return false;
+  CollectSettings(options, plan, result);
+  return true;
+}
+
+void WriteReport(const SweepOptions& options, const std::string& x_axis,
+                 const SweepResult& result) {
+  std::vector<report::CollectionEntry> entries;
+  for (const auto& outcome : result.settings) {
+    if (!fs::exists(outcome.run_dir / "per_fold.csv")) continue;
+    report::CollectionEntry entry;
+    entry.label = SettingLabel(outcome.setting);
+    entry.run_dir = outcome.run_dir;
+    if (!x_axis.empty()) {
+      entry.setting = outcome.setting.Value(x_axis);
+      for (const auto& [name, value] : outcome.setting.values) {
+        if (name == x_axis) continue;
+        if (!entry.series.empty()) entry.series += ", ";
+        entry.series += name + " " + FormatValue(value);
       }
-      entry.description = outcome.ok ? "" : outcome.message;
-      entries.push_back(std::move(entry));
     }
-    if (!entries.empty()) {
-      report::CollectionOptions report_options;
-      report_options.title = "rephoto sweep: " + options.out.filename().string();
-      report_options.setting_name = x_axis;
-      report_options.rank = false;
-      report::WriteCollectionReport(entries, options.out / "report.html", report_options);
-    }
+    entry.description = outcome.ok ? "" : outcome.message;
+    entries.push_back(std::move(entry));
   }
+  if (entries.empty()) return;
+  report::CollectionOptions report_options;
+  report_options.title = "rephoto sweep: " + options.out.filename().string();
+  report_options.setting_name = x_axis;
+  report_options.rank = false;
+  report::WriteCollectionReport(entries, options.out / "report.html", report_options);
+}
 
-  result.total_seconds = Seconds(start);
+void WriteSweepJson(const SweepOptions& options, const std::string& x_axis,
+                    const SweepResult& result) {
   Json json;
   json["schema"] = "rephoto.sweep/1";
   json["x_axis"] = x_axis;
@@ -266,6 +375,43 @@ SweepResult RunSweep(const SweepOptions& options) {
                          {"rephoto", result.rephoto_cpu_seconds},
                          {"rephoto_share", result.rephoto_cpu_share()}};
   WriteTextFileAtomically(options.out / "sweep.json", json.dump(2) + "\n");
+}
+
+}  // namespace
+
+SweepResult RunSweep(const SweepOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  SweepResult result;
+  const SweepPlan plan = PlanSweep(options, &result);
+  // One writer; only a folder that holds a sweep (or nothing). Each setting's evaluate run
+  // locks its own folder below it. The aggregation task of a sweep on Slurm runs while the
+  // submitting sweep holds the lock: it writes only the sweep's tables, report and sweep.json.
+  run::RunFolder run_folder;
+  if (!options.only_aggregate) {
+    run_folder = run::OpenRunFolder(options.out, "sweep", [](const fs::path& dir) {
+      std::error_code ec;
+      return fs::exists(dir / "sweep.json", ec) || fs::is_directory(dir / "settings", ec);
+    });
+  }
+  fs::create_directories(options.out / "settings");
+  if (options.only_aggregate) {
+    CollectSettings(options, plan, &result);
+  } else if (options.base.executor == "slurm") {
+    result.slurm_finished = RunSettingsOnSlurm(options, plan, &result);
+    result.total_seconds = Seconds(start);
+    return result;  // the tables, report and sweep.json come from the "sweep" task
+  } else {
+    RunSettings(options, plan, &result);
+  }
+  std::vector<fs::path> run_dirs;
+  for (const SettingOutcome& outcome : result.settings) run_dirs.push_back(outcome.run_dir);
+  result.table = ReadSweepTable(plan.settings, run_dirs);
+  WriteTextFileAtomically(options.out / "sweep.csv", SweepSummaryCsv(result.table, result.axes));
+  WriteTextFileAtomically(options.out / "sweep_per_fold.csv",
+                          SweepPerFoldCsv(result.table, result.axes));
+  if (options.report) WriteReport(options, plan.x_axis, result);
+  result.total_seconds = Seconds(start);
+  WriteSweepJson(options, plan.x_axis, result);
   return result;
 }
 

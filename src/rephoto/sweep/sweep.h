@@ -32,6 +32,10 @@
 //                  timings, and the time split into the external pipeline and rephoto's own
 //                  work (split, render, compare, aggregate, ...) with rephoto's share
 //   report.html    report::WriteCollectionReport: one series per combination of the other axes
+// --executor slurm (base.executor, base.slurm; a [slurm] table of the config file holds the
+// cluster/slurm_settings.h resources): every setting's tasks (eval/slurm_executor.h) go into one
+// set of job arrays, followed by one job that writes the sweep's tables, report and sweep.json
+// (`rephoto sweep CONFIG --out OUT --only-aggregate`); docs/cluster.md.
 // Settings are independent tasks; each is an evaluate run and resumes like one, so rerunning
 // the same command skips everything already done. A setting whose evaluation fails is recorded
 // and the others go on (exit code kIncomplete).
@@ -43,6 +47,7 @@
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/cluster/slurm.h"
 #include "rephoto/eval/evaluate.h"
 #include "rephoto/sweep/grid.h"
 #include "rephoto/sweep/table.h"
@@ -57,6 +62,9 @@ struct SweepOptions {
   std::string x_axis;  // "" = the last axis
   std::filesystem::path out;
   bool report = true;
+  // Only the sweep's own aggregation (tables, report, sweep.json) from the settings' run folders,
+  // without evaluating and without the sweep folder's lock: the last task of a sweep on Slurm.
+  bool only_aggregate = false;
 };
 
 struct SettingOutcome {
@@ -78,6 +86,10 @@ struct SweepResult {
   // the share that does not depend on overlap or on other load on the machine.
   double external_cpu_seconds = 0, rephoto_cpu_seconds = 0;
   ExitCode exit_code = ExitCode::kOk;
+  // --executor slurm (base.executor): what became of the submitted tasks, and whether they all
+  // finished (false after --no-wait); the tables are then written by the "sweep" task.
+  cluster::RunOutcome slurm;
+  bool slurm_finished = false;
   // rephoto's fraction of the accounted wall-clock seconds and of the CPU seconds (0 if none).
   double rephoto_share() const { return eval::RephotoShare(rephoto_seconds, external_seconds); }
   double rephoto_cpu_share() const {

@@ -14,7 +14,7 @@
 #include "rephoto/mesh/ply.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/colmap.h"
-#include "rephoto/synth/demo_scene.h"
+#include "rephoto/synth/demo_files.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::sweep {
@@ -36,22 +36,9 @@ const SceneFiles& Files() {
     options.camera_count = 8;
     options.ground_cells = 40;
     options.object_bands = 24;
-    const mesh::Mesh truth = synth::MakeDemoMesh(options);
-    const scene::Scene scene = synth::MakeDemoScene(options, f.root / "images");
-    mesh::WritePly(f.root / "truth.ply", truth);
-    mesh::Mesh plain = truth;
-    plain.colors.clear();
-    mesh::WritePly(f.root / "plain.ply", plain);
-    scene::WriteColmap(scene, f.root / "sparse", scene::ColmapFormat::kText);
-    const render::RenderModel model(truth);
-    render::RenderOptions fine;
-    fine.samples_per_pixel = 9;
-    for (size_t i = 0; i < scene.views.size(); ++i) {
-      const auto& view = scene.views[i];
-      const auto clean =
-          render::RenderRephoto(model, scene.CameraOf(view), view.cam_from_world, fine);
-      io::WritePng(f.root / "images" / view.name, synth::SimulatePhoto(clean.color, 1, 0.01, i));
-    }
+    synth::WriteDemoSceneFiles(options, f.root, [](size_t i) {
+      return synth::PhotoSettings{1, 0.01, i};
+    });
     return f;
   }();
   return files;

@@ -1,3 +1,4 @@
+#include "rephoto/run/records.h"
 #include "rephoto/sweep/table.h"
 
 #include <algorithm>
@@ -22,19 +23,10 @@ std::string ReadText(const std::filesystem::path& path) {
 }
 
 double ParseNumber(const std::string& field, const std::filesystem::path& path, size_t line) {
-  if (field.empty()) return kNaN;
-  if (field == "inf") return std::numeric_limits<double>::infinity();
-  if (field == "-inf") return -std::numeric_limits<double>::infinity();
-  size_t used = 0;
-  double value = kNaN;
-  try {
-    value = std::stod(field, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  REPHOTO_CHECK(used == field.size(), "{}: line {}: '{}' is not a number", path.string(), line,
+  const std::optional<double> value = run::ParseCsvNumber(field);
+  REPHOTO_CHECK(value.has_value(), "{}: line {}: '{}' is not a number", path.string(), line,
                 field);
-  return value;
+  return *value;
 }
 
 // Columns of per_fold.csv that are not measurements.

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <functional>
 #include <string>
 
@@ -16,20 +17,25 @@ fs::path SourceDir() { return fs::path(REPHOTO_SOURCE_DIR); }
 fs::path SharedDataDir() { return SourceDir().parent_path() / "shared" / "data"; }
 
 namespace {
+// The test program's temporary folder, removed at exit. The removal is registered with atexit
+// after the path is constructed, so it runs before the path's own destructor (a static object
+// cleaning up in its destructor would see the path already destroyed).
 fs::path& TempRoot() {
   static fs::path root = [] {
     fs::path p = fs::temp_directory_path() / ("rephoto-test-" + std::to_string(::getpid()));
     fs::create_directories(p);
     return p;
   }();
+  static const bool registered = [] {
+    std::atexit([] {
+      std::error_code ec;
+      fs::remove_all(TempRoot(), ec);
+    });
+    return true;
+  }();
+  (void)registered;
   return root;
 }
-struct TempRootCleanup {
-  ~TempRootCleanup() {
-    std::error_code ec;
-    if (!TempRoot().empty()) fs::remove_all(TempRoot(), ec);
-  }
-} g_cleanup;
 }  // namespace
 
 fs::path MakeTempDir() {

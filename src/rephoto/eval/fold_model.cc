@@ -1,0 +1,273 @@
+#include "rephoto/eval/fold_model.h"
+
+#include "rephoto/core/file.h"
+#include "rephoto/core/progress.h"
+#include "rephoto/degrade/degrade.h"
+#include "rephoto/eval/keys.h"
+#include "rephoto/eval/prepare_fold.h"
+#include "rephoto/ibr/image_based_renderer.h"
+#include "rephoto/ibr/training_views.h"
+#include "rephoto/mesh/ply.h"
+#include "rephoto/mesh/read_mesh.h"
+#include "rephoto/render/colorize.h"
+
+namespace rephoto::eval {
+namespace fs = std::filesystem;
+
+namespace {
+
+// The fold's model key from the file (read once per file content), and the derived model's key
+// with --colorize or defects.
+void ComputeModelKey(RunState& s, ModelCache& cache, FoldState& fold,
+                     std::optional<mesh::Mesh>* mesh) {
+  const std::string file_hash = s.hashes->Hash(fold.model_path);
+  const std::string cache_key = fold.model_path.string() + "\n" + file_hash;
+  const auto cached = cache.file_keys.find(cache_key);
+  if (cached != cache.file_keys.end()) {
+    fold.model_key = cached->second;
+  } else {
+    try {
+      mesh->emplace(mesh::ReadMesh(fold.model_path));
+    } catch (const Error& e) {
+      if (s.source == ModelSource::kReconstruct) {
+        fold.command_status = "failed";  // rerun the command next time
+        ThrowError("{}: reconstruct command '{}' wrote a model that cannot be read: {}; see {}",
+                   fold.name, Shorten(s.CommandTemplate()), e.what(), s.Relative(fold.log_file));
+      }
+      throw;
+    }
+    fold.model_key = ModelFileKey(*s.hashes, fold.model_path, **mesh);
+    cache.file_keys[cache_key] = fold.model_key;
+  }
+  if (s.DerivesModel()) {
+    // The coloured and/or degraded model: its key covers what it was made from.
+    fold.colorize_key = DerivedModelKey(s.o, fold.model_key, fold.train_key);
+    fold.model_key = fold.colorize_key;
+  }
+}
+
+std::string BaseKey(RunState& s, const FoldState& fold) {
+  Hasher base;
+  base.Add(fold.model_key).Add(RenderSettingsKey(s.o));
+  // Image-based representations render from the fold's training photos (and depth maps).
+  if (render::IsImageBased(s.representation)) {
+    base.Add(fold.train_key);
+    if (s.representation == render::ViewRepresentation::kIbr && !s.o.depth_maps.empty()) {
+      base.Add(s.o.depth_maps.string());
+      std::error_code ec;
+      for (const auto& entry : fs::directory_iterator(s.o.depth_maps, ec)) {
+        if (entry.is_regular_file(ec)) base.Add(s.hashes->Hash(entry.path()));
+      }
+    }
+  }
+  return base.Hex();
+}
+
+render::ModelOptions ModelOptions(const EvaluateOptions& o) {
+  render::ModelOptions model_options;
+  model_options.point_radius = o.point_radius;
+  model_options.point_radius_neighbors = o.point_neighbors;
+  return model_options;
+}
+
+// Colours (from the fold's training photos) and/or degrades `mesh`, writes model.ply and its
+// key. Returns the render model when colouring already built it (colours leave the BVH as it is).
+std::unique_ptr<render::RenderModel> DeriveModel(RunState& s, FoldState& fold, mesh::Mesh& mesh) {
+  const fs::path coloured = fold.dir / "model.ply";
+  const fs::path coloured_key = fold.dir / "model.key";
+  std::error_code ec;
+  std::unique_ptr<render::RenderModel> built;
+  if (s.o.colorize) {
+    REPHOTO_CHECK(!mesh.is_point_cloud(), "{}: --colorize needs a mesh with faces",
+                  fold.model_path.string());
+    const auto colorize_start = Clock::now();
+    const scene::Scene train = TrainingScene(s, fold);
+    std::vector<size_t> views(train.views.size());
+    for (size_t v = 0; v < views.size(); ++v) views[v] = v;
+    render::ColorizeReport report;
+    fs::remove(coloured_key, ec);
+    if (HasDefects(s.o.degrade)) {
+      // The defects change the geometry after colouring: two BVHs.
+      mesh = render::ColorizeMesh(mesh, train, views, {}, &report);
+    } else {
+      // One BVH for colouring, rendering and projecting.
+      built = std::make_unique<render::RenderModel>(std::move(mesh), ModelOptions(s.o),
+                                                    fold.model_path.string());
+      render::VertexColors colors = render::ColorizeVertices(*built, train, views, {}, &report);
+      built->SetVertexColors(std::move(colors.colors));
+      built->SetVertexScalar(std::move(colors.view_count));
+    }
+    mesh::WritePly(coloured, built ? built->mesh() : mesh);
+    WriteTextFileAtomically(coloured_key, fold.colorize_key);
+    fold.colorize_seconds = Seconds(colorize_start);
+    s.timings.colorize += fold.colorize_seconds;
+    ++s.counters.models_colorized;
+    LogInfo(fmt::format("{}: coloured {} of {} vertices from {} training photos in {:.1f} s",
+                        fold.name, report.colored_vertices, report.vertices, train.views.size(),
+                        fold.colorize_seconds));
+  }
+  if (HasDefects(s.o.degrade)) {
+    const auto degrade_start = Clock::now();
+    fs::remove(coloured_key, ec);
+    degrade::DegradeOptions d = s.o.degrade;
+    d.texture_dir = fold.dir / "textures";
+    d.texture_prefix = "model";
+    degrade::DegradeReport report;
+    mesh = degrade::Degrade(mesh, d, &report);
+    s.timings.prepare += Seconds(degrade_start);
+    LogInfo(fmt::format("{}: degraded the model ({} -> {} vertices)", fold.name,
+                        report.vertices_before, report.vertices_after));
+    mesh::WritePly(coloured, mesh);
+    WriteTextFileAtomically(coloured_key, fold.colorize_key);
+  }
+  return built;
+}
+
+}  // namespace
+
+bool IsGaussianModel(const RunState& s, ModelCache& cache, const fs::path& path) {
+  if (path.empty() || render::IsImageBased(s.representation)) return false;
+  if (s.representation == render::ViewRepresentation::kGaussians) return true;
+  const auto [it, inserted] = cache.is_gaussian_file.emplace(path, false);
+  if (inserted) it->second = splat::IsGaussianFile(path);
+  return it->second;
+}
+
+void ResolveFoldModel(RunState& s, ModelCache& cache, FoldState& fold,
+                      std::optional<mesh::Mesh>* mesh) {
+  if (s.source == ModelSource::kModel && !s.o.model.empty()) {
+    fold.model_path = fs::absolute(s.o.model).lexically_normal();
+  }
+  if (s.source == ModelSource::kRender) {
+    fold.base_key = fold.command_key;
+    return;
+  }
+  fold.gaussians = IsGaussianModel(s, cache, fold.model_path);
+  if (fold.model_path.empty()) {
+    fold.model_key = Hasher().Add(kKeyVersion).Add("no model").Hex();  // ibr from depth
+  } else if (fold.gaussians) {
+    REPHOTO_CHECK(!s.DerivesModel(),
+                  "{}: holds 3D Gaussians; --colorize and model defects need a mesh",
+                  fold.model_path.string());
+    // Rendering and completeness settings of Gaussians are part of the model's key.
+    fold.model_key = GaussianModelKey(s.o, s.hashes->Hash(fold.model_path));
+  } else {
+    ComputeModelKey(s, cache, fold, mesh);  // model_key = the colorize key when colouring
+  }
+  // The recorded colouring time stays the fold's cost while its coloured model is reused.
+  if (s.DerivesModel() && fold.previous &&
+      fold.previous->value("colorize_key", "") == fold.colorize_key) {
+    fold.colorize_seconds = fold.previous->value("/seconds/colorize"_json_pointer, 0.0);
+  }
+  fold.base_key = BaseKey(s, fold);
+}
+
+std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache& cache,
+                                                         FoldState& fold,
+                                                         std::optional<mesh::Mesh>* mesh) {
+  if (fold.model_path.empty()) return nullptr;  // image-based rendering from depth maps alone
+  if (cache.model && cache.model_key == fold.model_key) return cache.model;
+  cache.model.reset();
+  const fs::path coloured = fold.dir / "model.ply";
+  const fs::path coloured_key = fold.dir / "model.key";
+  std::error_code ec;
+  std::string previous_colorize;
+  if (s.DerivesModel() && fs::is_regular_file(coloured, ec) &&
+      fs::is_regular_file(coloured_key, ec)) {
+    previous_colorize = ReadFileToString(coloured_key);
+  }
+  std::unique_ptr<render::RenderModel> built;  // set when colouring built it already
+  if (s.DerivesModel() && previous_colorize == fold.colorize_key) {
+    mesh->emplace(mesh::ReadPly(coloured));
+  } else {
+    if (!*mesh) mesh->emplace(mesh::ReadMesh(fold.model_path));
+    if (s.DerivesModel()) {
+      built = DeriveModel(s, fold, **mesh);
+      // Rendered with the colours model.ply holds, so that a later run (or another process)
+      // that reads model.ply renders the same pixels.
+      if (built) {
+        std::vector<Eigen::Vector3f> colors = built->mesh().colors;
+        mesh::QuantizeColorsAsPly(&colors);
+        built->SetVertexColors(std::move(colors));
+      } else {
+        mesh::QuantizeColorsAsPly(&(*mesh)->colors);
+      }
+    }
+  }
+  std::shared_ptr<const render::RenderModel> model;
+  if (built) {
+    model = std::move(built);
+  } else {
+    const auto build_start = Clock::now();
+    model = std::make_shared<const render::RenderModel>(std::move(**mesh), ModelOptions(s.o),
+                                                        fold.model_path.string());
+    s.timings.render += Seconds(build_start);
+  }
+  cache.model = model;
+  cache.model_key = fold.model_key;
+  cache.model_path = HasDefects(s.o.degrade) ? coloured : fold.model_path;
+  return model;
+}
+
+std::shared_ptr<const splat::GaussianModel> LoadGaussians(ModelCache& cache, const fs::path& path,
+                                                          const std::string& key) {
+  if (!cache.gaussians || cache.gaussians_key != key) {
+    cache.gaussians.reset();
+    const auto start = Clock::now();
+    splat::GaussianFormat format;
+    auto model = std::make_shared<splat::GaussianModel>(splat::ReadGaussians(path, &format));
+    LogInfo(fmt::format("{}: {} Gaussians ({}, SH degree {}) read in {:.1f} s", path.string(),
+                        model->size(), splat::GaussianFormatName(format), model->sh_degree,
+                        Seconds(start)));
+    cache.gaussians = std::move(model);
+    cache.gaussians_key = key;
+  }
+  return cache.gaussians;
+}
+
+splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o) {
+  splat::GaussianRenderOptions options;
+  options.mode = o.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
+                                                  : splat::GaussianMode::kClassic;
+  options.background = Eigen::Vector3f(o.background[0], o.background[1], o.background[2]);
+  return options;
+}
+
+std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& cache,
+                                                       FoldState& fold,
+                                                       std::optional<mesh::Mesh>* mesh) {
+  if (fold.gaussians) {
+    return std::make_unique<render::GaussianViewRenderer>(
+        LoadGaussians(cache, fold.model_path, fold.model_key), GaussianOptions(s.o));
+  }
+  std::shared_ptr<const render::RenderModel> model = LoadFoldModel(s, cache, fold, mesh);
+  render::RenderOptions render_options;
+  render_options.samples_per_pixel = s.o.samples_per_pixel;
+  render_options.backfaces = s.o.backfaces;
+  const auto build_start = Clock::now();
+  std::unique_ptr<render::ViewRenderer> renderer;
+  if (!render::IsImageBased(s.representation)) {
+    renderer = std::make_unique<render::ModelViewRenderer>(std::move(model), render_options);
+  } else {
+    // The fold's training photos reprojected through the model (vdt) or through per-view depth
+    // maps (ibr: --depth-maps, else plane-sweep stereo): never the test photo.
+    const scene::Scene train = TrainingScene(s, fold);
+    std::vector<size_t> indices(train.views.size());
+    for (size_t i = 0; i < indices.size(); ++i) indices[i] = i;
+    ibr::ImageBasedOptions ibr_options;
+    ibr_options.scene_points = ibr::ScenePoints(train);
+    const bool vdt = s.representation == render::ViewRepresentation::kVdt;
+    auto views = ibr::TrainingViewsFromScene(train, indices, vdt ? fs::path() : s.o.depth_maps);
+    if (vdt) {
+      REPHOTO_CHECK(model && !model->mesh().is_point_cloud(),
+                    "--representation vdt needs a mesh as geometry proxy (got a point cloud)");
+    }
+    renderer = std::make_unique<ibr::ImageBasedViewRenderer>(
+        vdt ? ibr::ImageBasedRenderer::Vdt(model->mesh(), std::move(views), ibr_options)
+            : ibr::ImageBasedRenderer::Ibr(std::move(views), ibr_options));
+  }
+  s.timings.render += Seconds(build_start);
+  return renderer;
+}
+
+}  // namespace rephoto::eval

@@ -1,0 +1,335 @@
+#include "rephoto/eval/records.h"
+
+#include <algorithm>
+
+#include "rephoto/core/process.h"
+#include "rephoto/eval/settings.h"
+
+namespace rephoto::eval {
+namespace fs = std::filesystem;
+using run::JsonNumber;
+
+void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome& outcome) {
+  const compare::ImageResult& image = outcome.image;
+  Json j;
+  j["schema"] = "rephoto.evaluate.view/1";
+  j["key"] = outcome.key;
+  j["render_key"] = outcome.render_key.empty() ? Json() : Json(outcome.render_key);
+  j["status"] = "ok";
+  j["fold"] = fold.name;
+  j["name"] = outcome.name;
+  j["name_stem"] = image.name;
+  j["photo"] = image.photo.string();
+  j["render"] = image.render.generic_string();
+  j["width"] = image.width;
+  j["height"] = image.height;
+  j["resized"] = image.resized;
+  j["completeness"] = {{"value", JsonNumber(image.completeness.value)},
+                       {"valid_photo_windows", image.completeness.valid_photo},
+                       {"valid_both_windows", image.completeness.valid_both}};
+  Json metrics_json = Json::object();
+  for (size_t k = 0; k < s.o.metrics.size(); ++k) {
+    metrics_json[std::string(metrics::MetricName(s.o.metrics[k]))] = {
+        {"mean", JsonNumber(image.metrics[k].mean)}, {"evaluated", image.metrics[k].evaluated}};
+  }
+  j["metrics"] = metrics_json;
+  j["render_seconds"] = outcome.render_seconds;
+  j["compare_seconds"] = outcome.compare_seconds;
+  run::WriteJsonRecord(outcome.record, j);
+}
+
+bool ReadViewRecord(const RunState& s, const fs::path& path, const std::string& key,
+                    ViewOutcome* outcome) {
+  const std::optional<Json> json = run::ReadJsonRecord(path);
+  if (!json || json->value("key", "") != key || json->value("status", "") != "ok") return false;
+  try {
+    compare::ImageResult& image = outcome->image;
+    image.name = json->at("name_stem").get<std::string>();
+    image.photo = json->at("photo").get<std::string>();
+    image.render = json->at("render").get<std::string>();
+    image.width = json->at("width").get<int>();
+    image.height = json->at("height").get<int>();
+    image.resized = json->at("resized").get<bool>();
+    const Json& c = json->at("completeness");
+    image.completeness.value = run::NumberFromJson(c.at("value"));
+    image.completeness.valid_photo = c.at("valid_photo_windows").get<size_t>();
+    image.completeness.valid_both = c.at("valid_both_windows").get<size_t>();
+    const Json& m = json->at("metrics");
+    image.metrics.clear();
+    for (metrics::Metric metric : s.o.metrics) {
+      const Json& entry = m.at(std::string(metrics::MetricName(metric)));
+      image.metrics.push_back(
+          {run::NumberFromJson(entry.at("mean")), entry.at("evaluated").get<size_t>()});
+    }
+    outcome->render_seconds = json->value("render_seconds", 0.0);
+    outcome->compare_seconds = json->value("compare_seconds", 0.0);
+  } catch (const std::exception&) {
+    return false;
+  }
+  // The files the record points to must still be there.
+  std::error_code ec;
+  if (!fs::exists(s.run / outcome->image.render, ec)) return false;
+  if (s.o.error_images) {
+    for (metrics::Metric metric : s.o.metrics) {
+      const std::string base = outcome->stem + "." + std::string(metrics::MetricName(metric));
+      if (!fs::exists(path.parent_path().parent_path() / "errors" / (base + ".exr"), ec)) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+void WriteFoldJson(const RunState& s, const FoldState& fold, const std::string& status) {
+  Json j;
+  j["schema"] = "rephoto.evaluate.fold/1";
+  j["fold"] = fold.name;
+  j["index"] = fold.index;
+  j["status"] = status;
+  j["message"] = fold.message;
+  if (s.source != ModelSource::kModel) {
+    j["command"] = {{"kind", s.CommandKind()},
+                    {"key", fold.command_key},
+                    {"status", fold.command_status},
+                    {"seconds", fold.command_seconds},
+                    {"cpu_seconds", fold.command_cpu_seconds},
+                    {"reused", fold.command_reused},
+                    {"command", fold.command},
+                    {"log", s.Relative(fold.log_file)}};
+  }
+  j["model"] = fold.model_path.empty() ? Json() : Json(fold.model_path.string());
+  j["model_key"] = fold.model_key;
+  j["colorize_key"] = fold.colorize_key;
+  if (s.DerivesModel()) j["colorized_model"] = "model.ply";
+  j["train"] = {{"folder", fold.train_dir.string()},
+                {"images", fold.images_dir.string()},
+                {"count", fold.train_names.size()},
+                {"key", fold.train_key}};
+  j["test"] = {{"folder", fold.test_dir.string()}, {"count", fold.tests.size()}};
+  size_t evaluated = 0;
+  double view_seconds = 0;
+  for (const ViewOutcome& v : fold.views) {
+    evaluated += v.ok ? 1 : 0;
+    view_seconds += v.render_seconds + v.compare_seconds;
+  }
+  j["test_images"] = fold.tests.size();
+  j["evaluated_images"] = evaluated;
+  j["seconds"] = {{"command", fold.command_seconds},
+                  {"colorize", fold.colorize_seconds},
+                  {"views", view_seconds},
+                  {"this_run", fold.seconds}};
+  run::WriteJsonRecord(fold.dir / "fold.json", j);
+}
+
+namespace {
+
+Json InputsJson(const RunState& s) {
+  Json inputs;
+  inputs["scene"] = {{"path", fs::absolute(s.o.scene).lexically_normal().string()},
+                     {"format", std::string(scene::SceneFormatName(s.scene_source.format))},
+                     {"source", fs::absolute(s.scene_source.path).lexically_normal().string()},
+                     {"image_root", fs::absolute(s.scene.image_root).lexically_normal().string()},
+                     {"views", s.scene.views.size()}};
+  if (s.source == ModelSource::kModel && !s.o.model.empty()) {
+    std::string model_hash;
+    try {
+      model_hash = s.hashes->Hash(s.o.model);
+    } catch (const Error&) {
+    }
+    inputs["model"] = {{"path", fs::absolute(s.o.model).lexically_normal().string()},
+                       {"hash", model_hash}};
+  }
+  Json photos = Json::array();
+  for (const FoldState& fold : s.folds) {
+    for (const TestView& test : fold.tests) {
+      photos.push_back(
+          {{"name", test.name}, {"path", test.photo.string()}, {"hash", test.photo_hash}});
+    }
+  }
+  std::sort(photos.begin(), photos.end(),
+            [](const Json& a, const Json& b) { return a["name"] < b["name"]; });
+  photos.erase(std::unique(photos.begin(), photos.end()), photos.end());
+  inputs["photos"] = photos;
+  inputs["hash"] = "xxh3-64 of the file content";
+  Json missing = Json::array();
+  for (const std::string& name : s.missing_photos) missing.push_back(name);
+  inputs["missing_photos"] = missing;
+  return inputs;
+}
+
+Json SplitJson(const RunState& s) {
+  Json split_json;
+  split_json["scheme"] = s.split.scheme.ToString();
+  split_json["cross_validated"] = s.split.cross_validated;
+  split_json["folder"] = "split";
+  Json folds = Json::array();
+  for (size_t f = 0; f < s.split.folds.size() && f < s.folds.size(); ++f) {
+    folds.push_back({{"fold", s.folds[f].name},
+                     {"train", s.folds[f].train_names},
+                     {"test", s.split.folds[f].test}});
+  }
+  split_json["folds"] = folds;
+  return split_json;
+}
+
+Json TimingsJson(const RunState& s) {
+  const EvaluateTimings& t = s.timings;
+  const double rephoto_cpu = ProcessCpuSeconds() - s.start_cpu;
+  return {{"total", Seconds(s.start)},
+          {"external", t.external},
+          {"cpu",
+           {{"external", t.external_cpu},
+            {"rephoto", rephoto_cpu},
+            {"rephoto_share", RephotoShare(rephoto_cpu, t.external_cpu)}}},
+          {"rephoto",
+           {{"total", t.rephoto()},
+            {"split", t.split},
+            {"prepare", t.prepare},
+            {"colorize", t.colorize},
+            {"render", t.render},
+            {"compare", t.compare},
+            {"aggregate", t.aggregate},
+            {"project", t.project},
+            {"report", t.report}}},
+          {"note",
+           "seconds of this invocation; external = sum over commands, which run in "
+           "background threads and may overlap rephoto's own work (wall-clock sums "
+           "then count the overlap twice); cpu = user + system CPU seconds of the "
+           "commands' process trees and of rephoto's own process"}};
+}
+
+Json OutputsJson(const RunState& s) {
+  Json projected = Json::array();
+  std::error_code ec;
+  for (fs::directory_iterator it(s.run / "projected", ec), end; !ec && it != end;
+       it.increment(ec)) {
+    if (it->path().extension() == ".ply") projected.push_back(s.Relative(it->path()));
+  }
+  std::sort(projected.begin(), projected.end());
+  return {
+      {"projected", projected},
+      {"projection_error", s.projection_message.empty() ? Json() : Json(s.projection_message)},
+      {"report", fs::exists(s.run / "report.html", ec) ? Json("report.html") : Json()},
+      {"report_error", s.report_message.empty() ? Json() : Json(s.report_message)}};
+}
+
+}  // namespace
+
+void WriteRunJson(const RunState& s, const EvaluateResult* result, const std::string& status) {
+  Json j;
+  j["schema"] = kSchema;
+  j["tool"] = {{"name", "rephoto"}, {"version", compare::ToolVersion()}};
+  j["status"] = status;
+  if (!s.failure.empty()) j["error"] = s.failure;
+  Json command_line = Json::array();
+  for (const std::string& arg : s.o.command_line) command_line.push_back(arg);
+  j["command_line"] = command_line;
+  j["config_file"] = s.o.config_file.empty() ? Json() : Json(s.o.config_file.string());
+  j["settings"] = SettingsJson(s.o);
+  j["scene_identity"] = s.scene_identity;
+  j["inputs"] = InputsJson(s);
+  j["split"] = SplitJson(s);
+  j["timings"] = TimingsJson(s);
+  const EvaluateCounters& c = s.counters;
+  j["counters"] = {{"commands_run", c.commands_run},
+                   {"folds_reused", c.folds_reused},
+                   {"models_colorized", c.models_colorized},
+                   {"views_rendered", c.views_rendered},
+                   {"views_compared", c.views_compared},
+                   {"views_reused", c.views_reused},
+                   {"photos_downscaled", c.photos_downscaled},
+                   {"projections", c.projections}};
+  Json fold_status = Json::array();
+  if (result != nullptr) {
+    for (const FoldResult& fr : result->folds) {
+      fold_status.push_back({{"fold", fr.name},
+                             {"status", fr.ok ? "ok" : "failed"},
+                             {"message", fr.message},
+                             {"test_images", fr.test_images},
+                             {"evaluated_images", fr.evaluated_images},
+                             {"seconds", fr.seconds}});
+    }
+  }
+  j["folds"] = fold_status;
+  j["outputs"] = OutputsJson(s);
+  run::WriteJsonRecord(s.run / "run.json", j);
+}
+
+namespace {
+
+Json ViewTaskJson(const RunState& s, const FoldState& fold, size_t i,
+                  const std::string& command_id) {
+  const TestView& test = fold.tests[i];
+  const ViewOutcome* outcome = i < fold.views.size() ? &fold.views[i] : nullptr;
+  Json outputs = {{"record", s.Relative(fold.dir / "views" / (test.stem + ".json"))}};
+  if (s.source != ModelSource::kRender) {
+    outputs["render"] = s.Relative(fold.dir / "renders" / (test.stem + ".png"));
+    outputs["depth"] = s.Relative(fold.dir / "renders" / (test.stem + ".depth.exr"));
+  }
+  if (s.o.error_images) {
+    Json errors = Json::array();
+    for (metrics::Metric m : s.o.metrics) {
+      errors.push_back(s.Relative(fold.dir / "errors" /
+                                  (test.stem + "." + std::string(metrics::MetricName(m)) + ".exr")));
+    }
+    outputs["errors"] = errors;
+  }
+  Json camera_params = Json::array();
+  for (double p : test.camera.params) camera_params.push_back(p);
+  return {{"id", fold.name + "/" + test.stem},
+          {"kind", "view"},
+          {"fold", fold.name},
+          {"view", test.name},
+          {"key", outcome && !outcome->key.empty() ? Json(outcome->key) : Json()},
+          {"inputs",
+           {{"photo", test.photo.string()},
+            {"photo_hash", test.photo_hash},
+            {"mask", test.mask.empty() ? Json() : Json(test.mask.string())},
+            {"model", fold.model_path.empty() ? Json() : Json(fold.model_path.string())},
+            {"camera",
+             {{"model", std::string(camera::CameraModelName(test.camera.model))},
+              {"width", test.camera.width},
+              {"height", test.camera.height},
+              {"params", camera_params}}}}},
+          {"outputs", outputs},
+          {"depends_on", command_id.empty() ? Json::array() : Json::array({command_id})},
+          {"status", outcome && outcome->ok ? "done" : "pending"}};
+}
+
+}  // namespace
+
+void WriteManifest(const RunState& s) {
+  Json tasks = Json::array();
+  for (const FoldState& fold : s.folds) {
+    std::string command_id;
+    if (s.source != ModelSource::kModel) {
+      command_id = fold.name + "/" + s.CommandKind();
+      tasks.push_back({{"id", command_id},
+                       {"kind", s.CommandKind()},
+                       {"fold", fold.name},
+                       {"key", fold.command_key},
+                       {"command", fold.command},
+                       {"inputs",
+                        {{"train", fold.train_dir.string()},
+                         {"images", fold.images_dir.string()},
+                         {"test", fold.test_dir.string()}}},
+                       {"outputs", {{"folder", s.Relative(fold.out_dir)}}},
+                       {"log", s.Relative(fold.log_file)},
+                       {"depends_on", Json::array()}});
+    }
+    for (size_t i = 0; i < fold.tests.size(); ++i) {
+      tasks.push_back(ViewTaskJson(s, fold, i, command_id));
+    }
+  }
+  Json manifest;
+  manifest["schema"] = "rephoto.evaluate.manifest/1";
+  manifest["run"] = fs::absolute(s.run).lexically_normal().string();
+  manifest["note"] =
+      "Independent tasks: a view task needs only its fold's command task. Running a task "
+      "elsewhere and copying its outputs (record last) into RUN lets `rephoto evaluate` with "
+      "the same settings reuse it.";
+  manifest["tasks"] = tasks;
+  run::WriteJsonRecord(s.run / "manifest.json", manifest);
+}
+
+}  // namespace rephoto::eval
