@@ -10,10 +10,9 @@
 #                  the plane sweep takes about 20x the time of vdt per fold: pass --depth-maps
 #                  from your MVS, or lower --train-short-side, to trade its quality for time)
 #   point_cloud    --points PLY rendered as splats (skipped without --points)
-#   textured       --textured MESH (a textured OBJ/PLY) as given; without it, MESH textured by
-#                  `rephoto texture` from each fold's training photos (evaluate --reconstruct:
-#                  the fold's training cameras and only its training photos), so the row is
-#                  cross-validated like the first three
+#   textured       --textured MESH (a textured OBJ/PLY) as given; without it, MESH textured
+#                  from each fold's training photos only (`evaluate --texture`, texture/), like
+#                  vertex_colour's --colorize
 #
 # vertex_colour, vdt, ibr and the built-in textured row never see a fold's test photos.
 # --points and --textured are taken as given: if they were made from all photos (a global
@@ -26,7 +25,6 @@
 #   --mesh MESH           geometry for vertex_colour and vdt (colours, if any, are replaced)
 #   --points PLY          point cloud model (optional)
 #   --textured MESH       textured mesh model (default: MESH textured per fold by rephoto texture)
-#   --texel-scale S       rephoto texture's texels per training-photo pixel (default 1)
 #   --depth-maps DIR      ibr depth maps (default: plane sweep per fold)
 #   --photo-masks DIR     masks of the photos by stem (default: the scene's)
 #   --scheme S            split (default loo)
@@ -55,7 +53,7 @@ if [ -z "$rephoto" ]; then
 fi
 
 scene="" image_root="" mesh="" points="" textured="" depth_maps="" masks="" scheme=loo
-eval_side=540 train_side=0 metrics="1-ncc,cb+cr,dssim" out="" texel_scale=1
+eval_side=540 train_side=0 metrics="1-ncc,cb+cr,dssim" out=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene=${2:?}; shift 2 ;;
@@ -63,7 +61,6 @@ while [ $# -gt 0 ]; do
     --mesh) mesh=${2:?}; shift 2 ;;
     --points) points=${2:?}; shift 2 ;;
     --textured) textured=${2:?}; shift 2 ;;
-    --texel-scale) texel_scale=${2:?}; shift 2 ;;
     --depth-maps) depth_maps=${2:?}; shift 2 ;;
     --photo-masks) masks=${2:?}; shift 2 ;;
     --scheme) scheme=${2:?}; shift 2 ;;
@@ -109,12 +106,7 @@ fi
 if [ -n "$textured" ]; then
   evaluate textured --model "$textured"
 else
-  # {sparse} and {images} are shell-quoted by evaluate; our own paths are quoted here.
-  texture_cmd="$(printf '%q' "$(cd "$(dirname "$rephoto")" && pwd)/$(basename "$rephoto")") texture"
-  texture_cmd+=" $(printf '%q' "$(cd "$(dirname "$mesh")" && pwd)/$(basename "$mesh")")"
-  texture_cmd+=" --scene {sparse} --image-root {images} --texel-scale $(printf '%q' "$texel_scale")"
-  texture_cmd+=" --out {out}/textured.obj"
-  evaluate textured --reconstruct "$texture_cmd" --model textured.obj
+  evaluate textured --model "$mesh" --texture
 fi
 
 "$rephoto" report "${runs[@]}" --labels "$(IFS=,; echo "${labels[*]}")" \
