@@ -119,8 +119,10 @@ Json SummaryJson(const RunState& s, const Tables& t, const EvaluateResult& resul
   summary["tool_version"] = compare::ToolVersion();
   summary["scene"] = fs::absolute(s.o.scene).lexically_normal().string();
   summary["scheme"] = s.split.scheme.ToString();
-  // A fixed --model saw every photo, the test photos among them, whatever the split.
-  summary["cross_validated"] = s.split.cross_validated && s.source != ModelSource::kModel;
+  // A fixed --model saw every photo, the test photos among them, whatever the split; image-based
+  // rendering without a model uses only each fold's training photos.
+  summary["cross_validated"] =
+      s.split.cross_validated && (s.source != ModelSource::kModel || s.o.model.empty());
   summary["source"] = s.source == ModelSource::kModel         ? "model"
                       : s.source == ModelSource::kReconstruct ? "reconstruct"
                                                               : "render";

@@ -783,7 +783,8 @@ TEST(EvaluateTest, ImageBasedRenderersUseOnlyTheFoldsTrainingPhotos) {
     const auto r = render::RenderRephoto(truth, Files().scene.CameraOf(view), view.cam_from_world);
     io::WriteExr(depth_dir / (fs::path(view.name).stem().string() + ".depth.exr"), r.depth);
   }
-  EvaluateOptions i = BaseOptions(testing::MakeTempDir() / "ibr");
+  const fs::path ibr_run = testing::MakeTempDir() / "ibr";
+  EvaluateOptions i = BaseOptions(ibr_run);
   i.representation = "ibr";
   i.depth_maps = depth_dir;
   i.scheme = "kfold:3";
@@ -792,6 +793,8 @@ TEST(EvaluateTest, ImageBasedRenderersUseOnlyTheFoldsTrainingPhotos) {
   for (const auto& fold : ibr.folds) EXPECT_TRUE(fold.ok) << fold.message;
   ASSERT_EQ(ibr.exit_code, ExitCode::kOk);
   EXPECT_EQ(ibr.evaluated_images, 6u);
+  // No model, only each fold's training photos: cross-validated (a fixed --model is not).
+  EXPECT_EQ(ReadJson(ibr_run / "summary.json")["cross_validated"], true);
   std::printf("ibr: completeness %.4f, 1-ncc %.4f\n", ibr.completeness_over_images.median,
               ibr.metrics[0].over_images.median);
   EXPECT_GT(ibr.completeness_over_images.median, 0.7);
