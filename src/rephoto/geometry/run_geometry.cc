@@ -139,6 +139,14 @@ std::vector<RunModel> FindRunModels(const fs::path& run_dir) {
       }
     }
     std::sort(dirs.begin(), dirs.end());
+    // Derived models (coloured/degraded) by key: a fold whose model equals an earlier fold's
+    // (same colorize_key) reuses it in memory and has no model.ply of its own.
+    std::map<std::string, fs::path> derived_by_key;
+    struct Pending {
+      std::string fold, key;
+      fs::path file;
+    };
+    std::vector<Pending> pending;
     for (const fs::path& dir : dirs) {
       const fs::path file = dir / "fold.json";
       const Json j = ReadJson(file);
@@ -152,14 +160,29 @@ std::vector<RunModel> FindRunModels(const fs::path& run_dir) {
         REPHOTO_CHECK(name.is_relative() && name.has_filename() && name == name.filename(),
                       "{}: colorized_model \"{}\" is not a file name", file.string(),
                       name.string());
+        const std::string key = j.value("colorize_key", "");
         if (fs::is_regular_file(dir / name, ec)) {
           models.push_back({fold, dir / name});
-          continue;
+          if (!key.empty()) derived_by_key.emplace(key, dir / name);
+        } else {
+          models.push_back({fold, fs::path()});
+          pending.push_back({fold, key, file});
         }
+        continue;
       }
       const Json model = j.value("model", Json());
       if (model.is_string() && !model.get<std::string>().empty()) {
         models.push_back({fold, ResolveModelPath(run_dir, model.get<std::string>())});
+      }
+    }
+    for (const Pending& p : pending) {
+      const auto it = derived_by_key.find(p.key);
+      REPHOTO_CHECK(!p.key.empty() && it != derived_by_key.end(),
+                    "{}: the fold's derived model (model.ply) is missing and no other fold has "
+                    "the same colorize_key",
+                    p.file.string());
+      for (RunModel& m : models) {
+        if (m.fold == p.fold && m.path.empty()) m.path = it->second;
       }
     }
     if (!dirs.empty()) return models;
@@ -188,8 +211,8 @@ RunGeometry EvaluateRunGeometry(const fs::path& run_dir, const fs::path& referen
     return result;
   }
   if (result.models.empty()) {
-    result.message = fmt::format("{}: no model (a compare run, or rendered without a model)",
-                                 run_dir.string());
+    result.message =
+        fmt::format("{}: no model (a compare run, or rendered without a model)", run_dir.string());
     return result;
   }
   const std::string reference_hash = HashFile(reference);

@@ -5,13 +5,14 @@
 // Which model: an evaluate run rendered one model per fold. For each fold with status "ok" in
 // RUN/folds/<fold>/fold.json: the fold's derived model (`colorized_model`, i.e.
 // folds/<fold>/model.ply: coloured and/or degraded, exactly what was rendered) when present,
-// else its `model` (a fixed --model, or the reconstruction's model; a relative path is taken
-// relative to RUN, then to the current directory). A run without fold records falls back to
-// run.json `inputs.model.path`. Compare runs, image-based rendering (no model) and unreadable
-// models give an unavailable result with the reason, never an exception.
-// Per-fold models are evaluated each (a model file shared by folds, e.g. a fixed --model without
-// defects, only once) and the numbers averaged over the folds (arithmetic mean of accuracy and of
-// each tolerance's completeness, precision, recall and F-score): every fold's rephoto error
+// or, when the fold reused an earlier fold's derived model in memory (same `colorize_key`; it
+// then writes no model.ply), that fold's model.ply; else its `model` (a fixed --model, or the
+// reconstruction's model; a relative path is taken relative to RUN, then to the current directory).
+// A run without fold records falls back to run.json `inputs.model.path`. Compare runs, image-based
+// rendering (no model) and unreadable models give an unavailable result with the reason, never an
+// exception. Per-fold models are evaluated each (a model file shared by folds, e.g. a fixed --model
+// without defects, only once) and the numbers averaged over the folds (arithmetic mean of accuracy
+// and of each tolerance's completeness, precision, recall and F-score): every fold's rephoto error
 // counts equally in the run's across-fold statistics, so every fold's model counts equally in
 // its geometric error. The mean (not the median) keeps a single bad fold's model visible.
 //

@@ -15,18 +15,18 @@ namespace {
 
 std::string Cell(double v, const std::string& title = "") {
   return fmt::format("<td data-v=\"{}\"{}>{}</td>", DataNumber(v),
-                     title.empty() ? "" : " title=\"" + HtmlEscape(title) + "\"",
-                     DisplayNumber(v));
+                     title.empty() ? "" : " title=\"" + HtmlEscape(title) + "\"", DisplayNumber(v));
 }
 
 }  // namespace
 
 std::string GeometryHeaderCells(const geometry::GeometryOptions& options) {
-  std::string html = "<th data-col=\"geo_accuracy\" title=\"geometric accuracy: the distance "
-                     "within which " +
-                     fmt::format("{:g}", 100 * options.accuracy_fraction) +
-                     " % of the model lies from the reference (lower = better)\">geo "
-                     "accuracy</th>";
+  std::string html =
+      "<th data-col=\"geo_accuracy\" title=\"geometric accuracy: the distance "
+      "within which " +
+      fmt::format("{:g}", 100 * options.accuracy_fraction) +
+      " % of the model lies from the reference (lower = better)\">geo "
+      "accuracy</th>";
   for (double t : options.tolerances) {
     html += fmt::format(
         "<th data-col=\"geo_completeness@{0:g}\" title=\"fraction of the reference within {0:g} "
@@ -59,10 +59,10 @@ std::vector<GeometryCorrelation> GeometryCorrelations(const std::vector<Geometry
                         [t](const geometry::RunGeometry& g) {
                           return t < g.tolerances.size() ? g.tolerances[t].completeness : NAN;
                         }});
-    measures.push_back({fmt::format("f_score@{:g}", options.tolerances[t]),
-                        [t](const geometry::RunGeometry& g) {
-                          return t < g.tolerances.size() ? g.tolerances[t].f_score : NAN;
-                        }});
+    measures.push_back(
+        {fmt::format("f_score@{:g}", options.tolerances[t]), [t](const geometry::RunGeometry& g) {
+           return t < g.tolerances.size() ? g.tolerances[t].f_score : NAN;
+         }});
   }
   std::vector<GeometryCorrelation> result;
   for (const auto& [name, measure] : measures) {
@@ -84,8 +84,8 @@ std::string GeometrySectionHtml(const std::vector<GeometryRun>& runs, const std:
   const std::vector<GeometryCorrelation> correlations = GeometryCorrelations(runs, options);
   ScatterPlot plot;
   plot.title = fmt::format("{} vs. geometric accuracy", primary_metric);
-  plot.x_label = fmt::format("geometric accuracy ({:g} %, reference units)",
-                             100 * options.accuracy_fraction);
+  plot.x_label =
+      fmt::format("geometric accuracy ({:g} %, reference units)", 100 * options.accuracy_fraction);
   plot.y_label = primary_metric + " median";
   for (const GeometryRun& r : runs) {
     if (std::find(plot.series.begin(), plot.series.end(), r.series) == plot.series.end()) {
@@ -119,9 +119,10 @@ std::string GeometrySectionHtml(const std::vector<GeometryRun>& runs, const std:
       "for 1-NCC vs. Middlebury accuracy).</p>\n",
       HtmlEscape(reference), 100 * options.accuracy_fraction, HtmlEscape(primary_metric));
   if (unavailable > 0) {
-    html += fmt::format("<details><summary>{} run(s) without a geometric result</summary><ul>{}"
-                        "</ul></details>\n",
-                        unavailable, reasons);
+    html += fmt::format(
+        "<details><summary>{} run(s) without a geometric result</summary><ul>{}"
+        "</ul></details>\n",
+        unavailable, reasons);
   }
   html += "<div class=\"plots\">\n" + ScatterPlotSvg(plot) + "</div>\n";
   html +=

@@ -40,8 +40,7 @@ std::vector<GeometryCorrelation> GeometryCorrelations(const std::vector<Geometry
 // <section id="geometry">: the reference, the scatterplot (primary vs. accuracy, one point per
 // run with both values) and the correlation table (id "geometry-correlations", one row per
 // measure, data-pearson/data-spearman/data-runs attributes).
-std::string GeometrySectionHtml(const std::vector<GeometryRun>& runs,
-                                const std::string& reference,
+std::string GeometrySectionHtml(const std::vector<GeometryRun>& runs, const std::string& reference,
                                 const geometry::GeometryOptions& options,
                                 const std::string& primary_metric);
 

@@ -121,7 +121,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     double primary_median = NAN;
     double completeness_median = NAN;
     size_t count = 0;
-    std::string note;  // why the accuracy does not compare (empty: it does)
+    std::string note;                // why the accuracy does not compare (empty: it does)
     geometry::RunGeometry geometry;  // with options.geometry_reference
   };
   std::vector<Loaded> runs;

@@ -78,8 +78,9 @@ std::string ScatterPlotSvg(const ScatterPlot& plot) {
   svg += fmt::format("<text class=\"title\" x=\"{}\" y=\"18\" text-anchor=\"middle\">{}</text>\n",
                      C(width / 2), HtmlEscape(plot.title));
   if (!plot.note.empty()) {
-    svg += fmt::format("<text class=\"legend\" x=\"{}\" y=\"34\" text-anchor=\"middle\">{}</text>\n",
-                       C(width / 2), HtmlEscape(plot.note));
+    svg +=
+        fmt::format("<text class=\"legend\" x=\"{}\" y=\"34\" text-anchor=\"middle\">{}</text>\n",
+                    C(width / 2), HtmlEscape(plot.note));
   }
   for (double t = ay.low; t <= ay.high + ay.step * 1e-6; t += ay.step) {
     svg += fmt::format(
@@ -102,13 +103,12 @@ std::string ScatterPlotSvg(const ScatterPlot& plot) {
       "text-anchor=\"middle\">{}</text>\n",
       C(top + plot_height / 2), HtmlEscape(plot.y_label));
   svg += fmt::format("<text class=\"label\" x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n",
-                     C(left + plot_width / 2), C(top + plot_height + 34),
-                     HtmlEscape(plot.x_label));
+                     C(left + plot_width / 2), C(top + plot_height + 34), HtmlEscape(plot.x_label));
   for (const ScatterPoint& p : plot.points) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-    const std::string series =
-        p.series >= 0 && p.series < static_cast<int>(plot.series.size()) ? plot.series[p.series]
-                                                                         : "";
+    const std::string series = p.series >= 0 && p.series < static_cast<int>(plot.series.size())
+                                   ? plot.series[p.series]
+                                   : "";
     svg += fmt::format(
         "<g class=\"point-group\" data-label=\"{0}\" data-series=\"{1}\" data-x=\"{2}\" "
         "data-y=\"{3}\"><title>{0}: {4} = {5}, {6} = {7}</title><circle class=\"point\" "

@@ -55,8 +55,8 @@
 #include <string_view>
 #include <vector>
 
-#include "rephoto/core/error.h"
 #include "rephoto/cluster/slurm.h"
+#include "rephoto/core/error.h"
 #include "rephoto/eval/evaluate.h"
 #include "rephoto/geometry/geometry.h"
 #include "rephoto/sweep/grid.h"
@@ -72,8 +72,8 @@ struct SweepOptions {
   std::string x_axis;  // "" = the last axis
   std::filesystem::path out;
   bool report = true;
-  std::filesystem::path reference;        // "" = no geometric evaluation
-  geometry::GeometryOptions geometry;     // with `reference`
+  std::filesystem::path reference;     // "" = no geometric evaluation
+  geometry::GeometryOptions geometry;  // with `reference`
   // Only the sweep's own aggregation (tables, report, sweep.json) from the settings' run folders,
   // without evaluating and without the sweep folder's lock: the last task of a sweep on Slurm.
   bool only_aggregate = false;
