@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -175,6 +176,12 @@ geometry_samples = 20000
   const double pearson = std::stod(Attribute(html, row, "data-pearson"));
   EXPECT_NEAR(pearson, HandPearson(accuracy, one_minus_ncc), 1e-9);
   EXPECT_GT(pearson, 0.8);
+  for (size_t i = 0; i < accuracy.size(); ++i) {
+    std::printf("geometry_noise %g: accuracy %.6g (%.3g %% of the extent), 1-NCC median %.6g\n",
+                noise[i], accuracy[i], 100 * accuracy[i] / extent, one_minus_ncc[i]);
+  }
+  std::printf("Pearson %.4f, Spearman %s over 5 runs\n", pearson,
+              Attribute(html, row, "data-spearman").c_str());
   EXPECT_NE(html.find("data-col=\"geo_accuracy\""), std::string::npos);
 
   // The comparison report of the same runs (rephoto report --reference --csv): the ranking CSV
