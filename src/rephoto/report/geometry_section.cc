@@ -18,6 +18,12 @@ std::string Cell(double v, const std::string& title = "") {
                      title.empty() ? "" : " title=\"" + HtmlEscape(title) + "\"", DisplayNumber(v));
 }
 
+// A correlation coefficient, or why there is none.
+std::string Coefficient(double r, size_t runs) {
+  if (!std::isnan(r)) return DisplayNumber(r);
+  return runs < 2 ? "\u2013 (fewer than 2 runs)" : "\u2013 (a constant series)";
+}
+
 }  // namespace
 
 std::string GeometryHeaderCells(const geometry::GeometryOptions& options) {
@@ -134,7 +140,7 @@ std::string GeometrySectionHtml(const std::vector<GeometryRun>& runs, const std:
         "data-runs=\"{3}\"><td class=\"text\">{0}</td><td>{4}</td><td>{5}</td><td>{3}</td>"
         "</tr>\n",
         HtmlEscape(c.measure), DataNumber(c.pearson), DataNumber(c.spearman), c.runs,
-        DisplayNumber(c.pearson), DisplayNumber(c.spearman));
+        Coefficient(c.pearson, c.runs), Coefficient(c.spearman, c.runs));
   }
   return html + "</tbody></table></section>\n";
 }

@@ -98,7 +98,10 @@ void WriteSuggestionsReport(const fs::path& dir, const fs::path& out_html, int t
         "<td>{10}</td></tr>\n",
         HtmlEscape(name), DataNumber(area), DataNumber(mean_error), image, Vector(s, "center"),
         Vector(s, "qvec"), Vector(s, "tvec"), DisplayNumber(area), Percent(area, unobserved),
-        DisplayNumber(Number(s, "visible_vertices")), DisplayNumber(mean_error));
+        std::isfinite(Number(s, "visible_vertices"))
+            ? fmt::format("{:.0f}", Number(s, "visible_vertices"))
+            : "\u2013",
+        DisplayNumber(mean_error));
   }
   html += "</tbody></table></section>\n" + internal::PageEnd();
   WriteTextFileAtomically(out_html, html);
