@@ -55,8 +55,8 @@
 #include <string_view>
 #include <vector>
 
-#include "rephoto/cluster/slurm.h"
 #include "rephoto/core/error.h"
+#include "rephoto/cluster/slurm.h"
 #include "rephoto/eval/evaluate.h"
 #include "rephoto/geometry/geometry.h"
 #include "rephoto/sweep/grid.h"

@@ -1,3 +1,4 @@
+#include "rephoto/run/records.h"
 #include "rephoto/sweep/table.h"
 
 #include <algorithm>
@@ -7,7 +8,6 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/io/csv.h"
-#include "rephoto/run/records.h"
 
 namespace rephoto::sweep {
 namespace {
@@ -24,7 +24,8 @@ std::string ReadText(const std::filesystem::path& path) {
 
 double ParseNumber(const std::string& field, const std::filesystem::path& path, size_t line) {
   const std::optional<double> value = run::ParseCsvNumber(field);
-  REPHOTO_CHECK(value.has_value(), "{}: line {}: '{}' is not a number", path.string(), line, field);
+  REPHOTO_CHECK(value.has_value(), "{}: line {}: '{}' is not a number", path.string(), line,
+                field);
   return *value;
 }
 
