@@ -16,6 +16,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/splat/gaussians.h"
+#include "rephoto/synth/demo_files.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto {
@@ -171,6 +172,115 @@ TEST(Cli, GaussianModelsGoThroughEvaluateReportAndProject) {
   EXPECT_EQ(project.exit_code, 0) << project.err;
   EXPECT_EQ(ReadFileToString(dir / "projected.ply"),
             ReadFileToString(dir / "run/projected/1-ncc.ply"));
+}
+
+// issue 21: the small demo scene (8 photos around the object) and its ground-truth mesh.
+fs::path DemoScene() {
+  static const fs::path root = [] {
+    const fs::path r = testing::MakeTempDir() / "demo_scene";
+    synth::DemoSceneOptions options;
+    options.image_width = 160;
+    options.image_height = 120;
+    options.camera_count = 8;
+    options.ground_cells = 40;
+    options.object_bands = 24;
+    synth::WriteDemoSceneFiles(options, r, [](size_t i) {
+      return synth::PhotoSettings{1, 0.01, i};
+    });
+    return r;
+  }();
+  return root;
+}
+
+size_t Count(const std::string& text, const std::string& what) {
+  size_t n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+// issue 21: rephoto geometry's outputs, and one-line errors for a missing reference or a bad
+// tolerance list.
+TEST(Cli, GeometryWritesItsOutputsAndRefusesBadInputInOneLine) {
+  const fs::path dir = testing::MakeTempDir();
+  const std::string truth = (DemoScene() / "truth.ply").string();
+  const Outcome ok =
+      RunCli("geometry '" + truth + "' --reference '" + truth +
+             "' --tolerances 0.01,0.02 --samples 5000 --out '" + (dir / "geo").string() + "'");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  for (const char* file :
+       {"geometry.json", "geometry.csv", "model_distance.ply", "reference_distance.ply"}) {
+    EXPECT_TRUE(fs::is_regular_file(dir / "geo" / file)) << file;
+  }
+  // The model is the reference: complete at every tolerance.
+  const std::string csv = ReadFileToString(dir / "geo/geometry.csv");
+  EXPECT_THAT(csv, HasSubstr("tolerance,completeness,precision,recall,f_score,accuracy"));
+  EXPECT_THAT(csv, HasSubstr("\n0.01,1,1,1,1,"));
+  EXPECT_THAT(csv, HasSubstr("\n0.02,1,1,1,1,"));
+
+  const Outcome missing =
+      RunCli("geometry '" + truth + "' --reference '" + (dir / "nothing.ply").string() +
+             "' --out '" + (dir / "m").string() + "'");
+  EXPECT_EQ(missing.exit_code, 1) << missing.err;
+  EXPECT_EQ(Lines(missing.err), 1u) << missing.err;
+  EXPECT_THAT(missing.err, HasSubstr("nothing.ply"));
+  for (const std::string& tolerances : {"0.01,x", "0.01,-1", "0"}) {
+    SCOPED_TRACE(tolerances);
+    const Outcome bad =
+        RunCli("geometry '" + truth + "' --reference '" + truth + "' --tolerances " + tolerances +
+               " --out '" + (dir / "b").string() + "'");
+    EXPECT_EQ(bad.exit_code, 2) << bad.err;
+    const std::string message = bad.err.find("Run with") != std::string::npos
+                                    ? bad.err.substr(0, bad.err.find("Run with"))
+                                    : bad.err;
+    EXPECT_EQ(Lines(message), 1u) << bad.err;
+    EXPECT_THAT(bad.err, HasSubstr("tolerance"));
+  }
+  EXPECT_FALSE(fs::exists(dir / "b"));
+}
+
+// issue 21: rephoto suggest writes the suggested cameras, their rephotos and report.html.
+TEST(Cli, SuggestWritesCamerasRephotosAndAReport) {
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path out = dir / "next";
+  const Outcome ok = RunCli("suggest --scene '" + (DemoScene() / "sparse").string() +
+                            "' --model '" + (DemoScene() / "truth.ply").string() +
+                            "' --count 2 --candidates 100 --out '" + out.string() + "'");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_THAT(ok.out, HasSubstr("suggest_01"));
+  for (const char* file :
+       {"suggestions.json", "transforms.json", "sparse/cameras.txt", "sparse/images.txt",
+        "renders/suggest_00.png", "renders/suggest_01.png", "report.html"}) {
+    EXPECT_TRUE(fs::is_regular_file(out / file)) << file;
+  }
+  const std::string html = ReadFileToString(out / "report.html");
+  EXPECT_EQ(Count(html, "<tr class=\"suggestion\""), 2u);
+  EXPECT_EQ(Count(html, "<img src=\"data:image/"), 2u);  // each suggestion's rephoto
+  EXPECT_THAT(html, HasSubstr("data-name=\"suggest_00.png\""));
+
+  const Outcome bad = RunCli("suggest --scene '" + (DemoScene() / "sparse").string() +
+                             "' --model '" + (DemoScene() / "truth.ply").string() +
+                             "' --count 0 --out '" + (dir / "b").string() + "'");
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_EQ(Lines(bad.err), 1u) << bad.err;
+}
+
+// issue 21: report --reference refuses a missing reference and a single run in one line.
+TEST(Cli, ReportReferenceMistakesExitTwoWithOneLine) {
+  const fs::path dir = testing::MakeTempDir();
+  fs::create_directories(dir / "a");
+  fs::create_directories(dir / "b");
+  const std::string runs = "'" + (dir / "a").string() + "' '" + (dir / "b").string() + "'";
+  const Outcome missing = RunCli("report " + runs + " --reference '" + (dir / "gt.ply").string() +
+                                 "' --out '" + (dir / "r.html").string() + "'");
+  EXPECT_EQ(missing.exit_code, 2) << missing.err;
+  EXPECT_EQ(Lines(missing.err), 1u) << missing.err;
+  EXPECT_THAT(missing.err, HasSubstr("gt.ply: no such file"));
+  const Outcome single =
+      RunCli("report '" + (dir / "a").string() + "' --reference '" +
+             (DemoScene() / "truth.ply").string() + "' --out '" + (dir / "r.html").string() + "'");
+  EXPECT_EQ(single.exit_code, 2) << single.err;
+  EXPECT_THAT(single.err, HasSubstr("two or more runs"));
+  EXPECT_FALSE(fs::exists(dir / "r.html"));
 }
 
 }  // namespace

@@ -1,16 +1,23 @@
 // rephoto report RUN_DIR [RUN_DIR ...] --out report.html [--labels a,b,...] [--title T]
 //                [--metric M] [--examples N] [--thumbnail-width PX] [--keep-order]
+//                [--reference GT [--tolerances T,...] [--accuracy-fraction F]
+//                 [--geometry-samples N]]
 // One run directory: report::WriteRunReport (a single --labels entry becomes the title when
 // --title is not given); several: report::WriteCollectionReport (ranking table, boxplots per
 // run, best/worst images of each). See src/rephoto/report/report.h.
+// --reference (several runs): each run's model(s) against a ground-truth surface, the primary
+// metric vs. geometric accuracy and their correlations (paper Fig. 8; report.h
+// CollectionOptions::geometry_reference).
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "command.h"
 #include "rephoto/core/error.h"
+#include "rephoto/geometry/geometry.h"
 #include "rephoto/report/report.h"
 
 namespace rephoto::cli {
@@ -27,6 +34,8 @@ struct ReportArguments {
   bool keep_order = false;
   std::string csv;
   double completeness_margin = report::CollectionOptions{}.completeness_margin;
+  std::string reference;
+  geometry::GeometryOptions geometry;
 };
 
 CommandRunner SetupReport(CLI::App& app) {
@@ -58,6 +67,21 @@ CommandRunner SetupReport(CLI::App& app) {
                  "most complete run's (accuracy alone does not compare them)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  app.add_option("--reference", args->reference,
+                 "Several runs: ground-truth surface (mesh or point cloud); adds each run's "
+                 "geometric accuracy, completeness and F-score, a scatterplot of the primary "
+                 "metric vs. accuracy and their Pearson/Spearman correlations");
+  app.add_option("--tolerances", args->geometry.tolerances,
+                 "With --reference: distance thresholds (reference units, comma-separated)")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--accuracy-fraction", args->geometry.accuracy_fraction,
+                 "With --reference: accuracy is the distance within which this fraction of the "
+                 "model lies")
+      ->capture_default_str();
+  app.add_option("--geometry-samples", args->geometry.samples,
+                 "With --reference: area-uniform samples per surface")
+      ->capture_default_str();
   app.add_flag("--keep-order", args->keep_order,
                "Several runs: keep the given order instead of ranking by the primary metric");
 
@@ -65,6 +89,15 @@ CommandRunner SetupReport(CLI::App& app) {
     if (!args->labels.empty() && args->labels.size() != args->runs.size()) {
       throw UsageError(fmt::format("--labels: {} labels for {} run directories",
                                    args->labels.size(), args->runs.size()));
+    }
+    if (!args->reference.empty()) {
+      REPHOTO_CHECK_USAGE(args->runs.size() >= 2,
+                          "--reference: the geometric comparison needs two or more runs (for one "
+                          "model: rephoto geometry MODEL --reference {})",
+                          args->reference);
+      REPHOTO_CHECK_USAGE(std::filesystem::is_regular_file(args->reference),
+                          "--reference {}: no such file", args->reference);
+      args->geometry.Check();
     }
     if (args->runs.size() == 1) {
       report::ReportOptions options;
@@ -88,6 +121,8 @@ CommandRunner SetupReport(CLI::App& app) {
       options.rank = !args->keep_order;
       options.ranking_csv = args->csv;
       options.completeness_margin = args->completeness_margin;
+      options.geometry_reference = args->reference;
+      options.geometry_options = args->geometry;
       if (args->examples >= 0) options.example_images = args->examples;
       if (args->thumbnail_width > 0) options.thumbnail_width = args->thumbnail_width;
       report::WriteCollectionReport(entries, args->out, options);

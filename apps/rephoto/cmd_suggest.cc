@@ -3,9 +3,12 @@
 // Proposes K camera poses for the next photos: views of the model's surface that no photo sees
 // yet and of the regions with the highest projected error (src/rephoto/geometry/suggest.h).
 // Writes DIR/sparse/ (COLMAP text: the suggested cameras), DIR/transforms.json,
-// DIR/suggestions.json and DIR/renders/suggest_XX.png (the model rendered at each suggestion).
+// DIR/suggestions.json, DIR/renders/suggest_XX.png (the model rendered at each suggestion) and
+// DIR/report.html (report/suggest_report.h: the suggested views with their rephotos, poses,
+// newly covered surface and mean error).
 #include <fmt/format.h>
 
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -19,6 +22,7 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
+#include "rephoto/report/suggest_report.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/scene/transforms_json.h"
@@ -123,15 +127,18 @@ CommandRunner SetupSuggest(CLI::App& app) {
       suggested.views.push_back(view);
       const Eigen::Vector3d c = s.cam_from_world.Center();
       const Eigen::Vector4d q = s.cam_from_world.Quaternion();
-      list.push_back({{"name", view.name},
-                      {"center", {c.x(), c.y(), c.z()}},
-                      {"qvec", {q[0], q[1], q[2], q[3]}},
-                      {"tvec",
-                       {s.cam_from_world.translation.x(), s.cam_from_world.translation.y(),
-                        s.cam_from_world.translation.z()}},
-                      {"score", s.score},
-                      {"unobserved_area", s.unobserved_area},
-                      {"visible_vertices", s.visible_vertices}});
+      list.push_back(
+          {{"name", view.name},
+           {"center", {c.x(), c.y(), c.z()}},
+           {"qvec", {q[0], q[1], q[2], q[3]}},
+           {"tvec",
+            {s.cam_from_world.translation.x(), s.cam_from_world.translation.y(),
+             s.cam_from_world.translation.z()}},
+           {"score", s.score},
+           {"unobserved_area", s.unobserved_area},
+           {"visible_vertices", s.visible_vertices},
+           {"mean_error", std::isfinite(s.mean_error) ? nlohmann::ordered_json(s.mean_error)
+                                                      : nlohmann::ordered_json(nullptr)}});
       const render::Rephoto rephoto = render::RenderRephoto(model, camera, s.cam_from_world);
       io::WritePng(view.image_path, rephoto.color);
     }
@@ -140,6 +147,7 @@ CommandRunner SetupSuggest(CLI::App& app) {
     scene::WriteColmap(suggested, out / "sparse", scene::ColmapFormat::kText);
     scene::WriteTransformsJson(suggested, out / "transforms.json");
     WriteTextFileAtomically(out / "suggestions.json", json.dump(2) + "\n");
+    report::WriteSuggestionsReport(out, out / "report.html");
 
     const double unobserved = result.unobserved_area;
     fmt::print("{}: {:.1f} % of the model's surface is seen by no photo of {}\n", args->model,

@@ -214,6 +214,15 @@ SuggestResult SuggestViews(const render::RenderModel& model, const scene::Scene&
     suggestion.cam_from_world = candidates[best];
     suggestion.score = best_score;
     suggestion.visible_vertices = sees[best].size();
+    double error_sum = 0, error_area = 0;
+    for (uint32_t i : sees[best]) {
+      if (!vertex_error.empty() && std::isfinite(vertex_error[i])) {
+        error_sum += areas[i] * vertex_error[i];
+        error_area += areas[i];
+      }
+    }
+    suggestion.mean_error =
+        error_area > 0 ? error_sum / error_area : std::numeric_limits<double>::quiet_NaN();
     for (uint32_t i : sees[best]) {
       weight[i] = 0;
       if (unobserved_left[i]) {

@@ -46,6 +46,9 @@ struct Suggestion {
   double score = 0;             // summed weight it added when chosen (area units)
   double unobserved_area = 0;   // area of so-far-unobserved surface it newly sees
   size_t visible_vertices = 0;  // vertices it sees
+  // Area-weighted mean projected error (vertex_error) of the vertices it sees that have a
+  // finite error; NaN without errors or when it sees none with an error.
+  double mean_error = 0;
 };
 
 struct SuggestResult {

@@ -119,6 +119,15 @@ TEST(SuggestTest, SuggestionsLookAtTheUnseenSide) {
   }
   const SuggestResult by_error = SuggestViews(model, all_round, TestCamera(), errors, options);
   EXPECT_LT(by_error.suggestions[0].cam_from_world.Center().x(), -2.0);
+  // The mean error a suggestion looks at: none without errors; a constant field's value; with
+  // the high-error cap in view, above the low value and below the high one.
+  for (const Suggestion& s : result.suggestions) EXPECT_TRUE(std::isnan(s.mean_error));
+  const SuggestResult constant =
+      SuggestViews(model, all_round, TestCamera(),
+                   std::vector<float>(model.mesh().vertex_count(), 0.25f), options);
+  for (const Suggestion& s : constant.suggestions) EXPECT_NEAR(s.mean_error, 0.25, 1e-12);
+  EXPECT_GT(by_error.suggestions[0].mean_error, 0.1);
+  EXPECT_LT(by_error.suggestions[0].mean_error, 1.0);
   EXPECT_THROW(SuggestViews(model, scene, TestCamera(), {1.0f}, options), Error);
 }
 

@@ -13,6 +13,7 @@
 #include "rephoto/io/csv.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/report/boxplot.h"
+#include "rephoto/report/geometry_section.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_page.h"
 #include "rephoto/report/run_data.h"
@@ -120,7 +121,8 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     double primary_median = NAN;
     double completeness_median = NAN;
     size_t count = 0;
-    std::string note;  // why the accuracy does not compare (empty: it does)
+    std::string note;                // why the accuracy does not compare (empty: it does)
+    geometry::RunGeometry geometry;  // with options.geometry_reference
   };
   std::vector<Loaded> runs;
   std::vector<std::string> metric_names;  // union, first-seen order
@@ -152,6 +154,19 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       return higher_better ? a.primary_median > b.primary_median
                            : a.primary_median < b.primary_median;
     });
+  }
+
+  const bool with_geometry = !options.geometry_reference.empty();
+  if (with_geometry) {
+    options.geometry_options.Check();
+    REPHOTO_CHECK(fs::is_regular_file(options.geometry_reference),
+                  "{}: the geometric reference does not exist or is not a file",
+                  options.geometry_reference.string());
+    for (Loaded& l : runs) {
+      l.geometry = geometry::EvaluateRunGeometry(l.entry.run_dir, options.geometry_reference,
+                                                 options.geometry_options);
+      if (!l.geometry.available) LogWarning("geometry: " + l.geometry.message);
+    }
   }
 
   REPHOTO_CHECK(options.completeness_margin >= 0 && options.completeness_margin <= 1,
@@ -229,6 +244,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     if (m == options.primary_metric) continue;
     html += fmt::format("<th data-col=\"{0}\">{0}</th>", HtmlEscape(m));
   }
+  if (with_geometry) html += GeometryHeaderCells(options.geometry_options);
   bool any_description = false;
   for (const Loaded& l : runs) any_description = any_description || !l.entry.description.empty();
   html += "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>";
@@ -262,6 +278,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       const double median = index >= 0 ? Summarize(l.run.Values(index)).median : NAN;
       html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(median), DisplayNumber(median));
     }
+    if (with_geometry) html += GeometryRowCells(l.geometry, options.geometry_options);
     html += fmt::format("<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>",
                         l.run.failed_folds.size(), l.run.missing.size());
     if (any_note) html += fmt::format("<td class=\"text note\">{}</td>", HtmlEscape(l.note));
@@ -280,6 +297,11 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     for (const std::string& m : metric_names) {
       if (m != options.primary_metric) header.push_back(m + "_median");
     }
+    if (with_geometry) {
+      for (const std::string& c : geometry::RunGeometryColumns(options.geometry_options)) {
+        header.push_back(c);
+      }
+    }
     for (const char* column : {"failed_folds", "missing", "cross_validated", "note"}) {
       header.emplace_back(column);
     }
@@ -293,6 +315,11 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
         if (m == options.primary_metric) continue;
         const int index = l.run.MetricIndex(m);
         row.push_back(io::CsvNumber(index >= 0 ? Summarize(l.run.Values(index)).median : NAN));
+      }
+      if (with_geometry) {
+        for (double v : geometry::RunGeometryValues(l.geometry, options.geometry_options)) {
+          row.push_back(io::CsvNumber(v));
+        }
       }
       row.push_back(std::to_string(l.run.failed_folds.size()));
       row.push_back(std::to_string(l.run.missing.size()));
@@ -357,6 +384,15 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       "across folds (evaluate runs with several folds) or over images. Box Q1\u2013Q3, "
       "black line median, diamond mean, whiskers min and max.</p>\n" +
       PlotsHtml(plots) + "</section>\n";
+
+  if (with_geometry) {
+    std::vector<GeometryRun> geometry_runs;
+    for (const Loaded& l : runs) {
+      geometry_runs.push_back({l.entry.label, l.entry.series, l.primary_median, l.geometry});
+    }
+    html += GeometrySectionHtml(geometry_runs, options.geometry_reference.string(),
+                                options.geometry_options, options.primary_metric);
+  }
 
   // Per entry: problems, examples, per-image table and settings.
   html += "<section id=\"entries\"><h2>Runs</h2>\n";

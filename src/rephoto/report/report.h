@@ -55,6 +55,8 @@
 #include <string>
 #include <vector>
 
+#include "rephoto/geometry/geometry.h"
+
 namespace rephoto::report {
 
 struct ReportOptions {
@@ -96,6 +98,16 @@ struct CollectionOptions {
   // completeness median, the other metrics' medians, failed folds, missing, cross_validated,
   // note), for spreadsheets and scripts such as examples/experiments/table1.sh.
   std::filesystem::path ranking_csv;
+  // Geometry beside appearance (paper Fig. 8): with a reference surface (mesh or point cloud),
+  // each run's model(s) are evaluated against it (geometry/run_geometry.h: per-fold models
+  // averaged, cached in RUN/geometry/<key>.json) with these options; the ranking table and
+  // `ranking_csv` gain the geometric accuracy and, per tolerance, completeness and F-score
+  // (the CSV also precision and recall: columns geometry::RunGeometryColumns), and a section
+  // "geometry" shows the primary metric's median vs. the accuracy as a scatterplot
+  // (scatterplot.h) with the Pearson and Spearman correlations and the number of runs.
+  // Runs without a model (compare runs, image-based rendering) show no values and the reason.
+  std::filesystem::path geometry_reference;
+  geometry::GeometryOptions geometry_options;
 };
 
 // Several runs (the demo's reconstructions; a sweep's settings) -> one HTML: ranking table,

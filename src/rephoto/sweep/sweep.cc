@@ -14,6 +14,7 @@
 #include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/eval/slurm_executor.h"
+#include "rephoto/geometry/run_geometry.h"
 #include "rephoto/report/report.h"
 #include "rephoto/run/run_folder.h"
 #include "rephoto/scene/read_scene.h"
@@ -122,10 +123,32 @@ SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
     } else if (key == "report") {
       REPHOTO_CHECK(value.is_boolean(), "{}: expected true or false", source);
       options.report = value.get<bool>();
+    } else if (key == "reference") {
+      REPHOTO_CHECK(value.is_string() && !value.get<std::string>().empty(),
+                    "{}: expected a mesh or point cloud file", source);
+      options.reference = base_dir / value.get<std::string>();
+    } else if (key == "tolerances") {
+      REPHOTO_CHECK(value.is_array() && !value.empty(), "{}: expected a list of numbers > 0",
+                    source);
+      options.geometry.tolerances.clear();
+      for (const auto& item : value) {
+        REPHOTO_CHECK(item.is_number() && item.get<double>() > 0,
+                      "{}: expected a list of numbers > 0", source);
+        options.geometry.tolerances.push_back(item.get<double>());
+      }
+    } else if (key == "accuracy_fraction") {
+      REPHOTO_CHECK(value.is_number() && value.get<double>() > 0 && value.get<double>() <= 1,
+                    "{}: expected a number in (0, 1]", source);
+      options.geometry.accuracy_fraction = value.get<double>();
+    } else if (key == "geometry_samples") {
+      REPHOTO_CHECK(value.is_number_integer() && value.get<int64_t>() >= 1,
+                    "{}: expected a whole number >= 1", source);
+      options.geometry.samples = value.get<size_t>();
     } else {
       REPHOTO_CHECK(IsSweepParameter(key),
                     "{}: unknown key (parameters: {}; also x, out, "
-                    "min_train_count, report)",
+                    "min_train_count, report, reference, tolerances, accuracy_fraction, "
+                    "geometry_samples)",
                     source, SweepParameterList());
       SweepAxis axis{.parameter = key, .values = {}};
       if (key == "train_count" && value.is_string()) {
@@ -165,6 +188,10 @@ struct SweepPlan {
 
 SweepPlan PlanSweep(const SweepOptions& options, SweepResult* result) {
   REPHOTO_CHECK(!options.out.empty(), "sweep: no output folder");
+  REPHOTO_CHECK(options.reference.empty() || fs::is_regular_file(options.reference),
+                "{}: the sweep's geometric reference does not exist or is not a file",
+                options.reference.string());
+  if (!options.reference.empty()) options.geometry.Check();
   result->axes = options.axes;
   for (auto& axis : result->axes) {
     if (axis.parameter == "train_count" && options.halve_train_count && axis.values.empty()) {
@@ -312,6 +339,23 @@ bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
   return true;
 }
 
+// The geometric columns of sweep.csv (each setting's run against options.reference; cached in
+// the run folder, so the report reads the same results back).
+void AddGeometry(const SweepOptions& options, const std::vector<fs::path>& run_dirs,
+                 SweepTable* table) {
+  REPHOTO_CHECK(fs::is_regular_file(options.reference),
+                "{}: the sweep's geometric reference does not exist or is not a file",
+                options.reference.string());
+  table->geometry_columns = geometry::RunGeometryColumns(options.geometry);
+  for (size_t i = 0; i < table->settings.size() && i < run_dirs.size(); ++i) {
+    if (!fs::exists(run_dirs[i] / "per_fold.csv")) continue;
+    const geometry::RunGeometry g =
+        geometry::EvaluateRunGeometry(run_dirs[i], options.reference, options.geometry);
+    if (!g.available) LogWarning("sweep geometry: " + g.message);
+    table->settings[i].geometry = geometry::RunGeometryValues(g, options.geometry);
+  }
+}
+
 void WriteReport(const SweepOptions& options, const std::string& x_axis,
                  const SweepResult& result) {
   std::vector<report::CollectionEntry> entries;
@@ -336,6 +380,8 @@ void WriteReport(const SweepOptions& options, const std::string& x_axis,
   report_options.title = "rephoto sweep: " + options.out.filename().string();
   report_options.setting_name = x_axis;
   report_options.rank = false;
+  report_options.geometry_reference = options.reference;
+  report_options.geometry_options = options.geometry;
   report::WriteCollectionReport(entries, options.out / "report.html", report_options);
 }
 
@@ -406,6 +452,7 @@ SweepResult RunSweep(const SweepOptions& options) {
   std::vector<fs::path> run_dirs;
   for (const SettingOutcome& outcome : result.settings) run_dirs.push_back(outcome.run_dir);
   result.table = ReadSweepTable(plan.settings, run_dirs);
+  if (!options.reference.empty()) AddGeometry(options, run_dirs, &result.table);
   WriteTextFileAtomically(options.out / "sweep.csv", SweepSummaryCsv(result.table, result.axes));
   WriteTextFileAtomically(options.out / "sweep_per_fold.csv",
                           SweepPerFoldCsv(result.table, result.axes));

@@ -15,6 +15,15 @@
 //                                  #   train_count, train_short_side
 //   x = "train_count"              # the plots' x axis (default: the last axis, see below)
 //   out = "sweep_out"              # the sweep's folder (or --out; default "<config stem>.sweep")
+//   reference = "gt.ply"           # optional ground-truth surface (paper Fig. 8): each setting's
+//                                  # rendered model(s) against it (geometry/run_geometry.h);
+//                                  # sweep.csv gains geo_* columns, report.html the geometric
+//                                  # columns, 1-NCC vs. accuracy scatterplot and correlations
+//   tolerances = [0.001, 0.002]    # with reference: distance thresholds (reference units)
+//   accuracy_fraction = 0.9        # with reference: Middlebury accuracy fraction
+//   geometry_samples = 1000000     # with reference: area-uniform samples per surface
+// The geometric keys live in [sweep] (not at the top level, which is `rephoto evaluate`'s
+// config and rejects keys it does not know); `reference` is relative to the config file.
 // Config tables have no order, so the axes are taken by name, except the x axis, which comes
 // last and so varies fastest; the other axes' combinations are the series of the plots.
 //
@@ -49,6 +58,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/cluster/slurm.h"
 #include "rephoto/eval/evaluate.h"
+#include "rephoto/geometry/geometry.h"
 #include "rephoto/sweep/grid.h"
 #include "rephoto/sweep/table.h"
 
@@ -62,6 +72,8 @@ struct SweepOptions {
   std::string x_axis;  // "" = the last axis
   std::filesystem::path out;
   bool report = true;
+  std::filesystem::path reference;     // "" = no geometric evaluation
+  geometry::GeometryOptions geometry;  // with `reference`
   // Only the sweep's own aggregation (tables, report, sweep.json) from the settings' run folders,
   // without evaluating and without the sweep folder's lock: the last task of a sweep on Slurm.
   bool only_aggregate = false;

@@ -127,6 +127,7 @@ std::string SweepSummaryCsv(const SweepTable& table, const std::vector<SweepAxis
       header.push_back(column + "_" + stat);
     }
   }
+  header.insert(header.end(), table.geometry_columns.begin(), table.geometry_columns.end());
   csv.AddRow(header);
   for (const auto& rows : table.settings) {
     std::vector<std::string> fields = {rows.setting.name};
@@ -141,6 +142,9 @@ std::string SweepSummaryCsv(const SweepTable& table, const std::vector<SweepAxis
       for (double v : {s.median, s.q1, s.q3, s.min, s.max, s.mean}) {
         fields.push_back(any ? io::CsvNumber(v) : "");
       }
+    }
+    for (size_t c = 0; c < table.geometry_columns.size(); ++c) {
+      fields.push_back(c < rows.geometry.size() ? io::CsvNumber(rows.geometry[c]) : "");
     }
     csv.AddRow(fields);
   }

@@ -6,7 +6,10 @@
 //   sweep.csv           one row per setting: setting, the parameters, folds (evaluated),
 //                       failed_folds, then for completeness and each metric X the statistics
 //                       across the setting's evaluated folds: X_median, X_q1, X_q3, X_min,
-//                       X_max, X_mean (core/stats.h Summarize; empty when no fold evaluated).
+//                       X_max, X_mean (core/stats.h Summarize; empty when no fold evaluated),
+//                       and, when the sweep has a geometric reference, the setting's
+//                       geometry::RunGeometryColumns (geo_accuracy, geo_completeness@t, ...:
+//                       geometry/run_geometry.h; empty when the run has no model).
 // Rows follow the order of the settings; metric columns the order of the first run that has
 // them. A setting whose run directory has no per_fold.csv (not run yet, or failed before any
 // fold finished) gives a row with folds = 0 and empty statistics.
@@ -32,11 +35,13 @@ struct SettingRows {
   std::vector<FoldRow> folds;
   std::vector<Summary> across_folds;  // per column, over the folds with status "ok"
   size_t failed_folds = 0;
+  std::vector<double> geometry;  // per SweepTable::geometry_columns (NaN = none)
 };
 
 struct SweepTable {
   std::vector<std::string> columns;  // "completeness", then metric names
   std::vector<SettingRows> settings;
+  std::vector<std::string> geometry_columns;  // empty without a geometric reference
 };
 
 // Reads the per_fold.csv of each setting's run directory (run_dirs[i] for settings[i]).
