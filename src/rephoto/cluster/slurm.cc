@@ -721,7 +721,9 @@ RunOutcome Runner::Run() {
   IndexTasks();
   submitted_jobs_.assign(groups_.size(), {});
   followed_jobs_.assign(groups_.size(), {});
-  const run::RunFolder lock = run::OpenRunFolder(slurm_dir_, "cluster");
+  // RUN/slurm may already hold files of the caller (the task's config): any content is ours.
+  const run::RunFolder lock =
+      run::OpenRunFolder(slurm_dir_, "cluster", [](const fs::path&) { return true; });
   LoadState();
   Plan();
   Submit();

@@ -109,6 +109,8 @@ TEST(Slurm, GroupsRunAsArraysInOrderAndFinishedTasksAreNotSubmittedAgain) {
   fs::create_directories(out);
   SbatchCounter counter(dir);
   const SlurmOptions options = TestOptions(counter);
+  // The caller may keep its own files in RUN/slurm (the tasks' config).
+  WriteTextFileAtomically(run / "slurm/evaluate.json", "{}");
 
   // Each task writes a file; the later groups first check that every earlier file exists.
   std::vector<TaskGroup> groups(3);
