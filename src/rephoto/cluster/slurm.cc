@@ -238,6 +238,7 @@ class Runner {
  private:
   void IndexTasks();
   void LoadState();
+  void RecoverJobIds();
   std::map<std::string, QueueEntry> QueryQueue(const std::set<std::string>& jobs, bool tolerate);
   void Plan();
   void Submit();
@@ -307,8 +308,35 @@ void Runner::IndexTasks() {
   }
 }
 
+// Submissions recorded without a job id (the submitter died while sbatch ran): the job is the
+// one whose batch script is the submission's; a submission Slurm does not know never happened.
+void Runner::RecoverJobIds() {
+  bool changed = false;
+  for (auto it = submissions_.begin(); it != submissions_.end();) {
+    if (!it->job.empty()) {
+      ++it;
+      continue;
+    }
+    const ProgramOutput output = RunSlurm({options_.commands.squeue, "-h", "-t", "all", "--name",
+                                           options_.job_name + "-" + it->group, "-o", "%F|%o"});
+    REPHOTO_CHECK(output.ok(), "squeue: {} (is Slurm reachable? SLURM_CONF, REPHOTO_SQUEUE)",
+                  output.FirstLine());
+    const std::optional<std::string> job =
+        FindJobOfScript(output.out, (slurm_dir_ / it->script).string());
+    changed = true;
+    if (job) {
+      it->job = *job;
+      ++it;
+    } else {
+      it = submissions_.erase(it);
+    }
+  }
+  if (changed) WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
+}
+
 void Runner::LoadState() {
   submissions_ = ReadJobsFile(slurm_dir_ / "jobs.json");
+  RecoverJobIds();
   for (const Submission& submission : submissions_) {
     next_submission_ = std::max(next_submission_, submission.sequence + 1);
     for (size_t i = 0; i < submission.tasks.size(); ++i) {
@@ -466,21 +494,32 @@ std::string Runner::SubmitArray(size_t group, const std::vector<size_t>& tasks,
   WriteTextFileAtomically(script, MakeArrayScript(spec, argv));
   fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
 
-  const ProgramOutput output = RunSlurm(argv);
-  REPHOTO_CHECK(output.ok(), "sbatch refused the {} task(s) of group '{}': {}", tasks.size(),
-                task_group.name, output.FirstLine());
-  const std::string job = ParseSbatchJobId(output.out);
-
+  // Recorded before sbatch runs, without a job id: when this process dies before it learns
+  // the id, the next call finds the job by its script (RecoverJobIds) instead of submitting the
+  // tasks twice.
   Submission record;
   record.sequence = spec.submission;
-  record.job = job;
   record.group = task_group.name;
   record.script = script_name;
   record.submitted = UtcNow();
   record.sbatch = argv;
+  for (size_t index : tasks)
+    record.tasks.emplace_back(tasks_[index].task->id, tasks_[index].fingerprint);
+  submissions_.push_back(std::move(record));
+  WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
+
+  const ProgramOutput output = RunSlurm(argv);
+  if (!output.ok()) {
+    submissions_.pop_back();
+    WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
+    ThrowError("sbatch refused the {} task(s) of group '{}': {}", tasks.size(), task_group.name,
+               output.FirstLine());
+  }
+  const std::string job = ParseSbatchJobId(output.out);
+  submissions_.back().job = job;
+  WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
   for (size_t i = 0; i < tasks.size(); ++i) {
     Tracked& tracked = tasks_[tasks[i]];
-    record.tasks.emplace_back(tracked.task->id, tracked.fingerprint);
     tracked.placement = {spec.submission, job, static_cast<int>(i), tracked.fingerprint};
     tracked.outcome.submitted = true;
     tracked.outcome.state = TaskState::kPending;
@@ -490,8 +529,6 @@ std::string Runner::SubmitArray(size_t group, const std::vector<size_t>& tasks,
     tracked.outcome.exit_code = -1;
     tracked.outcome.node.clear();
   }
-  submissions_.push_back(std::move(record));
-  WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
   return job;
 }
 

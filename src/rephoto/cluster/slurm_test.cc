@@ -340,6 +340,32 @@ TEST(Slurm, InterruptedWaitLeavesTheJobsRunningAndTheNextCallFollowsThem) {
   EXPECT_EQ(counter.Count(), 1u);
 }
 
+// The submitter died after sbatch submitted an array but before it recorded the job id: the
+// next call finds the job by its batch script and follows it instead of submitting again.
+TEST(Slurm, SubmissionWithoutARecordedJobIdIsFoundByItsScript) {
+  REPHOTO_REQUIRE_SLURM(cluster);
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path run = dir / "run";
+  SbatchCounter counter(dir);
+  SlurmOptions options = TestOptions(counter);
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  groups[0].tasks = {Sh("a", "sleep 1; echo a"), Sh("b", "sleep 1; echo b")};
+  options.wait = false;
+  const std::string job = RunTaskGroups(run, groups, options).JobIds().at(0);
+  nlohmann::json jobs = nlohmann::json::parse(ReadFileToString(run / "slurm/jobs.json"));
+  jobs["submissions"][0]["job"] = "";
+  WriteTextFileAtomically(run / "slurm/jobs.json", jobs.dump());
+
+  options.wait = true;
+  const RunOutcome outcome = RunTaskGroups(run, groups, options);
+  EXPECT_EQ(outcome.Count(TaskState::kDone), 2u);
+  EXPECT_EQ(outcome.submitted, 0u);
+  EXPECT_EQ(counter.Count(), 1u);
+  EXPECT_EQ(Submissions(run)[0]["job"], job);
+  EXPECT_EQ(Find(outcome, "b").job, job + "_1");
+}
+
 TEST(Slurm, LargeGroupsAreSplitIntoArraysOfMaxArraySize) {
   REPHOTO_REQUIRE_SLURM(cluster);
   const fs::path dir = testing::MakeTempDir();

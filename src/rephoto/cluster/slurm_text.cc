@@ -260,6 +260,18 @@ std::vector<QueueEntry> ParseSacct(std::string_view output) {
   return entries;
 }
 
+std::optional<std::string> FindJobOfScript(std::string_view output, std::string_view script) {
+  for (const std::string_view line : SplitView(output, '\n')) {
+    const size_t bar = line.find('|');
+    if (bar == std::string_view::npos) continue;
+    const std::string_view job = TrimView(line.substr(0, bar));
+    std::string_view command = line.substr(bar + 1);
+    if (!command.empty() && command.back() == '\r') command.remove_suffix(1);
+    if (IsDigits(job) && command == script) return std::string(job);
+  }
+  return std::nullopt;
+}
+
 std::optional<int> ParseMaxArraySize(std::string_view output) {
   for (const std::string_view line : SplitView(output, '\n')) {
     const size_t equals = line.find('=');

@@ -79,6 +79,8 @@ struct QueueEntry {
 std::vector<QueueEntry> ParseSqueue(std::string_view output);
 // Parses sacct output in the format above (the same rules).
 std::vector<QueueEntry> ParseSacct(std::string_view output);
+// The job id in `squeue -h -t all --name NAME -o '%F|%o'` output whose command is `script`.
+std::optional<std::string> FindJobOfScript(std::string_view output, std::string_view script);
 // MaxArraySize from `scontrol show config`; nullopt when absent or not a number.
 std::optional<int> ParseMaxArraySize(std::string_view output);
 

@@ -224,6 +224,15 @@ TEST(SlurmText, ParsesSacct) {
   EXPECT_EQ(entries[3].node, "");
 }
 
+TEST(SlurmText, FindsTheJobOfAScript) {
+  const std::string output =
+      "812|/runs/a|b/slurm/submit-0001-views.sh\n"
+      "813|/runs/a|b/slurm/submit-0002-views.sh\n";
+  EXPECT_EQ(FindJobOfScript(output, "/runs/a|b/slurm/submit-0002-views.sh"), "813");
+  EXPECT_EQ(FindJobOfScript(output, "/runs/a|b/slurm/submit-0003-views.sh"), std::nullopt);
+  EXPECT_EQ(FindJobOfScript("", "x"), std::nullopt);
+}
+
 TEST(SlurmText, ParsesMaxArraySize) {
   EXPECT_EQ(ParseMaxArraySize("Configuration data as of 2026-11-25T15:48:52\n"
                               "MaxArraySize            = 1001\n"
