@@ -67,7 +67,7 @@ stop_cluster() {
     sleep 0.1
   done
   for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
-  rm -f "$dir/run/slurmd.pid" "$dir/run/slurmctld.pid" "$dir/munge/munged.pid"
+  rm -f "$dir/run/slurmd.pid" "$dir/run/slurmctld.pid" "$dir/munge/munged.pid" 2>/dev/null || true
   # The short folder for sockets made by `start` when DIR's path is long.
   if [ -s "$dir/sockets" ]; then
     local sockets
