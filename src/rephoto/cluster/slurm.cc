@@ -680,17 +680,17 @@ void Runner::Follow() {
   auto last_ok = Clock::now();
   for (;;) {
     std::set<std::string> jobs;
-    for (Tracked& tracked : tasks_) {
-      if (!tracked.final && !UpdateFromResult(tracked)) jobs.insert(tracked.placement.job);
+    for (const Tracked& tracked : tasks_) {
+      if (!tracked.final) jobs.insert(tracked.placement.job);
     }
-    if (jobs.empty()) break;  // every task wrote its result
+    if (jobs.empty()) break;
     const auto now = Clock::now();
     std::optional<std::map<std::string, QueueEntry>> queue;
     try {
       queue = QueryQueue(jobs, true);
       last_ok = now;
     } catch (const Error& e) {
-      // slurmctld restarting or busy: keep the tasks as they are for a while.
+      // slurmctld restarting or busy: collect what the result files say, and wait a while.
       const double failing = std::chrono::duration<double>(now - last_ok).count();
       if (failing > std::max(120.0, 10 * options_.poll_seconds)) {
         ThrowError(
@@ -699,16 +699,24 @@ void Runner::Follow() {
             e.what(), failing, fmt::join(jobs, ", "));
       }
     }
-    if (queue) {
-      std::vector<Tracked*> vanished;
-      for (Tracked& tracked : tasks_) {
-        if (tracked.final) continue;
+    std::vector<Tracked*> vanished;
+    for (Tracked& tracked : tasks_) {
+      if (tracked.final) continue;
+      const QueueEntry* entry = nullptr;
+      if (queue) {
         const auto found = queue->find(tracked.placement.JobTask());
-        UpdateFromQueue(tracked, found == queue->end() ? nullptr : &found->second, now);
-        if (tracked.final && found == queue->end()) vanished.push_back(&tracked);
+        if (found != queue->end()) entry = &found->second;
+        // A pending task has no result to read: no file system calls for the queue's tail.
+        if (entry != nullptr && entry->state == "PENDING") {
+          UpdateFromQueue(tracked, entry, now);
+          continue;
+        }
       }
-      ExplainVanished(vanished);
+      if (UpdateFromResult(tracked) || !queue) continue;
+      UpdateFromQueue(tracked, entry, now);
+      if (tracked.final && entry == nullptr) vanished.push_back(&tracked);
     }
+    ExplainVanished(vanished);
     Report();
     bool all_final = true;
     for (const Tracked& tracked : tasks_) all_final = all_final && tracked.final;
