@@ -98,6 +98,43 @@ TEST(SlurmArgs, FlagsOverrideTheConfigFile) {
   EXPECT_TRUE(parsed.options->wait);
 }
 
+TEST(SlurmArgs, ConfigTable) {
+  cluster::SlurmOptions options;
+  cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({
+      "partition": "cpu", "time": "0:30:00", "cpus_per_task": 4, "mem": "8G",
+      "option": ["--constraint=avx2", "--exclusive"], "reconstruct-time": 360,
+      "reconstruct_option": "--gres=gpu:1", "max-running": 10, "poll": 7.5})"),
+                           "exp.toml");
+  EXPECT_EQ(options.work.partition, "cpu");
+  EXPECT_EQ(options.work.time, "0:30:00");
+  EXPECT_EQ(options.work.cpus_per_task, 4);
+  EXPECT_EQ(options.work.mem, "8G");
+  EXPECT_EQ(options.work.options, (std::vector<std::string>{"--constraint=avx2", "--exclusive"}));
+  EXPECT_EQ(options.reconstruct.time, "360");
+  EXPECT_EQ(options.reconstruct.options, std::vector<std::string>{"--gres=gpu:1"});
+  EXPECT_EQ(options.max_running, 10);
+  EXPECT_EQ(options.poll_seconds, 7.5);
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"nodes": 2})"), "e.toml");
+            }),
+            "e.toml: [slurm] nodes: unknown Slurm setting");
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"time": ["1", "2"]})"),
+                                       "e.toml");
+            }),
+            "e.toml: [slurm] time: expected one value, not a list");
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"qos": true})"),
+                                       "e.toml");
+            }),
+            "e.toml: [slurm] qos: expected a string or a number, not true");
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"time": "2h"})"),
+                                       "e.toml");
+            }),
+            "e.toml: [slurm] time: '2h' is not a Slurm time (minutes, h:mm:ss, days-hh:mm:ss)");
+}
+
 TEST(SlurmArgs, BadValuesAreOneLineUsageErrors) {
   EXPECT_EQ(Parse({"--executor", "slurm", "--slurm-time", "2h"}).error,
             "--slurm-time: '2h' is not a Slurm time (minutes, h:mm:ss, days-hh:mm:ss)");
