@@ -2,11 +2,13 @@
 // finished: RunTaskGroups reads RUN/slurm/jobs.json and every task's result file, decides that
 // nothing is to be submitted, and calls no Slurm program (they are /bin/false here, so a call
 // would fail the benchmark). Peer: reading and parsing the same result files alone.
-// Also: writing the batch script of an array of N tasks.
+// Also: writing the batch script of an array of N tasks, and (with a running cluster) a whole
+// array end to end against sbatch --wait alone.
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 
 #include "rephoto/cluster/slurm.h"
@@ -117,6 +119,63 @@ void BM_ArrayScript(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ArrayScript)->Arg(1000)->Unit(benchmark::kMillisecond);
+
+// End to end on a running cluster (SLURM_CONF set, e.g. by `eval "$(scripts/slurm-cluster.sh
+// env DIR)"`; skipped otherwise): one group of N tasks that run /bin/true, submitted, followed
+// (poll 0.25 s) and collected by RunTaskGroups. Peer: the same array submitted with sbatch
+// alone (`--wrap /bin/true`, no wrapper script, no result files), followed by a shell loop that
+// calls squeue every 0.25 s until it is gone. (`sbatch --wait` is no peer: it backs off to
+// polling every 32 s.)
+bool HaveCluster(benchmark::State& state) {
+  if (std::getenv("SLURM_CONF") != nullptr) return true;
+  state.SkipWithError("SLURM_CONF is not set: start scripts/slurm-cluster.sh first");
+  return false;
+}
+
+void BM_SlurmArrayRunTaskGroups(benchmark::State& state) {
+  if (!HaveCluster(state)) return;
+  const int tasks = static_cast<int>(state.range(0));
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  for (int i = 0; i < tasks; ++i) {
+    groups[0].tasks.push_back({fmt::format("t{}", i), {"/bin/true"}, "", std::nullopt});
+  }
+  SlurmOptions options;
+  options.poll_seconds = 0.25;
+  int round = 0;
+  for (auto _ : state) {
+    const fs::path dir =
+        fs::temp_directory_path() / fmt::format("rephoto-bench-slurm-{}-{}", ::getpid(), round++);
+    const RunOutcome outcome = RunTaskGroups(dir, groups, options);
+    if (outcome.Count(TaskState::kDone) != static_cast<size_t>(tasks)) {
+      state.SkipWithError("not every task finished");
+    }
+    state.PauseTiming();
+    fs::remove_all(dir);
+    state.ResumeTiming();
+  }
+}
+BENCHMARK(BM_SlurmArrayRunTaskGroups)
+    ->Arg(50)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(3);
+
+void BM_SlurmArraySbatchSqueue(benchmark::State& state) {
+  if (!HaveCluster(state)) return;
+  const std::string command = fmt::format(
+      "j=$(sbatch --parsable --array=0-{} --output=/dev/null --wrap /bin/true) && "
+      "while [ -n \"$(squeue -h -j $j -t PD,CF,R,CG -o %i)\" ]; do sleep 0.25; done",
+      state.range(0) - 1);
+  for (auto _ : state) {
+    if (std::system(command.c_str()) != 0) state.SkipWithError("sbatch or squeue failed");
+  }
+}
+BENCHMARK(BM_SlurmArraySbatchSqueue)
+    ->Arg(50)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 }  // namespace
 

@@ -453,6 +453,7 @@ void Runner::Plan() {
       tracked.outcome.state =
           entry->second.state == "PENDING" ? TaskState::kPending : TaskState::kRunning;
       tracked.outcome.slurm_state = entry->second.state;
+      tracked.outcome.reason = entry->second.state == "PENDING" ? entry->second.reason : "";
       tracked.outcome.node = entry->second.node;
       tracked.outcome.job = placement.JobTask();
       tracked.outcome.log_file = slurm_dir_ / (placement.JobTask() + ".log");
@@ -597,6 +598,7 @@ void Runner::UpdateFromQueue(Tracked& tracked, const QueueEntry* entry, Clock::t
   if (entry != nullptr && IsActiveState(entry->state)) {
     tracked.gone_since.reset();
     tracked.outcome.state = entry->state == "PENDING" ? TaskState::kPending : TaskState::kRunning;
+    tracked.outcome.reason = entry->state == "PENDING" ? entry->reason : "";
     return;
   }
   // Left the queue (or finished) without a result file of this submission.
@@ -664,12 +666,13 @@ void Runner::Report() {
         break;
       case TaskState::kPending:
         ++progress.pending;
+        progress.held += IsStuckReason(tracked.outcome.reason) ? 1 : 0;
         break;
     }
   }
   if (last_progress_ && last_progress_->done == progress.done &&
       last_progress_->failed == progress.failed && last_progress_->running == progress.running &&
-      last_progress_->pending == progress.pending) {
+      last_progress_->pending == progress.pending && last_progress_->held == progress.held) {
     return;
   }
   last_progress_ = progress;

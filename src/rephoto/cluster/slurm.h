@@ -77,6 +77,10 @@ struct Progress {
   size_t failed = 0;   // finished otherwise (failed, cancelled, timed out, vanished)
   size_t running = 0;  // running (or completing) on a node
   size_t pending = 0;  // waiting in the queue (resources, dependencies)
+  // Of the pending ones, those that wait for a person, not for resources: held (a launch
+  // failure, `scontrol hold`; `scontrol release` lets them run), a dependency that can never be
+  // met, an invalid account, QOS or constraint (squeue's reason). Waiting goes on for them.
+  size_t held = 0;
 };
 
 struct SlurmOptions {
@@ -139,6 +143,7 @@ struct TaskOutcome {
   std::string node;                // where it ran, when known
   std::string slurm_state;  // the last state Slurm reported: PENDING, COMPLETED, CANCELLED, ...
   std::string message;      // failed: why, in words ("exit code 1", "cancelled", "timed out")
+  std::string reason;       // pending: why, as squeue says ("Resources", "Dependency", ...)
 };
 
 struct GroupOutcome {

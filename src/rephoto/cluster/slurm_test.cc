@@ -421,6 +421,30 @@ TEST(Slurm, ResourcesAndOptionsReachSlurm) {
             std::string::npos);
 }
 
+// Held tasks (here submitted with --hold) are counted as waiting for a person; once released
+// they run and the call finishes.
+TEST(Slurm, HeldTasksAreReportedAndRunWhenReleased) {
+  REPHOTO_REQUIRE_SLURM(cluster);
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path run = dir / "run";
+  SbatchCounter counter(dir);
+  SlurmOptions options = TestOptions(counter);
+  options.work.options = {"--hold"};
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  groups[0].tasks = {Sh("a", "echo a"), Sh("b", "echo b")};
+  size_t most_held = 0;
+  const RunOutcome outcome = RunTaskGroups(run, groups, options, [&](const Progress& p) {
+    if (p.held > 0 && most_held == 0) {
+      const std::string job = Submissions(run)[0]["job"];
+      EXPECT_EQ(RunProgram({"scontrol", "release", job}).exit_code, 0);
+    }
+    most_held = std::max(most_held, p.held);
+  });
+  EXPECT_EQ(most_held, 2u);
+  EXPECT_EQ(outcome.Count(TaskState::kDone), 2u);
+}
+
 TEST(Slurm, BadTasksAndRefusedSubmissionsAreOneLineErrors) {
   REPHOTO_REQUIRE_SLURM(cluster);
   const fs::path dir = testing::MakeTempDir();

@@ -293,6 +293,14 @@ bool IsActiveState(std::string_view state) {
   return false;
 }
 
+bool IsStuckReason(std::string_view reason) {
+  for (const char* stuck : {"JobHeld", "held", "DependencyNeverSatisfied", "BadConstraints",
+                            "InvalidAccount", "InvalidQOS"}) {
+    if (reason.find(stuck) != std::string_view::npos) return true;
+  }
+  return false;
+}
+
 std::string DescribeFinalState(std::string_view state) {
   if (state == "COMPLETED") return "completed";
   if (state == "FAILED") return "failed";

@@ -88,6 +88,10 @@ std::optional<int> ParseMaxArraySize(std::string_view output);
 // RUNNING, COMPLETING, SUSPENDED, REQUEUED, REQUEUE_HOLD, REQUEUE_FED, RESIZING, SIGNALING,
 // STAGE_OUT, STOPPED.
 bool IsActiveState(std::string_view state);
+// True for a pending reason (squeue %r) that needs a person rather than time: JobHeldUser,
+// JobHeldAdmin, "launch failed requeued held", DependencyNeverSatisfied, BadConstraints,
+// InvalidAccount, InvalidQOS.
+bool IsStuckReason(std::string_view reason);
 // "cancelled", "timed out", "ran out of memory", "node failed", ... for a final Slurm state.
 std::string DescribeFinalState(std::string_view state);
 

@@ -250,6 +250,14 @@ TEST(SlurmText, States) {
   for (const char* state : {"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", ""}) {
     EXPECT_FALSE(IsActiveState(state)) << state;
   }
+  for (const char* reason : {"JobHeldUser", "JobHeldAdmin", "launch failed requeued held",
+                             "DependencyNeverSatisfied", "BadConstraints", "InvalidQOS"}) {
+    EXPECT_TRUE(IsStuckReason(reason)) << reason;
+  }
+  for (const char* reason : {"Resources", "Priority", "Dependency", "None",
+                             "QOSMaxJobsPerUserLimit", "ReqNodeNotAvail, UnavailableNodes:n1"}) {
+    EXPECT_FALSE(IsStuckReason(reason)) << reason;
+  }
   EXPECT_EQ(DescribeFinalState("TIMEOUT"), "timed out (--time)");
   EXPECT_EQ(DescribeFinalState("OUT_OF_MEMORY"), "ran out of memory (--mem)");
   EXPECT_EQ(DescribeFinalState("SPECIAL_EXIT"), "special_exit");
