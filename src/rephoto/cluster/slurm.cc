@@ -493,6 +493,12 @@ std::string Runner::SubmitArray(size_t group, const std::vector<size_t>& tasks,
   const std::vector<std::string> arguments = SbatchArguments(spec, script);
   argv.insert(argv.end(), arguments.begin(), arguments.end());
   WriteTextFileAtomically(script, MakeArrayScript(spec, argv));
+  for (const Task* task : spec.tasks) {  // the batch script only creates them when missing
+    std::error_code ec;
+    fs::create_directories(ResultPath(slurm_dir_, task->id).parent_path(), ec);
+    REPHOTO_CHECK(!ec, "{}: cannot create folder: {}",
+                  ResultPath(slurm_dir_, task->id).parent_path().string(), ec.message());
+  }
   fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
 
   // Recorded before sbatch runs, without a job id: when this process dies before it learns

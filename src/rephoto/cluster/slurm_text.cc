@@ -157,18 +157,24 @@ std::string MakeArrayScript(const ArraySpec& spec, const std::vector<std::string
       "    exit 2\n    ;;\nesac\n";
   script += fmt::format("submission={}\nresults={}\n", spec.submission,
                         ShellWord((spec.slurm_dir / "results").string()));
-  script += R"SH(node=$(printf '%s' "${SLURMD_NODENAME:-$(hostname)}" | tr -c 'A-Za-z0-9._-' '_')
-job=$(printf '%s' "${SLURM_ARRAY_JOB_ID:-}" | tr -cd '0-9')
-start=$(date -u +%Y-%m-%dT%H:%M:%SZ)
-start_seconds=$(date +%s)
+  // Three processes besides the command (two `date`, one `mv`): on a busy node every fork
+  // counts, so names are checked with `case`, not `tr`, and the results folder exists already.
+  script += R"SH(node="${SLURMD_NODENAME:-unknown}"
+case "$node" in *[!A-Za-z0-9._-]*) node=unknown ;; esac
+job="${SLURM_ARRAY_JOB_ID:-}"
+case "$job" in *[!0-9]*) job= ;; esac
+now=$(date -u '+%Y-%m-%dT%H:%M:%SZ %s')
+start=${now% *}
+start_seconds=${now#* }
 echo "# rephoto task $id: array job $job index $index on $node at $start"
 "$@"
 code=$?
-end=$(date -u +%Y-%m-%dT%H:%M:%SZ)
-seconds=$(($(date +%s) - start_seconds))
+now=$(date -u '+%Y-%m-%dT%H:%M:%SZ %s')
+end=${now% *}
+seconds=$((${now#* } - start_seconds))
 echo "# rephoto task $id: exit code $code at $end after $seconds s"
 result="$results/$id.json"
-if mkdir -p "$(dirname "$result")" &&
+if { [ -d "${result%/*}" ] || mkdir -p "${result%/*}"; } &&
   printf '{"schema":"rephoto.cluster.result/1","id":"%s","fingerprint":"%s","submission":%s,"job":"%s","index":%s,"node":"%s","exit_code":%s,"start":"%s","end":"%s","seconds":%s}\n' \
     "$id" "$fingerprint" "$submission" "$job" "$index" "$node" "$code" "$start" "$end" "$seconds" \
     >"$result.tmp-$$" &&

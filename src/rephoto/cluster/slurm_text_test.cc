@@ -104,9 +104,9 @@ TEST(SlurmText, SbatchArguments) {
 }
 
 // Runs the array script as slurmstepd would, for one index.
-ProgramOutput RunArrayTask(const fs::path& script, int index) {
+ProgramOutput RunArrayTask(const fs::path& script, int index, const std::string& node = "n7") {
   return RunProgram({"/usr/bin/env", "SLURM_ARRAY_TASK_ID=" + std::to_string(index),
-                     "SLURM_ARRAY_JOB_ID=812", "SLURMD_NODENAME=node 7", "/bin/sh",
+                     "SLURM_ARRAY_JOB_ID=812", "SLURMD_NODENAME=" + node, "/bin/sh",
                      script.string()});
 }
 
@@ -133,7 +133,7 @@ TEST(SlurmText, ArrayScriptRunsTheIndexedTaskAndRecordsItsResult) {
   ProgramOutput output = RunArrayTask(script, 0);
   EXPECT_EQ(output.exit_code, 0) << output.err;
   EXPECT_EQ(ReadFileToString(out), "a 'quoted' $arg");
-  EXPECT_NE(output.out.find("# rephoto task fold_00/views:0-3: array job 812 index 0 on node_7"),
+  EXPECT_NE(output.out.find("# rephoto task fold_00/views:0-3: array job 812 index 0 on n7"),
             std::string::npos)
       << output.out;
   std::optional<TaskResult> result =
@@ -144,16 +144,17 @@ TEST(SlurmText, ArrayScriptRunsTheIndexedTaskAndRecordsItsResult) {
   EXPECT_EQ(result->submission, 4);
   EXPECT_EQ(result->job, "812");
   EXPECT_EQ(result->index, 0);
-  EXPECT_EQ(result->node, "node_7");
+  EXPECT_EQ(result->node, "n7");
   EXPECT_EQ(result->exit_code, 0);
   EXPECT_EQ(result->start.size(), 20u);  // 2026-11-25T15:48:52Z
   EXPECT_GE(result->seconds, 0);
 
-  output = RunArrayTask(script, 1);
+  output = RunArrayTask(script, 1, "a \"node\"");  // not a node name: not copied into JSON
   EXPECT_EQ(output.exit_code, 3);
   result = ParseTaskResult(ReadFileToString(ResultPath(slurm_dir, failing.id)));
   ASSERT_TRUE(result);
   EXPECT_EQ(result->exit_code, 3);
+  EXPECT_EQ(result->node, "unknown");
   EXPECT_EQ(result->fingerprint, TaskFingerprint(failing));
 
   output = RunArrayTask(script, 2);
