@@ -158,5 +158,35 @@ TEST(SlurmArgs, BadValuesAreOneLineUsageErrors) {
   EXPECT_THROW(Parse({"--executor", "pbs"}), CLI::ValidationError);
 }
 
+TEST(SlurmArgs, OutcomePrintsJobIdsOnStdoutWhenNotFinished) {
+  cluster::RunOutcome outcome;
+  outcome.groups.resize(2);
+  outcome.groups[0].name = "reconstruct";
+  outcome.groups[0].followed_jobs = {"811"};
+  outcome.groups[1].name = "views";
+  outcome.groups[1].submitted_jobs = {"812", "813"};
+  cluster::TaskOutcome failed;
+  failed.id = "fold_01/reconstruct";
+  failed.state = cluster::TaskState::kFailed;
+  failed.message = "exit code 1 on node n3";
+  failed.job = "811_1";
+  failed.log_file = "/runs/a/slurm/811_1.log";
+  outcome.groups[0].tasks = {failed};
+  outcome.finished = false;
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  PrintSlurmOutcome(outcome, "rephoto evaluate --config exp.toml --executor slurm");
+  const std::string out = ::testing::internal::GetCapturedStdout();
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(out, "slurm jobs: 812 813 811\n");
+  EXPECT_NE(err.find("rephoto: warning: slurm: failed: fold_01/reconstruct: exit code 1 on node "
+                     "n3 (job 811_1); log: /runs/a/slurm/811_1.log\n"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("run `rephoto evaluate --config exp.toml --executor slurm` again"),
+            std::string::npos)
+      << err;
+}
+
 }  // namespace
 }  // namespace rephoto::cli
