@@ -428,7 +428,8 @@ void Runner::Plan() {
   std::vector<std::string> cancel;
   for (Tracked& tracked : tasks_) {
     const std::optional<TaskResult>& result = tracked.result;
-    bool done = result && result->exit_code == 0 && result->fingerprint == tracked.fingerprint &&
+    bool done = options_.skip_succeeded && result && result->exit_code == 0 &&
+                result->fingerprint == tracked.fingerprint &&
                 result->submission >= tracked.placement.submission;
     bool input_submitted = false;
     for (size_t input : tracked.after) {

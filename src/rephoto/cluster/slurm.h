@@ -95,10 +95,17 @@ struct SlurmOptions {
   // How long a task that left the queue may take to show its result file before it counts as
   // vanished (NFS attribute caches delay what a node wrote). Seconds, >= 0.
   double result_grace_seconds = 30;
-  int max_running =
-      0;  // at most this many tasks of one array at once ("--array=0-99%N"); 0: no limit
-  int max_array_size =
-      0;  // tasks per array; 0: the cluster's MaxArraySize (scontrol), 1001 if unknown
+  // true: a task whose result file says exit code 0 for its fingerprint (and whose inputs did
+  // not run again) is done and is not submitted (the resume rules above). false: every task
+  // given is submitted unless it is pending or running in a recorded job; for callers that pass
+  // only the tasks their own records call unfinished (evaluate's plan: the run folder is the
+  // truth), so that a task whose outputs were deleted after it succeeded runs again. (A task
+  // that succeeds between the caller's look and this call's squeue then runs once more.)
+  bool skip_succeeded = true;
+  // At most this many tasks of one array at once ("--array=0-99%N"); 0: no limit.
+  int max_running = 0;
+  // Tasks per array; 0: the cluster's MaxArraySize (scontrol), 1001 if unknown.
+  int max_array_size = 0;
   std::string job_name = "rephoto";  // --job-name is "<job_name>-<group>"
   SlurmCommands commands = SlurmCommands::FromEnvironment();
   // Polled while waiting; when it returns true RunTaskGroups throws Interrupted, leaving the

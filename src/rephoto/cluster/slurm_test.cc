@@ -239,6 +239,18 @@ TEST(Slurm, FailedTaskIsNamedWithItsLogAndOnlyItRunsAgain) {
   EXPECT_EQ(SubmittedIds(submissions[4]), (std::vector<std::string>{"fold_01/views"}));
   EXPECT_EQ(SubmittedIds(submissions[5]), (std::vector<std::string>{"aggregate"}));
   EXPECT_EQ(counter.Count(), 6u);
+
+  // A caller that keeps its own record of what is done (its outputs were deleted, say) passes
+  // only what must run, and says so: a task that succeeded before is submitted all the same.
+  SlurmOptions rerun = options;
+  rerun.skip_succeeded = false;
+  const std::vector<TaskGroup> only_fold_2 = {
+      TaskGroup{"reconstruct", {groups[0].tasks[2]}, false}};
+  const RunOutcome third = RunTaskGroups(run, only_fold_2, rerun);
+  EXPECT_EQ(third.Count(TaskState::kDone), 1u);
+  EXPECT_EQ(third.submitted, 1u);
+  EXPECT_EQ(counter.Count(), 7u);
+  EXPECT_EQ(RunTaskGroups(run, only_fold_2, options).submitted, 0u);  // the default reuses it
 }
 
 // The acceptance scenario, on shell tasks: submit without waiting, cancel one array
