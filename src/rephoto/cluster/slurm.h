@@ -1,8 +1,8 @@
 // Running groups of rephoto tasks as Slurm job arrays (the `--executor slurm` of evaluate and
 // sweep; docs/cluster.md).
 //
-// A Task is one command line (argv) that runs on a compute node, e.g. `/abs/rephoto evaluate
-// --config RUN/slurm/evaluate.json --only reconstruct:2`. Tasks are idempotent, write their
+// A Task is one command line (argv) that runs on a compute node, e.g. `/abs/rephoto -q evaluate
+// --config RUN/evaluate-settings.json --only fold:2`. Tasks are idempotent, write their
 // outputs atomically, and share nothing with the submitting process but the run folder on a
 // shared filesystem. This module knows nothing about what a task does: it runs TaskGroups in
 // order, one job array per group (split into several arrays when a group has more tasks than the
