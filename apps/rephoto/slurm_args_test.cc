@@ -98,6 +98,43 @@ TEST(SlurmArgs, FlagsOverrideTheConfigFile) {
   EXPECT_TRUE(parsed.options->wait);
 }
 
+TEST(SlurmArgs, ConfigTable) {
+  cluster::SlurmOptions options;
+  cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({
+      "partition": "cpu", "time": "0:30:00", "cpus_per_task": 4, "mem": "8G",
+      "option": ["--constraint=avx2", "--exclusive"], "reconstruct-time": 360,
+      "reconstruct_option": "--gres=gpu:1", "max-running": 10, "poll": 7.5})"),
+                           "exp.toml");
+  EXPECT_EQ(options.work.partition, "cpu");
+  EXPECT_EQ(options.work.time, "0:30:00");
+  EXPECT_EQ(options.work.cpus_per_task, 4);
+  EXPECT_EQ(options.work.mem, "8G");
+  EXPECT_EQ(options.work.options, (std::vector<std::string>{"--constraint=avx2", "--exclusive"}));
+  EXPECT_EQ(options.reconstruct.time, "360");
+  EXPECT_EQ(options.reconstruct.options, std::vector<std::string>{"--gres=gpu:1"});
+  EXPECT_EQ(options.max_running, 10);
+  EXPECT_EQ(options.poll_seconds, 7.5);
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"nodes": 2})"), "e.toml");
+            }),
+            "e.toml: [slurm] nodes: unknown Slurm setting");
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"time": ["1", "2"]})"),
+                                       "e.toml");
+            }),
+            "e.toml: [slurm] time: expected one value, not a list");
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"qos": true})"),
+                                       "e.toml");
+            }),
+            "e.toml: [slurm] qos: expected a string or a number, not true");
+  EXPECT_EQ(testing::ErrorOf([&] {
+              cluster::ApplySlurmTable(options, nlohmann::json::parse(R"({"time": "2h"})"),
+                                       "e.toml");
+            }),
+            "e.toml: [slurm] time: '2h' is not a Slurm time (minutes, h:mm:ss, days-hh:mm:ss)");
+}
+
 TEST(SlurmArgs, BadValuesAreOneLineUsageErrors) {
   EXPECT_EQ(Parse({"--executor", "slurm", "--slurm-time", "2h"}).error,
             "--slurm-time: '2h' is not a Slurm time (minutes, h:mm:ss, days-hh:mm:ss)");
@@ -119,6 +156,36 @@ TEST(SlurmArgs, BadValuesAreOneLineUsageErrors) {
                 [&] { cluster::SetSlurmSetting(options, "nodes", "2", "x: [slurm] nodes"); }),
             "x: [slurm] nodes: unknown Slurm setting");
   EXPECT_THROW(Parse({"--executor", "pbs"}), CLI::ValidationError);
+}
+
+TEST(SlurmArgs, OutcomePrintsJobIdsOnStdoutWhenNotFinished) {
+  cluster::RunOutcome outcome;
+  outcome.groups.resize(2);
+  outcome.groups[0].name = "reconstruct";
+  outcome.groups[0].followed_jobs = {"811"};
+  outcome.groups[1].name = "views";
+  outcome.groups[1].submitted_jobs = {"812", "813"};
+  cluster::TaskOutcome failed;
+  failed.id = "fold_01/reconstruct";
+  failed.state = cluster::TaskState::kFailed;
+  failed.message = "exit code 1 on node n3";
+  failed.job = "811_1";
+  failed.log_file = "/runs/a/slurm/811_1.log";
+  outcome.groups[0].tasks = {failed};
+  outcome.finished = false;
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  PrintSlurmOutcome(outcome, "rephoto evaluate --config exp.toml --executor slurm");
+  const std::string out = ::testing::internal::GetCapturedStdout();
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(out, "slurm jobs: 812 813 811\n");
+  EXPECT_NE(err.find("rephoto: warning: slurm: failed: fold_01/reconstruct: exit code 1 on node "
+                     "n3 (job 811_1); log: /runs/a/slurm/811_1.log\n"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("run `rephoto evaluate --config exp.toml --executor slurm` again"),
+            std::string::npos)
+      << err;
 }
 
 }  // namespace

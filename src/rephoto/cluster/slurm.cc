@@ -238,6 +238,7 @@ class Runner {
  private:
   void IndexTasks();
   void LoadState();
+  void RecoverJobIds();
   std::map<std::string, QueueEntry> QueryQueue(const std::set<std::string>& jobs, bool tolerate);
   void Plan();
   void Submit();
@@ -307,8 +308,35 @@ void Runner::IndexTasks() {
   }
 }
 
+// Submissions recorded without a job id (the submitter died while sbatch ran): the job is the
+// one whose batch script is the submission's; a submission Slurm does not know never happened.
+void Runner::RecoverJobIds() {
+  bool changed = false;
+  for (auto it = submissions_.begin(); it != submissions_.end();) {
+    if (!it->job.empty()) {
+      ++it;
+      continue;
+    }
+    const ProgramOutput output = RunSlurm({options_.commands.squeue, "-h", "-t", "all", "--name",
+                                           options_.job_name + "-" + it->group, "-o", "%F|%o"});
+    REPHOTO_CHECK(output.ok(), "squeue: {} (is Slurm reachable? SLURM_CONF, REPHOTO_SQUEUE)",
+                  output.FirstLine());
+    const std::optional<std::string> job =
+        FindJobOfScript(output.out, (slurm_dir_ / it->script).string());
+    changed = true;
+    if (job) {
+      it->job = *job;
+      ++it;
+    } else {
+      it = submissions_.erase(it);
+    }
+  }
+  if (changed) WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
+}
+
 void Runner::LoadState() {
   submissions_ = ReadJobsFile(slurm_dir_ / "jobs.json");
+  RecoverJobIds();
   for (const Submission& submission : submissions_) {
     next_submission_ = std::max(next_submission_, submission.sequence + 1);
     for (size_t i = 0; i < submission.tasks.size(); ++i) {
@@ -400,7 +428,8 @@ void Runner::Plan() {
   std::vector<std::string> cancel;
   for (Tracked& tracked : tasks_) {
     const std::optional<TaskResult>& result = tracked.result;
-    bool done = result && result->exit_code == 0 && result->fingerprint == tracked.fingerprint &&
+    bool done = options_.skip_succeeded && result && result->exit_code == 0 &&
+                result->fingerprint == tracked.fingerprint &&
                 result->submission >= tracked.placement.submission;
     bool input_submitted = false;
     for (size_t input : tracked.after) {
@@ -425,6 +454,7 @@ void Runner::Plan() {
       tracked.outcome.state =
           entry->second.state == "PENDING" ? TaskState::kPending : TaskState::kRunning;
       tracked.outcome.slurm_state = entry->second.state;
+      tracked.outcome.reason = entry->second.state == "PENDING" ? entry->second.reason : "";
       tracked.outcome.node = entry->second.node;
       tracked.outcome.job = placement.JobTask();
       tracked.outcome.log_file = slurm_dir_ / (placement.JobTask() + ".log");
@@ -464,23 +494,40 @@ std::string Runner::SubmitArray(size_t group, const std::vector<size_t>& tasks,
   const std::vector<std::string> arguments = SbatchArguments(spec, script);
   argv.insert(argv.end(), arguments.begin(), arguments.end());
   WriteTextFileAtomically(script, MakeArrayScript(spec, argv));
+  for (const Task* task : spec.tasks) {  // the batch script only creates them when missing
+    std::error_code ec;
+    fs::create_directories(ResultPath(slurm_dir_, task->id).parent_path(), ec);
+    REPHOTO_CHECK(!ec, "{}: cannot create folder: {}",
+                  ResultPath(slurm_dir_, task->id).parent_path().string(), ec.message());
+  }
   fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
 
-  const ProgramOutput output = RunSlurm(argv);
-  REPHOTO_CHECK(output.ok(), "sbatch refused the {} task(s) of group '{}': {}", tasks.size(),
-                task_group.name, output.FirstLine());
-  const std::string job = ParseSbatchJobId(output.out);
-
+  // Recorded before sbatch runs, without a job id: when this process dies before it learns
+  // the id, the next call finds the job by its script (RecoverJobIds) instead of submitting the
+  // tasks twice.
   Submission record;
   record.sequence = spec.submission;
-  record.job = job;
   record.group = task_group.name;
   record.script = script_name;
   record.submitted = UtcNow();
   record.sbatch = argv;
+  for (size_t index : tasks)
+    record.tasks.emplace_back(tasks_[index].task->id, tasks_[index].fingerprint);
+  submissions_.push_back(std::move(record));
+  WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
+
+  const ProgramOutput output = RunSlurm(argv);
+  if (!output.ok()) {
+    submissions_.pop_back();
+    WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
+    ThrowError("sbatch refused the {} task(s) of group '{}': {}", tasks.size(), task_group.name,
+               output.FirstLine());
+  }
+  const std::string job = ParseSbatchJobId(output.out);
+  submissions_.back().job = job;
+  WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
   for (size_t i = 0; i < tasks.size(); ++i) {
     Tracked& tracked = tasks_[tasks[i]];
-    record.tasks.emplace_back(tracked.task->id, tracked.fingerprint);
     tracked.placement = {spec.submission, job, static_cast<int>(i), tracked.fingerprint};
     tracked.outcome.submitted = true;
     tracked.outcome.state = TaskState::kPending;
@@ -490,8 +537,6 @@ std::string Runner::SubmitArray(size_t group, const std::vector<size_t>& tasks,
     tracked.outcome.exit_code = -1;
     tracked.outcome.node.clear();
   }
-  submissions_.push_back(std::move(record));
-  WriteJobsFile(slurm_dir_ / "jobs.json", submissions_);
   return job;
 }
 
@@ -560,6 +605,7 @@ void Runner::UpdateFromQueue(Tracked& tracked, const QueueEntry* entry, Clock::t
   if (entry != nullptr && IsActiveState(entry->state)) {
     tracked.gone_since.reset();
     tracked.outcome.state = entry->state == "PENDING" ? TaskState::kPending : TaskState::kRunning;
+    tracked.outcome.reason = entry->state == "PENDING" ? entry->reason : "";
     return;
   }
   // Left the queue (or finished) without a result file of this submission.
@@ -627,12 +673,13 @@ void Runner::Report() {
         break;
       case TaskState::kPending:
         ++progress.pending;
+        progress.held += IsStuckReason(tracked.outcome.reason) ? 1 : 0;
         break;
     }
   }
   if (last_progress_ && last_progress_->done == progress.done &&
       last_progress_->failed == progress.failed && last_progress_->running == progress.running &&
-      last_progress_->pending == progress.pending) {
+      last_progress_->pending == progress.pending && last_progress_->held == progress.held) {
     return;
   }
   last_progress_ = progress;
@@ -643,17 +690,17 @@ void Runner::Follow() {
   auto last_ok = Clock::now();
   for (;;) {
     std::set<std::string> jobs;
-    for (Tracked& tracked : tasks_) {
-      if (!tracked.final && !UpdateFromResult(tracked)) jobs.insert(tracked.placement.job);
+    for (const Tracked& tracked : tasks_) {
+      if (!tracked.final) jobs.insert(tracked.placement.job);
     }
-    if (jobs.empty()) break;  // every task wrote its result
+    if (jobs.empty()) break;
     const auto now = Clock::now();
     std::optional<std::map<std::string, QueueEntry>> queue;
     try {
       queue = QueryQueue(jobs, true);
       last_ok = now;
     } catch (const Error& e) {
-      // slurmctld restarting or busy: keep the tasks as they are for a while.
+      // slurmctld restarting or busy: collect what the result files say, and wait a while.
       const double failing = std::chrono::duration<double>(now - last_ok).count();
       if (failing > std::max(120.0, 10 * options_.poll_seconds)) {
         ThrowError(
@@ -662,16 +709,24 @@ void Runner::Follow() {
             e.what(), failing, fmt::join(jobs, ", "));
       }
     }
-    if (queue) {
-      std::vector<Tracked*> vanished;
-      for (Tracked& tracked : tasks_) {
-        if (tracked.final) continue;
+    std::vector<Tracked*> vanished;
+    for (Tracked& tracked : tasks_) {
+      if (tracked.final) continue;
+      const QueueEntry* entry = nullptr;
+      if (queue) {
         const auto found = queue->find(tracked.placement.JobTask());
-        UpdateFromQueue(tracked, found == queue->end() ? nullptr : &found->second, now);
-        if (tracked.final && found == queue->end()) vanished.push_back(&tracked);
+        if (found != queue->end()) entry = &found->second;
+        // A pending task has no result to read: no file system calls for the queue's tail.
+        if (entry != nullptr && entry->state == "PENDING") {
+          UpdateFromQueue(tracked, entry, now);
+          continue;
+        }
       }
-      ExplainVanished(vanished);
+      if (UpdateFromResult(tracked) || !queue) continue;
+      UpdateFromQueue(tracked, entry, now);
+      if (tracked.final && entry == nullptr) vanished.push_back(&tracked);
     }
+    ExplainVanished(vanished);
     Report();
     bool all_final = true;
     for (const Tracked& tracked : tasks_) all_final = all_final && tracked.final;
@@ -721,7 +776,9 @@ RunOutcome Runner::Run() {
   IndexTasks();
   submitted_jobs_.assign(groups_.size(), {});
   followed_jobs_.assign(groups_.size(), {});
-  const run::RunFolder lock = run::OpenRunFolder(slurm_dir_, "cluster");
+  // RUN/slurm may already hold files of the caller (the task's config): any content is ours.
+  const run::RunFolder lock =
+      run::OpenRunFolder(slurm_dir_, "cluster", [](const fs::path&) { return true; });
   LoadState();
   Plan();
   Submit();

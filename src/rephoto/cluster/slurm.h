@@ -1,8 +1,8 @@
 // Running groups of rephoto tasks as Slurm job arrays (the `--executor slurm` of evaluate and
 // sweep; docs/cluster.md).
 //
-// A Task is one command line (argv) that runs on a compute node, e.g. `/abs/rephoto evaluate
-// --config RUN/slurm/evaluate.json --only reconstruct:2`. Tasks are idempotent, write their
+// A Task is one command line (argv) that runs on a compute node, e.g. `/abs/rephoto -q evaluate
+// --config RUN/evaluate-settings.json --only fold:2`. Tasks are idempotent, write their
 // outputs atomically, and share nothing with the submitting process but the run folder on a
 // shared filesystem. This module knows nothing about what a task does: it runs TaskGroups in
 // order, one job array per group (split into several arrays when a group has more tasks than the
@@ -77,6 +77,10 @@ struct Progress {
   size_t failed = 0;   // finished otherwise (failed, cancelled, timed out, vanished)
   size_t running = 0;  // running (or completing) on a node
   size_t pending = 0;  // waiting in the queue (resources, dependencies)
+  // Of the pending ones, those that wait for a person, not for resources: held (a launch
+  // failure, `scontrol hold`; `scontrol release` lets them run), a dependency that can never be
+  // met, an invalid account, QOS or constraint (squeue's reason). Waiting goes on for them.
+  size_t held = 0;
 };
 
 struct SlurmOptions {
@@ -91,10 +95,17 @@ struct SlurmOptions {
   // How long a task that left the queue may take to show its result file before it counts as
   // vanished (NFS attribute caches delay what a node wrote). Seconds, >= 0.
   double result_grace_seconds = 30;
-  int max_running =
-      0;  // at most this many tasks of one array at once ("--array=0-99%N"); 0: no limit
-  int max_array_size =
-      0;  // tasks per array; 0: the cluster's MaxArraySize (scontrol), 1001 if unknown
+  // true: a task whose result file says exit code 0 for its fingerprint (and whose inputs did
+  // not run again) is done and is not submitted (the resume rules above). false: every task
+  // given is submitted unless it is pending or running in a recorded job; for callers that pass
+  // only the tasks their own records call unfinished (evaluate's plan: the run folder is the
+  // truth), so that a task whose outputs were deleted after it succeeded runs again. (A task
+  // that succeeds between the caller's look and this call's squeue then runs once more.)
+  bool skip_succeeded = true;
+  // At most this many tasks of one array at once ("--array=0-99%N"); 0: no limit.
+  int max_running = 0;
+  // Tasks per array; 0: the cluster's MaxArraySize (scontrol), 1001 if unknown.
+  int max_array_size = 0;
   std::string job_name = "rephoto";  // --job-name is "<job_name>-<group>"
   SlurmCommands commands = SlurmCommands::FromEnvironment();
   // Polled while waiting; when it returns true RunTaskGroups throws Interrupted, leaving the
@@ -139,6 +150,7 @@ struct TaskOutcome {
   std::string node;                // where it ran, when known
   std::string slurm_state;  // the last state Slurm reported: PENDING, COMPLETED, CANCELLED, ...
   std::string message;      // failed: why, in words ("exit code 1", "cancelled", "timed out")
+  std::string reason;       // pending: why, as squeue says ("Resources", "Dependency", ...)
 };
 
 struct GroupOutcome {

@@ -1,5 +1,8 @@
 #include "rephoto/cluster/slurm_settings.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <charconv>
 #include <regex>
 
@@ -116,6 +119,31 @@ void SetSlurmSetting(SlurmOptions& options, std::string_view name, const std::st
     options.poll_seconds = seconds;
   } else {
     SetResource(options.work, name, value, where);
+  }
+}
+
+void ApplySlurmTable(SlurmOptions& options, const nlohmann::json& table, std::string_view file) {
+  REPHOTO_CHECK_USAGE(table.is_object(), "{}: [slurm] is not a table", file);
+  for (const auto& [key, value] : table.items()) {
+    std::string name = key;
+    for (char& c : name) c = c == '_' ? '-' : c;
+    const std::string where = fmt::format("{}: [slurm] {}", file, key);
+    const auto info = std::find_if(SlurmSettings().begin(), SlurmSettings().end(),
+                                   [&](const SlurmSettingInfo& i) { return i.name == name; });
+    REPHOTO_CHECK_USAGE(info != SlurmSettings().end(), "{}: unknown Slurm setting", where);
+    const auto text = [&](const nlohmann::json& v) -> std::string {
+      if (v.is_string()) return v.get<std::string>();
+      if (v.is_number_integer()) return std::to_string(v.get<int64_t>());
+      if (v.is_number()) return fmt::format("{}", v.get<double>());
+      throw UsageError(fmt::format("{}: expected a string or a number, not {}", where, v.dump()));
+    };
+    if (value.is_array()) {
+      REPHOTO_CHECK_USAGE(info->repeatable, "{}: expected one value, not a list", where);
+      for (const nlohmann::json& element : value)
+        SetSlurmSetting(options, name, text(element), where);
+    } else {
+      SetSlurmSetting(options, name, text(value), where);
+    }
   }
 }
 

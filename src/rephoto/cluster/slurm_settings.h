@@ -11,6 +11,7 @@
 // Thread safety: reentrant.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -33,6 +34,12 @@ const std::vector<SlurmSettingInfo>& SlurmSettings();
 // unknown name or a bad value (a time that is not Slurm's syntax, a negative count).
 void SetSlurmSetting(SlurmOptions& options, std::string_view name, const std::string& value,
                      std::string_view where);
+
+// Applies a config file's [slurm] table, as JSON (eval::LoadConfigFile returns extra tables so):
+// keys as above ('_' and '-' are the same), values strings or numbers, and arrays of strings
+// for the repeatable ones. Throws UsageError "<file>: [slurm] <key>: <why>" for an unknown key
+// or a value of the wrong type; `file` names the config file.
+void ApplySlurmTable(SlurmOptions& options, const nlohmann::json& table, std::string_view file);
 
 // `options` with the reconstruction resources completed from the work resources (see above).
 SlurmOptions ResolveReconstructResources(SlurmOptions options);

@@ -109,6 +109,8 @@ TEST(Slurm, GroupsRunAsArraysInOrderAndFinishedTasksAreNotSubmittedAgain) {
   fs::create_directories(out);
   SbatchCounter counter(dir);
   const SlurmOptions options = TestOptions(counter);
+  // The caller may keep its own files in RUN/slurm (the tasks' config).
+  WriteTextFileAtomically(run / "slurm/evaluate.json", "{}");
 
   // Each task writes a file; the later groups first check that every earlier file exists.
   std::vector<TaskGroup> groups(3);
@@ -237,6 +239,18 @@ TEST(Slurm, FailedTaskIsNamedWithItsLogAndOnlyItRunsAgain) {
   EXPECT_EQ(SubmittedIds(submissions[4]), (std::vector<std::string>{"fold_01/views"}));
   EXPECT_EQ(SubmittedIds(submissions[5]), (std::vector<std::string>{"aggregate"}));
   EXPECT_EQ(counter.Count(), 6u);
+
+  // A caller that keeps its own record of what is done (its outputs were deleted, say) passes
+  // only what must run, and says so: a task that succeeded before is submitted all the same.
+  SlurmOptions rerun = options;
+  rerun.skip_succeeded = false;
+  const std::vector<TaskGroup> only_fold_2 = {
+      TaskGroup{"reconstruct", {groups[0].tasks[2]}, false}};
+  const RunOutcome third = RunTaskGroups(run, only_fold_2, rerun);
+  EXPECT_EQ(third.Count(TaskState::kDone), 1u);
+  EXPECT_EQ(third.submitted, 1u);
+  EXPECT_EQ(counter.Count(), 7u);
+  EXPECT_EQ(RunTaskGroups(run, only_fold_2, options).submitted, 0u);  // the default reuses it
 }
 
 // The acceptance scenario, on shell tasks: submit without waiting, cancel one array
@@ -338,6 +352,32 @@ TEST(Slurm, InterruptedWaitLeavesTheJobsRunningAndTheNextCallFollowsThem) {
   EXPECT_EQ(counter.Count(), 1u);
 }
 
+// The submitter died after sbatch submitted an array but before it recorded the job id: the
+// next call finds the job by its batch script and follows it instead of submitting again.
+TEST(Slurm, SubmissionWithoutARecordedJobIdIsFoundByItsScript) {
+  REPHOTO_REQUIRE_SLURM(cluster);
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path run = dir / "run";
+  SbatchCounter counter(dir);
+  SlurmOptions options = TestOptions(counter);
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  groups[0].tasks = {Sh("a", "sleep 1; echo a"), Sh("b", "sleep 1; echo b")};
+  options.wait = false;
+  const std::string job = RunTaskGroups(run, groups, options).JobIds().at(0);
+  nlohmann::json jobs = nlohmann::json::parse(ReadFileToString(run / "slurm/jobs.json"));
+  jobs["submissions"][0]["job"] = "";
+  WriteTextFileAtomically(run / "slurm/jobs.json", jobs.dump());
+
+  options.wait = true;
+  const RunOutcome outcome = RunTaskGroups(run, groups, options);
+  EXPECT_EQ(outcome.Count(TaskState::kDone), 2u);
+  EXPECT_EQ(outcome.submitted, 0u);
+  EXPECT_EQ(counter.Count(), 1u);
+  EXPECT_EQ(Submissions(run)[0]["job"], job);
+  EXPECT_EQ(Find(outcome, "b").job, job + "_1");
+}
+
 TEST(Slurm, LargeGroupsAreSplitIntoArraysOfMaxArraySize) {
   REPHOTO_REQUIRE_SLURM(cluster);
   const fs::path dir = testing::MakeTempDir();
@@ -391,6 +431,30 @@ TEST(Slurm, ResourcesAndOptionsReachSlurm) {
   EXPECT_NE(shown.out.find("Comment=rephoto test"), std::string::npos) << shown.out;
   EXPECT_NE(ReadFileToString(Find(outcome, "fold_00/reconstruct").log_file).find("cpus 2"),
             std::string::npos);
+}
+
+// Held tasks (here submitted with --hold) are counted as waiting for a person; once released
+// they run and the call finishes.
+TEST(Slurm, HeldTasksAreReportedAndRunWhenReleased) {
+  REPHOTO_REQUIRE_SLURM(cluster);
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path run = dir / "run";
+  SbatchCounter counter(dir);
+  SlurmOptions options = TestOptions(counter);
+  options.work.options = {"--hold"};
+  std::vector<TaskGroup> groups(1);
+  groups[0].name = "work";
+  groups[0].tasks = {Sh("a", "echo a"), Sh("b", "echo b")};
+  size_t most_held = 0;
+  const RunOutcome outcome = RunTaskGroups(run, groups, options, [&](const Progress& p) {
+    if (p.held > 0 && most_held == 0) {
+      const std::string job = Submissions(run)[0]["job"];
+      EXPECT_EQ(RunProgram({"scontrol", "release", job}).exit_code, 0);
+    }
+    most_held = std::max(most_held, p.held);
+  });
+  EXPECT_EQ(most_held, 2u);
+  EXPECT_EQ(outcome.Count(TaskState::kDone), 2u);
 }
 
 TEST(Slurm, BadTasksAndRefusedSubmissionsAreOneLineErrors) {

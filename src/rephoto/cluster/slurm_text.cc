@@ -157,18 +157,24 @@ std::string MakeArrayScript(const ArraySpec& spec, const std::vector<std::string
       "    exit 2\n    ;;\nesac\n";
   script += fmt::format("submission={}\nresults={}\n", spec.submission,
                         ShellWord((spec.slurm_dir / "results").string()));
-  script += R"SH(node=$(printf '%s' "${SLURMD_NODENAME:-$(hostname)}" | tr -c 'A-Za-z0-9._-' '_')
-job=$(printf '%s' "${SLURM_ARRAY_JOB_ID:-}" | tr -cd '0-9')
-start=$(date -u +%Y-%m-%dT%H:%M:%SZ)
-start_seconds=$(date +%s)
+  // Three processes besides the command (two `date`, one `mv`): on a busy node every fork
+  // counts, so names are checked with `case`, not `tr`, and the results folder exists already.
+  script += R"SH(node="${SLURMD_NODENAME:-unknown}"
+case "$node" in *[!A-Za-z0-9._-]*) node=unknown ;; esac
+job="${SLURM_ARRAY_JOB_ID:-}"
+case "$job" in *[!0-9]*) job= ;; esac
+now=$(date -u '+%Y-%m-%dT%H:%M:%SZ %s')
+start=${now% *}
+start_seconds=${now#* }
 echo "# rephoto task $id: array job $job index $index on $node at $start"
 "$@"
 code=$?
-end=$(date -u +%Y-%m-%dT%H:%M:%SZ)
-seconds=$(($(date +%s) - start_seconds))
+now=$(date -u '+%Y-%m-%dT%H:%M:%SZ %s')
+end=${now% *}
+seconds=$((${now#* } - start_seconds))
 echo "# rephoto task $id: exit code $code at $end after $seconds s"
 result="$results/$id.json"
-if mkdir -p "$(dirname "$result")" &&
+if { [ -d "${result%/*}" ] || mkdir -p "${result%/*}"; } &&
   printf '{"schema":"rephoto.cluster.result/1","id":"%s","fingerprint":"%s","submission":%s,"job":"%s","index":%s,"node":"%s","exit_code":%s,"start":"%s","end":"%s","seconds":%s}\n' \
     "$id" "$fingerprint" "$submission" "$job" "$index" "$node" "$code" "$start" "$end" "$seconds" \
     >"$result.tmp-$$" &&
@@ -260,6 +266,18 @@ std::vector<QueueEntry> ParseSacct(std::string_view output) {
   return entries;
 }
 
+std::optional<std::string> FindJobOfScript(std::string_view output, std::string_view script) {
+  for (const std::string_view line : SplitView(output, '\n')) {
+    const size_t bar = line.find('|');
+    if (bar == std::string_view::npos) continue;
+    const std::string_view job = TrimView(line.substr(0, bar));
+    std::string_view command = line.substr(bar + 1);
+    if (!command.empty() && command.back() == '\r') command.remove_suffix(1);
+    if (IsDigits(job) && command == script) return std::string(job);
+  }
+  return std::nullopt;
+}
+
 std::optional<int> ParseMaxArraySize(std::string_view output) {
   for (const std::string_view line : SplitView(output, '\n')) {
     const size_t equals = line.find('=');
@@ -277,6 +295,14 @@ bool IsActiveState(std::string_view state) {
        {"PENDING", "CONFIGURING", "RUNNING", "COMPLETING", "SUSPENDED", "REQUEUED", "REQUEUE_HOLD",
         "REQUEUE_FED", "RESIZING", "SIGNALING", "STAGE_OUT", "STOPPED"}) {
     if (state == active) return true;
+  }
+  return false;
+}
+
+bool IsStuckReason(std::string_view reason) {
+  for (const char* stuck : {"JobHeld", "held", "DependencyNeverSatisfied", "BadConstraints",
+                            "InvalidAccount", "InvalidQOS"}) {
+    if (reason.find(stuck) != std::string_view::npos) return true;
   }
   return false;
 }

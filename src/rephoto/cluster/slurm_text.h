@@ -79,6 +79,8 @@ struct QueueEntry {
 std::vector<QueueEntry> ParseSqueue(std::string_view output);
 // Parses sacct output in the format above (the same rules).
 std::vector<QueueEntry> ParseSacct(std::string_view output);
+// The job id in `squeue -h -t all --name NAME -o '%F|%o'` output whose command is `script`.
+std::optional<std::string> FindJobOfScript(std::string_view output, std::string_view script);
 // MaxArraySize from `scontrol show config`; nullopt when absent or not a number.
 std::optional<int> ParseMaxArraySize(std::string_view output);
 
@@ -86,6 +88,10 @@ std::optional<int> ParseMaxArraySize(std::string_view output);
 // RUNNING, COMPLETING, SUSPENDED, REQUEUED, REQUEUE_HOLD, REQUEUE_FED, RESIZING, SIGNALING,
 // STAGE_OUT, STOPPED.
 bool IsActiveState(std::string_view state);
+// True for a pending reason (squeue %r) that needs a person rather than time: JobHeldUser,
+// JobHeldAdmin, "launch failed requeued held", DependencyNeverSatisfied, BadConstraints,
+// InvalidAccount, InvalidQOS.
+bool IsStuckReason(std::string_view reason);
 // "cancelled", "timed out", "ran out of memory", "node failed", ... for a final Slurm state.
 std::string DescribeFinalState(std::string_view state);
 

@@ -104,9 +104,9 @@ TEST(SlurmText, SbatchArguments) {
 }
 
 // Runs the array script as slurmstepd would, for one index.
-ProgramOutput RunArrayTask(const fs::path& script, int index) {
+ProgramOutput RunArrayTask(const fs::path& script, int index, const std::string& node = "n7") {
   return RunProgram({"/usr/bin/env", "SLURM_ARRAY_TASK_ID=" + std::to_string(index),
-                     "SLURM_ARRAY_JOB_ID=812", "SLURMD_NODENAME=node 7", "/bin/sh",
+                     "SLURM_ARRAY_JOB_ID=812", "SLURMD_NODENAME=" + node, "/bin/sh",
                      script.string()});
 }
 
@@ -133,7 +133,7 @@ TEST(SlurmText, ArrayScriptRunsTheIndexedTaskAndRecordsItsResult) {
   ProgramOutput output = RunArrayTask(script, 0);
   EXPECT_EQ(output.exit_code, 0) << output.err;
   EXPECT_EQ(ReadFileToString(out), "a 'quoted' $arg");
-  EXPECT_NE(output.out.find("# rephoto task fold_00/views:0-3: array job 812 index 0 on node_7"),
+  EXPECT_NE(output.out.find("# rephoto task fold_00/views:0-3: array job 812 index 0 on n7"),
             std::string::npos)
       << output.out;
   std::optional<TaskResult> result =
@@ -144,16 +144,17 @@ TEST(SlurmText, ArrayScriptRunsTheIndexedTaskAndRecordsItsResult) {
   EXPECT_EQ(result->submission, 4);
   EXPECT_EQ(result->job, "812");
   EXPECT_EQ(result->index, 0);
-  EXPECT_EQ(result->node, "node_7");
+  EXPECT_EQ(result->node, "n7");
   EXPECT_EQ(result->exit_code, 0);
   EXPECT_EQ(result->start.size(), 20u);  // 2026-11-25T15:48:52Z
   EXPECT_GE(result->seconds, 0);
 
-  output = RunArrayTask(script, 1);
+  output = RunArrayTask(script, 1, "a \"node\"");  // not a node name: not copied into JSON
   EXPECT_EQ(output.exit_code, 3);
   result = ParseTaskResult(ReadFileToString(ResultPath(slurm_dir, failing.id)));
   ASSERT_TRUE(result);
   EXPECT_EQ(result->exit_code, 3);
+  EXPECT_EQ(result->node, "unknown");
   EXPECT_EQ(result->fingerprint, TaskFingerprint(failing));
 
   output = RunArrayTask(script, 2);
@@ -224,6 +225,15 @@ TEST(SlurmText, ParsesSacct) {
   EXPECT_EQ(entries[3].node, "");
 }
 
+TEST(SlurmText, FindsTheJobOfAScript) {
+  const std::string output =
+      "812|/runs/a|b/slurm/submit-0001-views.sh\n"
+      "813|/runs/a|b/slurm/submit-0002-views.sh\n";
+  EXPECT_EQ(FindJobOfScript(output, "/runs/a|b/slurm/submit-0002-views.sh"), "813");
+  EXPECT_EQ(FindJobOfScript(output, "/runs/a|b/slurm/submit-0003-views.sh"), std::nullopt);
+  EXPECT_EQ(FindJobOfScript("", "x"), std::nullopt);
+}
+
 TEST(SlurmText, ParsesMaxArraySize) {
   EXPECT_EQ(ParseMaxArraySize("Configuration data as of 2026-11-25T15:48:52\n"
                               "MaxArraySize            = 1001\n"
@@ -240,6 +250,14 @@ TEST(SlurmText, States) {
   }
   for (const char* state : {"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", ""}) {
     EXPECT_FALSE(IsActiveState(state)) << state;
+  }
+  for (const char* reason : {"JobHeldUser", "JobHeldAdmin", "launch failed requeued held",
+                             "DependencyNeverSatisfied", "BadConstraints", "InvalidQOS"}) {
+    EXPECT_TRUE(IsStuckReason(reason)) << reason;
+  }
+  for (const char* reason : {"Resources", "Priority", "Dependency", "None",
+                             "QOSMaxJobsPerUserLimit", "ReqNodeNotAvail, UnavailableNodes:n1"}) {
+    EXPECT_FALSE(IsStuckReason(reason)) << reason;
   }
   EXPECT_EQ(DescribeFinalState("TIMEOUT"), "timed out (--time)");
   EXPECT_EQ(DescribeFinalState("OUT_OF_MEMORY"), "ran out of memory (--mem)");
