@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <memory>
 
@@ -49,7 +50,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int threads = 0;
   bool quiet = false;
-  app.add_option("-j,--threads", threads, "Worker threads (0 = all cores)")->capture_default_str();
+  app.add_option("-j,--threads", threads,
+                 "Worker threads (0 = all cores, or $SLURM_CPUS_PER_TASK inside a Slurm job)")
+      ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "Only print warnings and errors");
   // Resource limits for the files read (core/limits.h): a file whose header claims more is an
   // error naming it, before anything is allocated.
@@ -94,7 +97,11 @@ int main(int argc, char** argv) {
   SetQuiet(quiet);
   SetMaxPixels(max_pixels);
   if (!max_memory.empty()) SetMaxMemoryBytes(ParseByteSize(max_memory));
-  ThreadLimit thread_limit(threads);
+  // Inside a Slurm job without -j: the CPUs the job was given, not every core of a shared node.
+  if (threads == 0) {
+    if (const char* slurm_cpus = std::getenv("SLURM_CPUS_PER_TASK")) threads = std::atoi(slurm_cpus);
+  }
+  ThreadLimit thread_limit(std::max(threads, 0));
   try {
     for (auto& [sub, run] : commands) {
       if (sub->parsed()) return run();

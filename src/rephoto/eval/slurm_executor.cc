@@ -26,13 +26,10 @@ fs::path ThisExecutable() {
 namespace {
 
 // The argv of one task on a node.
-std::vector<std::string> TaskArgv(const EvaluateOptions& o, const fs::path& program,
-                                  const fs::path& config, const std::string& task) {
+// Threads: the job's CPUs ($SLURM_CPUS_PER_TASK, which main.cc honours without -j).
+std::vector<std::string> TaskArgv(const fs::path& program, const fs::path& config,
+                                  const std::string& task) {
   std::vector<std::string> argv = {program.string(), "-q"};
-  if (o.slurm.work.cpus_per_task > 0) {
-    argv.push_back("-j");
-    argv.push_back(std::to_string(o.slurm.work.cpus_per_task));
-  }
   argv.insert(argv.end(), {"evaluate", "--config", config.string(), "--only", task});
   return argv;
 }
@@ -47,7 +44,7 @@ std::vector<cluster::TaskGroup> TaskGroups(const EvaluateOptions& o, const Evalu
   std::set<size_t> submitted_folds;
   for (const EvaluateTask& task : plan.tasks) {
     if (task.done) continue;
-    cluster::Task t{prefix + task.id, TaskArgv(o, program, config, task.id),
+    cluster::Task t{prefix + task.id, TaskArgv(program, config, task.id),
                     Hasher().Add(config_key).Add(task.key).Hex(), std::nullopt};
     if (task.kind == EvaluateTask::Kind::kFold) {
       t.after = std::vector<std::string>();
@@ -96,6 +93,8 @@ SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
   cluster::SlurmOptions slurm = cluster::ResolveReconstructResources(options.slurm);
   slurm.interrupted = [] { return InterruptRequested(); };
   slurm.job_name = "rephoto-eval";
+  // The plan's keys say what is unfinished (a task whose outputs were deleted runs again).
+  slurm.skip_succeeded = false;
   LogInfo(fmt::format("evaluate on Slurm: {} folds, {} views, {} tasks ({} done before) -> {}",
                       plan.folds, plan.views, plan.tasks.size(), outcome.tasks_done_before,
                       plan.run.string()));

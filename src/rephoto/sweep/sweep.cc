@@ -324,6 +324,7 @@ bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
   cluster::SlurmOptions slurm = cluster::ResolveReconstructResources(options.base.slurm);
   slurm.interrupted = [] { return eval::InterruptRequested(); };
   slurm.job_name = "rephoto-sweep";
+  slurm.skip_succeeded = false;  // the plans' keys say what is unfinished
   LogInfo(fmt::format("sweep on Slurm: {} settings, {} tasks ({} done before) -> {}",
                       plan.settings.size(), tasks + 1, done_before + (sweep_done ? 1 : 0),
                       options.out.string()));
