@@ -6,6 +6,7 @@
 // evaluated) is written as an empty field, infinities as "inf" / "-inf".
 #pragma once
 
+#include <filesystem>
 #include <span>
 #include <string>
 #include <string_view>
@@ -37,5 +38,9 @@ class CsvWriter {
 // line breaks; "\r\n" line ends are accepted). `name` is used in error messages, which name the
 // line of an unterminated quote. A final line break does not start an empty row.
 std::vector<std::vector<std::string>> ParseCsv(std::string_view text, const std::string& name);
+
+// ParseCsv of the file at `path` (named in messages); throws Error naming it when it cannot be
+// read.
+std::vector<std::vector<std::string>> ReadCsvFile(const std::filesystem::path& path);
 
 }  // namespace rephoto::io

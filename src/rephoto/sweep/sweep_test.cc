@@ -50,13 +50,6 @@ fs::path WriteConfig(const fs::path& dir, const std::string& name, const std::st
   return dir / name;
 }
 
-std::vector<std::vector<std::string>> ReadCsv(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return io::ParseCsv(text.str(), path.string());
-}
-
 TEST(Sweep, TextureNoiseOrdersTheErrorInEverySeriesAndResumes) {
   const fs::path dir = testing::MakeTempDir();
   const fs::path config = WriteConfig(dir, "exp.toml",
@@ -104,13 +97,13 @@ out = "noise"
   EXPECT_EQ(result.table.settings[0].across_folds[1].median,
             result.table.settings[3].across_folds[1].median);
 
-  const auto table = ReadCsv(options.out / "sweep.csv");
+  const auto table = io::ReadCsvFile(options.out / "sweep.csv");
   ASSERT_EQ(table.size(), 7u);
   EXPECT_EQ(table[0][0], "setting");
   EXPECT_EQ(table[0][1], "seed");
   EXPECT_EQ(table[0][2], "texture_noise");
   EXPECT_EQ(table[2][0], "seed-1_texture_noise-0.1");
-  EXPECT_EQ(ReadCsv(options.out / "sweep_per_fold.csv").size(), 1u + 6u * 2u);
+  EXPECT_EQ(io::ReadCsvFile(options.out / "sweep_per_fold.csv").size(), 1u + 6u * 2u);
   EXPECT_TRUE(fs::exists(options.out / "report.html"));
   EXPECT_TRUE(fs::exists(options.out / "settings" / "seed-2_texture_noise-0.3" / "report.html"));
   std::ifstream json_file(options.out / "sweep.json");
@@ -129,7 +122,7 @@ out = "noise"
   }
   EXPECT_EQ(rendered, 0u);
   EXPECT_EQ(reused, 6u * 8u);
-  EXPECT_EQ(ReadCsv(options.out / "sweep.csv"), table);
+  EXPECT_EQ(io::ReadCsvFile(options.out / "sweep.csv"), table);
 }
 
 TEST(Sweep, HalvingTrainingSetsFromTheSmallestFold) {
