@@ -4,6 +4,9 @@
 // comma, a double quote, a line break, or leading/trailing spaces; quotes inside are doubled.
 // Numbers are written with the shortest text that reads back to the same double; NaN (not
 // evaluated) is written as an empty field, infinities as "inf" / "-inf".
+//
+// Thread safety: the free functions are reentrant; a CsvWriter is a plain value, one writer per
+// thread.
 #pragma once
 
 #include <filesystem>
