@@ -44,16 +44,9 @@ const SceneFiles& Files() {
   return files;
 }
 
-fs::path WriteConfig(const fs::path& dir, const std::string& name, const std::string& text) {
-  fs::create_directories(dir);
-  std::ofstream(dir / name) << text;
-  return dir / name;
-}
-
 TEST(Sweep, TextureNoiseOrdersTheErrorInEverySeriesAndResumes) {
   const fs::path dir = testing::MakeTempDir();
-  const fs::path config = WriteConfig(dir, "exp.toml",
-                                      fmt::format(R"(
+  const fs::path config = testing::WriteFile(dir / "exp.toml", fmt::format(R"(
 scene = "{0}/sparse"
 image_root = "{0}/images"
 model = "{0}/truth.ply"
@@ -66,7 +59,7 @@ seed = [1, 2]
 x = "texture_noise"
 out = "noise"
 )",
-                                                  Files().root.string()));
+                                                                           Files().root.string()));
   const SweepOptions options = LoadSweepConfig(config);
   ASSERT_EQ(options.axes.size(), 2u);
   EXPECT_EQ(options.axes[0].parameter, "seed");  // x axis last
@@ -128,13 +121,12 @@ out = "noise"
 TEST(Sweep, HalvingTrainingSetsFromTheSmallestFold) {
   const fs::path dir = testing::MakeTempDir();
   // JSON config; colouring from each fold's training photos, |T| halved from the fold's 4.
-  const fs::path config = WriteConfig(dir, "exp.json",
-                                      fmt::format(R"({{
+  const fs::path config = testing::WriteFile(dir / "exp.json", fmt::format(R"({{
   "scene": "{0}/sparse", "image-root": "{0}/images", "model": "{0}/plain.ply",
   "colorize": true, "scheme": "kfold:2", "metrics": "1-ncc", "projection-metric": "none",
   "sweep": {{"train_count": "halve", "min_train_count": 1}}
 }})",
-                                                  Files().root.string()));
+                                                                           Files().root.string()));
   SweepOptions options = LoadSweepConfig(config);
   options.report = false;
   EXPECT_EQ(options.out, dir / "exp.sweep");
@@ -156,7 +148,7 @@ TEST(Sweep, HalvingTrainingSetsFromTheSmallestFold) {
 TEST(Sweep, BadConfigsAreErrorsNamingTheFileAndKey) {
   const fs::path dir = testing::MakeTempDir();
   auto message = [&](const std::string& text) {
-    const fs::path config = WriteConfig(dir, "bad.toml", text);
+    const fs::path config = testing::WriteFile(dir / "bad.toml", text);
     try {
       RunSweep(LoadSweepConfig(config));
     } catch (const Error& e) {
