@@ -6,46 +6,33 @@
 #include <sstream>
 #include <string>
 
-#include "rephoto/core/error.h"
+#include "fuzz_common.h"
 #include "rephoto/scene/colmap.h"
-
-namespace {
-
-template <typename Read>
-bool TryRead(Read read) {
-  try {
-    read();
-    return true;
-  } catch (const rephoto::Error&) {
-    return false;
-  }
-}
-
-}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace rephoto::scene;
+  using rephoto::fuzz::AcceptsInput;
   if (size == 0) return 0;
   const std::string input(reinterpret_cast<const char*>(data) + 1, size - 1);
   std::istringstream in(input);
   switch (data[0] % 7) {
     case 0:
-      TryRead([&] { ReadColmapCamerasText(in, "cameras.txt"); });
+      AcceptsInput([&] { ReadColmapCamerasText(in, "cameras.txt"); });
       break;
     case 1:
-      TryRead([&] { ReadColmapImagesText(in, "images.txt"); });
+      AcceptsInput([&] { ReadColmapImagesText(in, "images.txt"); });
       break;
     case 2:
-      TryRead([&] { ReadColmapPoints3DText(in, "points3D.txt"); });
+      AcceptsInput([&] { ReadColmapPoints3DText(in, "points3D.txt"); });
       break;
     case 3:
-      TryRead([&] { ReadColmapCamerasBinary(in, "cameras.bin"); });
+      AcceptsInput([&] { ReadColmapCamerasBinary(in, "cameras.bin"); });
       break;
     case 4:
-      TryRead([&] { ReadColmapImagesBinary(in, "images.bin"); });
+      AcceptsInput([&] { ReadColmapImagesBinary(in, "images.bin"); });
       break;
     case 5:
-      TryRead([&] { ReadColmapPoints3DBinary(in, "points3D.bin"); });
+      AcceptsInput([&] { ReadColmapPoints3DBinary(in, "points3D.bin"); });
       break;
     case 6: {
       // Three files separated by NUL bytes, read and linked into a Scene.
@@ -55,10 +42,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       std::istringstream cameras(input.substr(0, a)), images(input.substr(a + 1, b - a - 1)),
           points(input.substr(b + 1));
       ColmapModel model;
-      if (TryRead([&] { model.cameras = ReadColmapCamerasText(cameras, "cameras.txt"); }) &&
-          TryRead([&] { model.images = ReadColmapImagesText(images, "images.txt"); }) &&
-          TryRead([&] { model.points = ReadColmapPoints3DText(points, "points3D.txt"); })) {
-        TryRead([&] { SceneFromColmap(model, "images"); });
+      if (AcceptsInput([&] { model.cameras = ReadColmapCamerasText(cameras, "cameras.txt"); }) &&
+          AcceptsInput([&] { model.images = ReadColmapImagesText(images, "images.txt"); }) &&
+          AcceptsInput([&] { model.points = ReadColmapPoints3DText(points, "points3D.txt"); })) {
+        AcceptsInput([&] { SceneFromColmap(model, "images"); });
       }
       break;
     }

@@ -5,17 +5,16 @@
 #include <sstream>
 #include <string>
 
-#include "rephoto/core/error.h"
+#include "fuzz_common.h"
 #include "rephoto/scene/transforms_json.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace rephoto::scene;
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
-  try {
+  rephoto::fuzz::AcceptsInput([&] {
     const Scene scene = ReadTransformsJson(in, "transforms.json", "/nonexistent-fuzz-root",
                                            FixedImageSize(640, 480));
     TransformsJsonFromScene(scene, "/nonexistent-fuzz-root");
-  } catch (const rephoto::Error&) {
-  }
+  });
   return 0;
 }

@@ -61,7 +61,10 @@ for colmap_file in "$data_dir"/openmvs_sceaux/colmap_text_derived/*.txt "$data_d
   # the raw files still seed useful tokens.
   seed fuzz_scene_colmap "$colmap_file"
 done
-seed fuzz_scene_transforms_json "$data_dir/instant_ngp_fox/transforms.json"
+# Selector byte + file (fuzz/fuzz_scene_colmap.cc); made by fuzz/corpus/make_scene_seeds.py.
+seed fuzz_scene_colmap fuzz/corpus/scene_colmap/*
+seed fuzz_scene_transforms_json fuzz/corpus/scene_transforms_json/* \
+  "$data_dir/instant_ngp_fox/transforms.json"
 # Models: small hand-written meshes and point clouds (every encoding and property kind) and
 # the real sparse cloud and mesh of Sceaux (the 3 MB refined mesh would slow mutation down).
 seed fuzz_ply fuzz/corpus/ply/* "$data_dir/openmvs_sceaux/Sparse.ply" "$data_dir/openmvs_sceaux/scene_mesh.ply"

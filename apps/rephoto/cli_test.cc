@@ -25,20 +25,11 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct Outcome {
-  int exit_code = -1;
-  std::string err;
-  std::string out;
-};
+using Outcome = testing::ShellOutcome;
 
-// Runs `rephoto ARGS` through the shell, stderr captured.
+// Runs `rephoto ARGS` through the shell, stdout and stderr captured.
 Outcome RunCli(const std::string& args) {
-  const fs::path dir = testing::MakeTempDir();
-  const std::string command = std::string(REPHOTO_CLI) + " -q " + args + " >'" +
-                              (dir / "stdout").string() + "' 2>'" + (dir / "stderr").string() + "'";
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFileToString(dir / "stderr"),
-          ReadFileToString(dir / "stdout")};
+  return testing::RunShell(std::string(REPHOTO_CLI) + " -q " + args);
 }
 
 size_t Lines(const std::string& text) {
@@ -67,12 +58,19 @@ std::string LastLine(const std::string& text) {
 TEST(Cli, UsageMistakesAnywhereExitTwoWithOneLine) {
   REPHOTO_REQUIRE_DATA(kSceaux);
   const fs::path dir = testing::MakeTempDir();
-  for (const std::string& args : {"split " + SceauxArgs().substr(8) + " --scheme bogus:3 --out '" +
-                                      (dir / "s").string() + "'",
-                                  "evaluate " + SceauxArgs() + " --scheme kfold:x --model '" +
-                                      Mesh() + "' --out '" + (dir / "e").string() + "'",
-                                  "evaluate " + SceauxArgs() + " --command-timeout -1 --model '" +
-                                      Mesh() + "' --out '" + (dir / "t").string() + "'"}) {
+  for (const std::string& args :
+       {"split " + SceauxArgs().substr(8) + " --scheme bogus:3 --out '" + (dir / "s").string() +
+            "'",
+        "evaluate " + SceauxArgs() + " --scheme kfold:x --model '" + Mesh() + "' --out '" +
+            (dir / "e").string() + "'",
+        "evaluate " + SceauxArgs() + " --command-timeout -1 --model '" + Mesh() + "' --out '" +
+            (dir / "t").string() + "'",
+        "evaluate " + SceauxArgs() + " --scheme bogus --model '" + Mesh() + "' --out '" +
+            (dir / "e").string() + "'",
+        "evaluate " + SceauxArgs() + " --reconstruct true --out '" + (dir / "e").string() + "'",
+        "evaluate " + SceauxArgs() + " --executor bogus --model '" + Mesh() + "' --out '" +
+            (dir / "e").string() + "'",
+        std::string("evaluate --bogus-flag")}) {
     SCOPED_TRACE(args);
     const Outcome outcome = RunCli(args);
     EXPECT_EQ(outcome.exit_code, 2) << outcome.err;
@@ -83,6 +81,67 @@ TEST(Cli, UsageMistakesAnywhereExitTwoWithOneLine) {
     EXPECT_EQ(Lines(message), 1u) << outcome.err;
   }
   EXPECT_FALSE(fs::exists(dir / "e"));
+}
+
+// A mistake in a sweep's TOML file is a usage error too, found before anything is written, and
+// the message names the file.
+TEST(Cli, SweepConfigMistakesExitTwoWithOneLineNamingTheFile) {
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path data = testing::SharedDataDir() / kSceaux;
+  const std::string valid = fmt::format(
+      "scene = \"{}\"\nimage_root = \"{}\"\nmodel = \"{}\"\nscheme = \"kfold:2\"\n"
+      "metrics = [\"1-ncc\", \"cb+cr\"]\n[sweep]\ntexture_noise = [0, 0.1]\nout = \"out\"\n",
+      (data / "colmap_text_derived").string(), (data / "images").string(), Mesh());
+  struct Case {
+    std::string name, from, to, message;
+  };
+  for (const Case& c : {Case{"metric.toml", "\"cb+cr\"", "\"bogus\"", "unknown metric 'bogus'"},
+                        Case{"scheme.toml", "kfold:2", "kfold:x", "K must be an integer"},
+                        Case{"key.toml", "texture_noise =", "texture_noize =",
+                             "[sweep] texture_noize: unknown key"}}) {
+    SCOPED_TRACE(c.name);
+    const fs::path config = testing::WriteFile(dir / c.name, testing::Replace(valid, c.from, c.to));
+    const Outcome outcome = RunCli("sweep '" + config.string() + "'");
+    EXPECT_EQ(outcome.exit_code, 2) << outcome.err;
+    EXPECT_EQ(Lines(outcome.err), 1u) << outcome.err;
+    EXPECT_THAT(outcome.err, HasSubstr("rephoto: error: " + config.string() + ": "));
+    EXPECT_THAT(outcome.err, HasSubstr(c.message));
+    EXPECT_FALSE(fs::exists(dir / "out"));
+  }
+}
+
+// Ctrl-C: the documented exit code 130 and how to resume, as the last line.
+TEST(Cli, InterruptExitsWith130AndSaysHowToResume) {
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const fs::path dir = testing::MakeTempDir();
+  const fs::path run = dir / "run";
+  const std::string command = std::string(REPHOTO_CLI) + " -q evaluate " + SceauxArgs() +
+                              " --scheme kfold:2 --model mesh.ply --reconstruct 'sleep 30' "
+                              "--out '" +
+                              run.string() + "' 2>'" + (dir / "stderr").string() + "'";
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), nullptr);
+    ::_exit(127);
+  }
+  // Wait until fold_00's command runs (its log exists), then interrupt.
+  for (int i = 0; i < 600 && !fs::exists(run / "logs"); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(run / "logs"));
+  const auto start = std::chrono::steady_clock::now();
+  ::kill(child, SIGINT);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 20);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  EXPECT_EQ(LastLine(ReadFileToString(dir / "stderr")),
+            fmt::format("rephoto: {}: interrupted; finished folds and views are kept: rerun the "
+                        "same command to resume\n",
+                        run.string()));
 }
 
 TEST(Cli, OneWriterPerRunFolderAndKillNineReleasesIt) {

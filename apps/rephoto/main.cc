@@ -48,6 +48,15 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string(REPHOTO_VERSION));
   app.formatter(std::make_shared<cli::HelpFormatter>());
   app.require_subcommand(1);
+  // A mistake in the options: one line naming it, then where the options are listed (the same
+  // form as the usage errors the commands find in their settings).
+  app.failure_message([](const CLI::App* top, const CLI::Error& e) {
+    const auto subcommands = top->get_subcommands();
+    const std::string help = subcommands.empty()
+                                 ? "rephoto --help"
+                                 : "rephoto " + subcommands[0]->get_name() + " --help";
+    return fmt::format("rephoto: {}\nRun '{}' for the options.\n", e.what(), help);
+  });
   int threads = 0;
   bool quiet = false;
   app.add_option("-j,--threads", threads,

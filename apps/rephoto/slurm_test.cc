@@ -29,19 +29,10 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-struct Outcome {
-  int exit_code = -1;
-  std::string err;
-  std::string out;
-};
+using Outcome = testing::ShellOutcome;
 
 Outcome RunCli(const std::string& args) {
-  const fs::path dir = testing::MakeTempDir();
-  const std::string command = std::string(REPHOTO_CLI) + " " + args + " >'" +
-                              (dir / "stdout").string() + "' 2>'" + (dir / "stderr").string() + "'";
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFileToString(dir / "stderr"),
-          ReadFileToString(dir / "stdout")};
+  return testing::RunShell(std::string(REPHOTO_CLI) + " " + args);
 }
 
 const synth::DemoSceneFiles& Scene() {
@@ -121,8 +112,9 @@ TEST(SlurmExecutor, EvaluateAndSweepEqualTheLocalRuns) {
   const Outcome sweep_slurm = RunCli(fmt::format("-q sweep '{}' --out '{}' --executor slurm",
                                                  config.string(), (dir / "sw_slurm").string()));
   ASSERT_EQ(sweep_slurm.exit_code, 0) << sweep_slurm.err;
-  for (const char* file : {"sweep.csv", "sweep_per_fold.csv", "settings/texture_noise-0/per_image.csv",
-                           "settings/texture_noise-0.1/per_image.csv"}) {
+  for (const char* file :
+       {"sweep.csv", "sweep_per_fold.csv", "settings/texture_noise-0/per_image.csv",
+        "settings/texture_noise-0.1/per_image.csv"}) {
     EXPECT_EQ(ReadFileToString(dir / "sw_local" / file), ReadFileToString(dir / "sw_slurm" / file))
         << file;
   }

@@ -90,10 +90,6 @@ std::vector<std::string> FolderEntries(const fs::path& folder) {
   return names;
 }
 
-std::vector<std::vector<std::string>> ReadCsv(const fs::path& path) {
-  return io::ParseCsv(ReadFileToString(path), path.string());
-}
-
 nlohmann::json ReadJson(const fs::path& path) {
   return nlohmann::json::parse(ReadFileToString(path));
 }
@@ -179,7 +175,7 @@ TEST(Compare, MissingCounterpartsAreReportedAndCounted) {
   EXPECT_EQ(result.missing[1].name, "d");
   EXPECT_EQ(result.missing[1].missing, Missing::kPhoto);
 
-  const auto rows = ReadCsv(f.out / "per_image.csv");
+  const auto rows = io::ReadCsvFile(f.out / "per_image.csv");
   ASSERT_EQ(rows.size(), 5u);
   const size_t status = Column(rows[0], "status");
   EXPECT_EQ(rows[1][0], "a");
@@ -416,7 +412,7 @@ TEST(Compare, HandComputedCbCrAndPsnrInCsvAndJson) {
   EXPECT_NEAR(result.images[0].metrics[1].mean, psnr_one, 1e-4);
   EXPECT_NEAR(result.images[1].metrics[1].mean, psnr_two, 1e-4);
 
-  const auto rows = ReadCsv(f.out / "per_image.csv");
+  const auto rows = io::ReadCsvFile(f.out / "per_image.csv");
   ASSERT_EQ(rows.size(), 3u);
   EXPECT_EQ(rows[0], (std::vector<std::string>{"name", "status", "photo", "render", "width",
                                                "height", "resized", "completeness",

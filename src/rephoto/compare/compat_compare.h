@@ -4,6 +4,8 @@
 // with alpha is composited over `background`; a rendering's alpha is dropped. Only the
 // metrics "psnr" and "ssim" exist in this mode. Completeness is still reported (rendering
 // alpha/black against an all-valid photo) but does not enter the metrics.
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include <array>

@@ -6,6 +6,8 @@
 // The stem is the file name without its last extension ("IMG_0001.JPG" -> "IMG_0001"),
 // compared case-sensitively. Two images of one folder with the same stem ("a.png", "a.jpg")
 // are an error naming both, since it is unclear which one is meant.
+//
+// Thread safety: reentrant (lists folders; no shared state).
 #pragma once
 
 #include <filesystem>

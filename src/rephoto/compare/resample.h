@@ -9,6 +9,8 @@
 // Masks are resampled conservatively: an output pixel is valid only when every source pixel
 // with a nonzero weight in it is valid, so resized colours never mix covered and uncovered
 // pixels of a rendering.
+//
+// Thread safety: reentrant (parallelizes inside, core/parallel.h).
 #pragma once
 
 #include "rephoto/core/image.h"

@@ -1,4 +1,6 @@
 // Colour maps for error visualization.
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include <array>

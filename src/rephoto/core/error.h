@@ -12,6 +12,8 @@
 //                file, a --scheme text): exit 2, like a parse error of the command line.
 //   Interrupted  the user stopped the run (SIGINT/SIGTERM); what was finished is kept and the
 //                same command resumes: exit 130 (128 + SIGINT, the shell's convention).
+//
+// Thread safety: exception types without shared state.
 #pragma once
 
 #include <fmt/format.h>

@@ -3,6 +3,9 @@
 // Every output rephoto writes goes through WriteFileAtomically: the content is written to
 // "<path>.tmp-<pid>" in the same folder and renamed over <path> only when complete, so an
 // interrupted run never leaves a half-written file under the final name.
+//
+// Thread safety: reentrant, but concurrent writes must go to different paths: the temporary name is
+// per process (<path>.tmp-<pid>), so two threads writing one path would share it.
 #pragma once
 
 #include <filesystem>

@@ -6,6 +6,10 @@
 // Image (float) holds values as stored in the files, scaled to [0,1] (8-bit: v/255,
 // 16-bit: v/65535), display-referred, never linearized. EXR/PFM values are kept as they are.
 // Mask (uint8) holds 0 = invalid, anything else = valid.
+//
+// Thread safety: plain value types without synchronization: any number of threads may read an image
+// at once, and threads may write disjoint pixels of one image; resizing or moving it needs
+// exclusive access.
 #pragma once
 
 #include <cstddef>

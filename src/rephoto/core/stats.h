@@ -1,4 +1,6 @@
 // Summary statistics used for every aggregate rephoto reports (per image, fold, dataset).
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,9 @@
 // Synthetic defects on a model (paper Section 4.1, Fig. 5/6): texture noise, geometry noise and
 // mesh simplification, deterministic for a seed and composable in one call (applied in the order
 // simplification, geometry noise, texture noise).
+//
+// Thread safety: reentrant (no shared state); Degrade reads its input mesh and parallelizes inside
+// (core/parallel.h), so concurrent calls may share one const input.
 #pragma once
 
 #include <cstdint>

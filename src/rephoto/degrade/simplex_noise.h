@@ -4,6 +4,10 @@
 // Noise(p) is a smooth function of the position p with values in about [-1, 1] (the exact
 // extremes of this kernel are within +-1; Noise is scaled by 32 as in Gustavson's reference) and
 // a feature size of about 1 unit: scale positions to choose the frequency.
+//
+// Thread safety: a SimplexNoise is immutable after construction; Noise may be called from several
+// threads at once. The SplitMix64/UniformDouble helpers advance the state they are given: one state
+// per thread.
 #pragma once
 
 #include <Eigen/Core>

@@ -58,6 +58,145 @@ mesh::Mesh PointCloudFrom(const mesh::Mesh& truth, size_t step) {
   return cloud;
 }
 
+struct Recipe {
+  std::string name, description;
+  mesh::Mesh model;
+  std::string representation = "auto";
+};
+
+// Photos: the ground truth, finely anti-aliased, with exposure differences and sensor noise,
+// and the masks of what each photo shows of the scene.
+void Photograph(const DemoOptions& options, const mesh::Mesh& truth, const scene::Scene& scene,
+                const fs::path& images_dir, const fs::path& masks_dir) {
+  uint64_t state = options.scene.seed ^ 0xF070ULL;
+  RenderAll(truth, scene, options.photo_samples_per_pixel, images_dir, "demo: photographing",
+            [&](size_t i, const render::Rephoto& clean) {
+              const double gain =
+                  1.0 + options.max_exposure_change * (2 * degrade::UniformDouble(state) - 1);
+              const Image photo = synth::SimulatePhoto(clean.color, gain, options.noise_sigma,
+                                                       options.scene.seed * 1000 + i);
+              io::WritePng(images_dir / scene.views[i].name, photo);
+              // The user's mask of what the photo shows of the scene (not the empty sky), as
+              // people mask the sky or background of real photos: completeness then measures
+              // how much of the scene a reconstruction covers.
+              Mask mask(clean.color.width(), clean.color.height(), 1);
+              for (size_t p = 0; p < mask.pixel_count(); ++p) {
+                mask.data()[p] = clean.color.data()[4 * p + 3] >= 1.f ? 1 : 0;
+              }
+              io::WritePng(masks_dir / (Stem(scene.views[i].name) + ".png"), mask);
+            });
+}
+
+// The six reconstructions the demo ranks, each made from the ground truth.
+std::vector<Recipe> MakeRecipes(const DemoOptions& options, const mesh::Mesh& truth) {
+  std::vector<Recipe> recipes;
+  recipes.push_back({"ground_truth", "the ground-truth mesh with vertex colours", truth});
+  degrade::DegradeOptions d;
+  d.seed = options.scene.seed;
+  d.texture_noise = 0.15f;
+  recipes.push_back({"texture_noise", "vertex colours offset by simplex noise (max 0.15)",
+                     degrade::Degrade(truth, d)});
+  d = {};
+  d.seed = options.scene.seed;
+  d.geometry_noise = 0.002f;
+  recipes.push_back({"geometry_noise",
+                     "vertices moved along normals by simplex noise (max 0.2 % of the extent)",
+                     degrade::Degrade(truth, d)});
+  d = {};
+  d.simplify = 0.97f;
+  recipes.push_back(
+      {"simplified", "97 % of the vertices removed by edge collapse", degrade::Degrade(truth, d)});
+  recipes.push_back({"point_cloud",
+                     "every 3rd vertex as an oriented disc, radius from the point density",
+                     PointCloudFrom(truth, 3)});
+  // The paper's Table I: view-dependent texturing makes a coarse proxy look good again.
+  recipes.push_back({"view_dependent",
+                     "the simplified mesh textured view-dependently from each fold's training "
+                     "photos (Buehler et al. 2001)",
+                     std::find_if(recipes.begin(), recipes.end(),
+                                  [](const Recipe& r) { return r.name == "simplified"; })
+                         ->model,
+                     "vdt"});
+  return recipes;
+}
+
+// Writes the recipe's model (the view-dependent one reuses the simplified proxy written before
+// it) and evaluates it in runs/<name>.
+DemoReconstruction EvaluateRecipe(const DemoOptions& options, const Recipe& recipe,
+                                  const fs::path& scene_dir, const fs::path& images_dir,
+                                  const fs::path& masks_dir) {
+  fs::path model_path = options.out / "models" / (recipe.name + ".ply");
+  if (recipe.representation == "auto") {
+    mesh::WritePly(model_path, recipe.model);
+  } else {
+    model_path = options.out / "models" / "simplified.ply";  // the proxy, written above
+  }
+  eval::EvaluateOptions e;
+  e.scene = scene_dir / "sparse";
+  e.format = "colmap";
+  e.image_root = images_dir;
+  e.photo_masks = masks_dir;
+  e.scheme = options.scheme;
+  e.model = model_path;
+  e.representation = recipe.representation;
+  e.metrics = options.metrics;
+  e.samples_per_pixel = options.render_samples_per_pixel;
+  e.report = options.report;
+  e.out = options.out / "runs" / recipe.name;
+  e.command_line = {"rephoto", "demo"};
+  LogInfo("demo: evaluating " + recipe.name);
+  DemoReconstruction r{.name = recipe.name,
+                       .description = recipe.description,
+                       .model = model_path,
+                       .run_dir = e.out,
+                       .result = eval::RunEvaluate(e)};
+  REPHOTO_CHECK(r.result.exit_code == ExitCode::kOk, "demo: the evaluation of {} is incomplete",
+                recipe.name);
+  return r;
+}
+
+// ranking.csv and the ranking part of demo.json, in rank order.
+void AddRanking(const DemoOptions& options, const DemoResult& result, io::CsvWriter& csv,
+                nlohmann::ordered_json& json) {
+  std::vector<std::string> header = {"rank", "reconstruction", "completeness_median"};
+  for (metrics::Metric m : options.metrics) {
+    header.push_back(std::string(metrics::MetricName(m)) + "_median");
+  }
+  header.push_back("description");
+  csv.AddRow(header);
+  for (size_t rank = 0; rank < result.ranking.size(); ++rank) {
+    const auto& r = result.ranking[rank];
+    std::vector<std::string> row = {std::to_string(rank + 1), r.name,
+                                    io::CsvNumber(r.result.completeness_across_folds.median)};
+    nlohmann::ordered_json entry;
+    entry["rank"] = rank + 1;
+    entry["reconstruction"] = r.name;
+    entry["description"] = r.description;
+    entry["model"] = r.model.string();
+    entry["run"] = r.run_dir.string();
+    entry["completeness_median"] = r.result.completeness_across_folds.median;
+    for (metrics::Metric m : options.metrics) {
+      const double v = r.Median(m);
+      row.push_back(io::CsvNumber(v));
+      entry[std::string(metrics::MetricName(m)) + "_median"] =
+          std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+    }
+    row.push_back(r.description);
+    csv.AddRow(row);
+    json["ranking"].push_back(entry);
+  }
+}
+
+void WriteDemoReport(const DemoOptions& options, const DemoResult& result) {
+  std::vector<report::CollectionEntry> entries;
+  for (const auto& r : result.ranking) {
+    entries.push_back({.label = r.name, .description = r.description, .run_dir = r.run_dir});
+  }
+  report::CollectionOptions report_options;
+  report_options.title = "rephoto demo: six reconstructions of the procedural scene";
+  report::WriteCollectionReport(entries, options.out / "report.html", report_options);
+}
+
 }  // namespace
 
 double DemoReconstruction::Median(metrics::Metric metric) const {
@@ -81,106 +220,17 @@ DemoResult RunDemo(const DemoOptions& options) {
   const scene::Scene scene = synth::MakeDemoScene(options.scene, images_dir);
   mesh::WritePly(scene_dir / "ground_truth.ply", truth);
   scene::WriteColmap(scene, scene_dir / "sparse", scene::ColmapFormat::kText);
-
-  // Photos: the ground truth, finely anti-aliased, with exposure differences and sensor noise.
-  uint64_t state = options.scene.seed ^ 0xF070ULL;
-  RenderAll(truth, scene, options.photo_samples_per_pixel, images_dir, "demo: photographing",
-            [&](size_t i, const render::Rephoto& clean) {
-              const double gain =
-                  1.0 + options.max_exposure_change * (2 * degrade::UniformDouble(state) - 1);
-              const Image photo = synth::SimulatePhoto(clean.color, gain, options.noise_sigma,
-                                                       options.scene.seed * 1000 + i);
-              io::WritePng(images_dir / scene.views[i].name, photo);
-              // The user's mask of what the photo shows of the scene (not the empty sky), as
-              // people mask the sky or background of real photos: completeness then measures
-              // how much of the scene a reconstruction covers.
-              Mask mask(clean.color.width(), clean.color.height(), 1);
-              for (size_t p = 0; p < mask.pixel_count(); ++p) {
-                mask.data()[p] = clean.color.data()[4 * p + 3] >= 1.f ? 1 : 0;
-              }
-              io::WritePng(masks_dir / (Stem(scene.views[i].name) + ".png"), mask);
-            });
-
-  struct Recipe {
-    std::string name, description;
-    mesh::Mesh model;
-    std::string representation = "auto";
-  };
-  std::vector<Recipe> recipes;
-  recipes.push_back({"ground_truth", "the ground-truth mesh with vertex colours", truth});
-  {
-    degrade::DegradeOptions d;
-    d.seed = options.scene.seed;
-    d.texture_noise = 0.15f;
-    recipes.push_back({"texture_noise", "vertex colours offset by simplex noise (max 0.15)",
-                       degrade::Degrade(truth, d)});
-    d = {};
-    d.seed = options.scene.seed;
-    d.geometry_noise = 0.002f;
-    recipes.push_back({"geometry_noise",
-                       "vertices moved along normals by simplex noise (max 0.2 % of the extent)",
-                       degrade::Degrade(truth, d)});
-    d = {};
-    d.simplify = 0.97f;
-    recipes.push_back({"simplified", "97 % of the vertices removed by edge collapse",
-                       degrade::Degrade(truth, d)});
-  }
-  recipes.push_back({"point_cloud",
-                     "every 3rd vertex as an oriented disc, radius from the point density",
-                     PointCloudFrom(truth, 3)});
-  // The paper's Table I: view-dependent texturing makes a coarse proxy look good again.
-  recipes.push_back({"view_dependent",
-                     "the simplified mesh textured view-dependently from each fold's training "
-                     "photos (Buehler et al. 2001)",
-                     std::find_if(recipes.begin(), recipes.end(),
-                                  [](const Recipe& r) { return r.name == "simplified"; })
-                         ->model,
-                     "vdt"});
+  Photograph(options, truth, scene, images_dir, masks_dir);
 
   DemoResult result;
-  for (const Recipe& recipe : recipes) {
-    fs::path model_path = options.out / "models" / (recipe.name + ".ply");
-    if (recipe.representation == "auto") {
-      mesh::WritePly(model_path, recipe.model);
-    } else {
-      model_path = options.out / "models" / "simplified.ply";  // the proxy, written above
-    }
-    eval::EvaluateOptions e;
-    e.scene = scene_dir / "sparse";
-    e.format = "colmap";
-    e.image_root = images_dir;
-    e.photo_masks = masks_dir;
-    e.scheme = options.scheme;
-    e.model = model_path;
-    e.representation = recipe.representation;
-    e.metrics = options.metrics;
-    e.samples_per_pixel = options.render_samples_per_pixel;
-    e.report = options.report;
-    e.out = options.out / "runs" / recipe.name;
-    e.command_line = {"rephoto", "demo"};
-    LogInfo("demo: evaluating " + recipe.name);
-    DemoReconstruction r{.name = recipe.name,
-                         .description = recipe.description,
-                         .model = model_path,
-                         .run_dir = e.out,
-                         .result = eval::RunEvaluate(e)};
-    REPHOTO_CHECK(r.result.exit_code == ExitCode::kOk, "demo: the evaluation of {} is incomplete",
-                  recipe.name);
-    result.ranking.push_back(std::move(r));
+  for (const Recipe& recipe : MakeRecipes(options, truth)) {
+    result.ranking.push_back(EvaluateRecipe(options, recipe, scene_dir, images_dir, masks_dir));
   }
-
   std::stable_sort(result.ranking.begin(), result.ranking.end(), [](const auto& a, const auto& b) {
     return a.Median(metrics::Metric::kOneMinusNcc) < b.Median(metrics::Metric::kOneMinusNcc);
   });
 
-  // ranking.csv and demo.json
   io::CsvWriter csv;
-  std::vector<std::string> header = {"rank", "reconstruction", "completeness_median"};
-  for (metrics::Metric m : options.metrics) {
-    header.push_back(std::string(metrics::MetricName(m)) + "_median");
-  }
-  header.push_back("description");
-  csv.AddRow(header);
   nlohmann::ordered_json json;
   json["schema"] = "rephoto.demo/2";
   json["tool_version"] = compare::ToolVersion();
@@ -189,36 +239,8 @@ DemoResult RunDemo(const DemoOptions& options) {
   json["image_size"] = {options.scene.image_width, options.scene.image_height};
   json["scheme"] = options.scheme;
   json["ranked_by"] = "median across folds of the fold means of 1-ncc";
-  for (size_t rank = 0; rank < result.ranking.size(); ++rank) {
-    const auto& r = result.ranking[rank];
-    std::vector<std::string> row = {std::to_string(rank + 1), r.name,
-                                    io::CsvNumber(r.result.completeness_across_folds.median)};
-    nlohmann::ordered_json entry;
-    entry["rank"] = rank + 1;
-    entry["reconstruction"] = r.name;
-    entry["description"] = r.description;
-    entry["model"] = r.model.string();
-    entry["run"] = r.run_dir.string();
-    entry["completeness_median"] = r.result.completeness_across_folds.median;
-    for (metrics::Metric m : options.metrics) {
-      const double v = r.Median(m);
-      row.push_back(io::CsvNumber(v));
-      entry[std::string(metrics::MetricName(m)) + "_median"] =
-          std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
-    }
-    row.push_back(r.description);
-    csv.AddRow(row);
-    json["ranking"].push_back(entry);
-  }
-  if (options.report) {
-    std::vector<report::CollectionEntry> entries;
-    for (const auto& r : result.ranking) {
-      entries.push_back({.label = r.name, .description = r.description, .run_dir = r.run_dir});
-    }
-    report::CollectionOptions report_options;
-    report_options.title = "rephoto demo: six reconstructions of the procedural scene";
-    report::WriteCollectionReport(entries, options.out / "report.html", report_options);
-  }
+  AddRanking(options, result, csv, json);
+  if (options.report) WriteDemoReport(options, result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   json["seconds"] = result.seconds;
   WriteTextFileAtomically(options.out / "ranking.csv", csv.text());

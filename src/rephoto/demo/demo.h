@@ -27,6 +27,9 @@
 //   report.html                   the comparison of all reconstructions
 // Rerunning into the same folder reuses every evaluation whose inputs did not change (the
 // scene and photos are deterministic for the seed).
+//
+// Thread safety: RunDemo is a whole run writing the folder it is given (and the process's progress
+// log); run at most one per folder.
 #pragma once
 
 #include <filesystem>

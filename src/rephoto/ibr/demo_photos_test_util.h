@@ -6,6 +6,8 @@
 // Photo of a view: the mesh ray-cast at twice the resolution (one ray per sub-pixel centre),
 // each hit coloured by DemoAlbedo at the hit point, 2x2 area-averaged, then SimulatePhoto with
 // gain 1 and no noise (8-bit quantization only). Pixels that see no surface are black.
+//
+// Thread safety: the fixture functions are reentrant (test code, used from the test's main thread).
 #pragma once
 
 #include <filesystem>

@@ -20,6 +20,8 @@
 // - PFM ("Pf" grey or "PF" RGB: the first channel) and OpenEXR (the first channel), read by
 //   rephoto::io::ReadImage.
 // Values <= 0 or non-finite become NaN (unknown).
+//
+// Thread safety: reentrant; concurrent writes must go to different paths.
 #pragma once
 
 #include <filesystem>

@@ -26,24 +26,14 @@ std::string ColmapBytes(const std::string& header, const std::vector<float>& val
   return bytes;
 }
 
-void WriteBytes(const std::filesystem::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
 std::string ErrorOf(const std::filesystem::path& path) {
-  try {
-    ReadDepthMap(path);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
+  return testing::ErrorOf([&] { ReadDepthMap(path); });
 }
 
 TEST(DepthMapIo, ReadsColmapBinRowMajorWithZeroAsUnknown) {
   // 3 x 2: row 0 = 1.5 2.5 0 (0 = unknown), row 1 = 4 5 -1 (negative = unknown).
   const auto dir = rephoto::testing::MakeTempDir();
-  WriteBytes(dir / "a.bin", ColmapBytes("3&2&1&", {1.5f, 2.5f, 0.f, 4.f, 5.f, -1.f}));
+  testing::WriteFile(dir / "a.bin", ColmapBytes("3&2&1&", {1.5f, 2.5f, 0.f, 4.f, 5.f, -1.f}));
   const Image d = ReadDepthMap(dir / "a.bin");
   ASSERT_EQ(d.width(), 3);
   ASSERT_EQ(d.height(), 2);
@@ -110,7 +100,7 @@ TEST(DepthMapIo, BadFilesThrowNamingTheFile) {
       {"text.bin", "hello", "not"},
   };
   for (const auto& c : cases) {
-    WriteBytes(dir / c.name, c.bytes);
+    testing::WriteFile(dir / c.name, c.bytes);
     const std::string message = ErrorOf(dir / c.name);
     EXPECT_NE(message.find((dir / c.name).string()), std::string::npos) << message;
     EXPECT_NE(message.find(c.message), std::string::npos) << c.name << ": " << message;
@@ -126,7 +116,7 @@ TEST(DepthMapIo, HugeHeaderIsRejectedBeforeAllocating) {
   const uint64_t pixels = MaxPixels(), memory = MaxMemoryBytes();
   const auto dir = rephoto::testing::MakeTempDir();
   const auto path = dir / "huge.bin";
-  WriteBytes(path, ColmapBytes("131072&131072&1&", {1}));
+  testing::WriteFile(path, ColmapBytes("131072&131072&1&", {1}));
   EXPECT_EQ(ErrorOf(path), path.string() +
                                ": COLMAP depth map image of 131072x131072 pixels (1.72e+10) "
                                "exceeds --max-pixels 268435456 (raise it with --max-pixels)");

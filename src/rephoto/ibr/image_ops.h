@@ -1,4 +1,6 @@
 // Small image helpers of the ibr concept (internal; not part of the public API).
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include "rephoto/core/image.h"

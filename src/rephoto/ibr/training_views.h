@@ -1,5 +1,7 @@
 // Building ImageBasedRenderer inputs from a calibrated scene (for `rephoto render`,
 // `rephoto depth` and the evaluation's folds).
+//
+// Thread safety: reentrant (reads the scene and files; no shared state).
 #pragma once
 
 #include <Eigen/Core>

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
 
 namespace rephoto::io {
 
@@ -91,6 +92,10 @@ std::vector<std::vector<std::string>> ParseCsv(std::string_view text, const std:
     rows.push_back(std::move(row));
   }
   return rows;
+}
+
+std::vector<std::vector<std::string>> ReadCsvFile(const std::filesystem::path& path) {
+  return ParseCsv(ReadFileToString(path), path.string());
 }
 
 }  // namespace rephoto::io

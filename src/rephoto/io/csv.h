@@ -4,8 +4,12 @@
 // comma, a double quote, a line break, or leading/trailing spaces; quotes inside are doubled.
 // Numbers are written with the shortest text that reads back to the same double; NaN (not
 // evaluated) is written as an empty field, infinities as "inf" / "-inf".
+//
+// Thread safety: the free functions are reentrant; a CsvWriter is a plain value, one writer per
+// thread.
 #pragma once
 
+#include <filesystem>
 #include <span>
 #include <string>
 #include <string_view>
@@ -37,5 +41,9 @@ class CsvWriter {
 // line breaks; "\r\n" line ends are accepted). `name` is used in error messages, which name the
 // line of an unterminated quote. A final line break does not start an empty row.
 std::vector<std::vector<std::string>> ParseCsv(std::string_view text, const std::string& name);
+
+// ParseCsv of the file at `path` (named in messages); throws Error naming it when it cannot be
+// read.
+std::vector<std::vector<std::string>> ReadCsvFile(const std::filesystem::path& path);
 
 }  // namespace rephoto::io

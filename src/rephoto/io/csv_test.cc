@@ -6,6 +6,8 @@
 #include <limits>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/testing/testing.h"
 
 namespace rephoto::io {
 namespace {
@@ -56,6 +58,16 @@ TEST(Csv, UnterminatedQuoteNamesTheLine) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), "t.csv:2: unterminated quoted field");
   }
+}
+
+TEST(Csv, ReadCsvFileParsesTheFileAndNamesItWhenMissing) {
+  const std::filesystem::path dir = testing::MakeTempDir();
+  WriteTextFileAtomically(dir / "t.csv", "a,b\n\"x,y\",2\n");
+  const auto rows = ReadCsvFile(dir / "t.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[1], (std::vector<std::string>{"x,y", "2"}));
+  EXPECT_EQ(testing::ErrorOf([&] { ReadCsvFile(dir / "missing.csv"); }),
+            (dir / "missing.csv").string() + ": cannot open: No such file or directory");
 }
 
 }  // namespace

@@ -20,6 +20,9 @@
 //   empty every face uses material 0 if there is one (a PLY with one TextureFile). A material has a
 //   diffuse colour and optionally a diffuse texture image (absolute path, or relative to the
 //   current directory, resolved by the reader against the model file's folder).
+//
+// Thread safety: plain value types without synchronization: any number of threads may read a Mesh
+// at once; a Mesh being modified must not be read or modified by another thread.
 #pragma once
 
 #include <Eigen/Core>

@@ -7,6 +7,9 @@
 // the normals referenced by a vertex's corners). map_Kd paths are resolved against the MTL
 // file's folder (the OBJ's folder). Errors name the file: a missing file, a parse error,
 // or a face indexing a missing vertex (Mesh::Validate).
+//
+// Thread safety: reentrant (tinyobjloader keeps no global state); concurrent calls may read
+// different or the same files.
 #pragma once
 
 #include <filesystem>

@@ -16,6 +16,9 @@
 // left in the file (binary: the fixed part of each record; ASCII: two bytes per value), when
 // the stream can tell, and the vertex and face arrays they imply against --max-memory
 // (core/limits.h): "huge.ply: 4000000000 vertices need 44.7 GiB, more than --max-memory ...".
+//
+// Thread safety: reentrant; concurrent reads are fine, concurrent writes must go to different paths
+// (each write is atomic, core/file.h).
 #pragma once
 
 #include <filesystem>

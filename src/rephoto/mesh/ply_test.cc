@@ -276,15 +276,6 @@ class UnseekableBuffer : public std::streambuf {
   std::string bytes_;
 };
 
-std::string ErrorOf(auto&& read) {
-  try {
-    read();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "no error";
-}
-
 TEST(PlyTest, HugeClaimedCountsAreErrorsNamingTheFileBeforeAllocating) {
   // Issue 14, item 4: a PLY claiming 4e9 vertices ended in "out of memory" naming no file.
   LimitsGuard guard;
@@ -299,7 +290,7 @@ TEST(PlyTest, HugeClaimedCountsAreErrorsNamingTheFileBeforeAllocating) {
   const auto dir = testing::MakeTempDir();
   const auto path = dir / "huge.ply";
   WriteTextFileAtomically(path, header + data);
-  EXPECT_EQ(ErrorOf([&] { ReadMesh(path); }),
+  EXPECT_EQ(testing::ErrorOf([&] { ReadMesh(path); }),
             path.string() +
                 ": header promises 4000000000 vertex elements (48000000000 bytes at least) but "
                 "only 64 bytes of data follow (truncated file?)");
@@ -308,27 +299,27 @@ TEST(PlyTest, HugeClaimedCountsAreErrorsNamingTheFileBeforeAllocating) {
   const std::string more_data(2 << 20, '\0');
   UnseekableBuffer buffer(header + more_data);
   std::istream stream(&buffer);
-  EXPECT_EQ(ErrorOf([&] { ReadPly(stream, "huge.ply"); }),
+  EXPECT_EQ(testing::ErrorOf([&] { ReadPly(stream, "huge.ply"); }),
             "huge.ply: 4000000000 vertices and 1 faces need 44.7 GiB, more than --max-memory "
             "16.0 GiB (raise it with --max-memory)");
   // With the limit raised, the same stream fails where its data ends, still naming the file.
   SetMaxMemoryBytes(uint64_t{64} << 30);
   UnseekableBuffer buffer2(header + more_data);
   std::istream stream2(&buffer2);
-  EXPECT_EQ(ErrorOf([&] { ReadPly(stream2, "huge.ply"); }),
+  EXPECT_EQ(testing::ErrorOf([&] { ReadPly(stream2, "huge.ply"); }),
             "huge.ply: vertex 174762: unexpected end of file (header promises 4000000000 vertex "
             "elements)");
   // A small stream that cannot seek: it was read to its end, so its size is known.
   UnseekableBuffer buffer3(header + data);
   std::istream stream3(&buffer3);
-  EXPECT_THAT(ErrorOf([&] { ReadPly(stream3, "huge.ply"); }),
+  EXPECT_THAT(testing::ErrorOf([&] { ReadPly(stream3, "huge.ply"); }),
               HasSubstr("huge.ply: header promises 4000000000 vertex elements"));
   // ASCII: every value takes at least two bytes (a digit and a separator).
   const auto ascii = dir / "huge_ascii.ply";
   WriteTextFileAtomically(ascii,
                           "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
                           "property float y\nproperty float z\nend_header\n0 0 0\n");
-  EXPECT_THAT(ErrorOf([&] { ReadMesh(ascii); }),
+  EXPECT_THAT(testing::ErrorOf([&] { ReadMesh(ascii); }),
               HasSubstr(ascii.string() + ": header promises 4000000000 vertex elements"));
 }
 
@@ -336,7 +327,7 @@ TEST(PlyTest, MemoryLimitCanBeRaised) {
   LimitsGuard guard;
   const std::string ascii = AsciiQuad();
   SetMaxMemoryBytes(100);
-  EXPECT_EQ(ErrorOf([&] { ReadString(ascii, "quad.ply"); }),
+  EXPECT_EQ(testing::ErrorOf([&] { ReadString(ascii, "quad.ply"); }),
             "quad.ply: 4 vertices and 1 faces need 200 B, more than --max-memory 100 B (raise it "
             "with --max-memory)");
   SetMaxMemoryBytes(200);

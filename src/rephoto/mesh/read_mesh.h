@@ -1,4 +1,6 @@
 // One entry point for reading any supported model file.
+//
+// Thread safety: reentrant; concurrent calls may read the same or different files.
 #pragma once
 
 #include <filesystem>

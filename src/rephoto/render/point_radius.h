@@ -1,4 +1,6 @@
 // Splat radii for point clouds from the local point density.
+//
+// Thread safety: reentrant (no shared state).
 #pragma once
 
 #include <Eigen/Core>

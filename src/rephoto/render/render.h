@@ -22,6 +22,10 @@
 // With backfaces = false, hits on a triangle's back side are ignored (the ray continues).
 // Performance: packets of 16 coherent rays (4 x 4 pixels, one sample index) with
 // rtcIntersect16 over 4-pixel-high tile rows in parallel (ParallelFor); no allocation per pixel.
+//
+// Thread safety: RenderRephoto only reads the RenderModel and CameraRays (Embree queries on a
+// committed scene are thread-safe), so several threads may render one model at once, each into its
+// own Rephoto; it also parallelizes inside (core/parallel.h).
 #pragma once
 
 #include <cstdint>

@@ -5,6 +5,9 @@
 // row/column is clamped). Lookups are trilinear: bilinear within the two mip levels around the
 // requested level of detail, with texel centres at (i + 0.5) / size, u/v repeating outside
 // [0,1] (GL_REPEAT) and v = 0 at the bottom row of the image (OpenGL/OBJ convention).
+//
+// Thread safety: a Texture is immutable after construction; Sample/SampleLevel may be called from
+// several threads at once.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,5 +1,7 @@
 // Weighted median of (value, weight) pairs, shared by the colour fusion of colorize.h (per
 // vertex) and of the image-based renderers in rephoto/ibr (per pixel).
+//
+// Thread safety: pure function (sorts only the span it is given).
 #pragma once
 
 #include <algorithm>

@@ -10,6 +10,8 @@
 // see DataNumber) and whose <title> is a tooltip with the same numbers.
 // Non-finite values: NaN is ignored; +-infinity (psnr of identical images) is drawn at the
 // plot's edge. The y range covers all finite values.
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include <string>

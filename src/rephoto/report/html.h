@@ -1,4 +1,6 @@
 // Small HTML helpers of the reports: escaping, base64 data URIs, number formatting.
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include <cstdint>

@@ -103,29 +103,39 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
   WriteTextFileAtomically(out_html, html);
 }
 
-void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs::path& out_html,
-                           const CollectionOptions& options) {
-  REPHOTO_CHECK(!entries.empty(), "{}: no runs given for the report", out_html.string());
-  const bool sweep = entries[0].setting.has_value();
+namespace {
+
+// One run of a collection, loaded, with what the ranking needs.
+struct Loaded {
+  CollectionEntry entry;
+  RunData run;
+  int primary = -1;
+  double primary_median = NAN;
+  double completeness_median = NAN;
+  size_t count = 0;
+  std::string note;                // why the accuracy does not compare (empty: it does)
+  geometry::RunGeometry geometry;  // with options.geometry_reference
+};
+
+// The runs of a collection and the metrics they have (union, first-seen order).
+struct Collection {
+  std::vector<Loaded> runs;
+  std::vector<std::string> metric_names;
+  bool sweep = false;          // the entries have settings
+  bool with_geometry = false;  // options.geometry_reference given
+};
+
+Collection LoadCollection(const std::vector<CollectionEntry>& entries, const fs::path& out_html,
+                          const CollectionOptions& options) {
+  Collection c;
+  c.sweep = entries[0].setting.has_value();
   for (const CollectionEntry& e : entries) {
-    REPHOTO_CHECK(e.setting.has_value() == sweep,
+    REPHOTO_CHECK(e.setting.has_value() == c.sweep,
                   "{}: entry \"{}\" ({}) {} a setting while entry \"{}\" {}; give every entry a "
                   "setting (a sweep) or none",
-                  out_html.string(), e.label, e.run_dir.string(), sweep ? "lacks" : "has",
-                  entries[0].label, sweep ? "has one" : "has none");
+                  out_html.string(), e.label, e.run_dir.string(), c.sweep ? "lacks" : "has",
+                  entries[0].label, c.sweep ? "has one" : "has none");
   }
-  struct Loaded {
-    CollectionEntry entry;
-    RunData run;
-    int primary = -1;
-    double primary_median = NAN;
-    double completeness_median = NAN;
-    size_t count = 0;
-    std::string note;                // why the accuracy does not compare (empty: it does)
-    geometry::RunGeometry geometry;  // with options.geometry_reference
-  };
-  std::vector<Loaded> runs;
-  std::vector<std::string> metric_names;  // union, first-seen order
   for (const CollectionEntry& e : entries) {
     Loaded l{e, LoadRun(e.run_dir)};
     if (l.entry.label.empty()) l.entry.label = DirName(e.run_dir);
@@ -137,38 +147,50 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     l.count = s.count;
     l.completeness_median = Summarize(l.run.Values(-1)).median;
     for (const std::string& m : l.run.metrics) {
-      if (std::find(metric_names.begin(), metric_names.end(), m) == metric_names.end()) {
-        metric_names.push_back(m);
+      if (std::find(c.metric_names.begin(), c.metric_names.end(), m) == c.metric_names.end()) {
+        c.metric_names.push_back(m);
       }
     }
-    runs.push_back(std::move(l));
+    c.runs.push_back(std::move(l));
   }
   REPHOTO_CHECK(
-      std::any_of(runs.begin(), runs.end(), [](const Loaded& l) { return l.primary >= 0; }),
+      std::any_of(c.runs.begin(), c.runs.end(), [](const Loaded& l) { return l.primary >= 0; }),
       "{}: no run has the primary metric \"{}\"", out_html.string(), options.primary_metric);
-  const bool higher_better = HigherIsBetter(options.primary_metric);
   if (options.rank) {
-    std::stable_sort(runs.begin(), runs.end(), [&](const Loaded& a, const Loaded& b) {
+    const bool higher_better = HigherIsBetter(options.primary_metric);
+    std::stable_sort(c.runs.begin(), c.runs.end(), [&](const Loaded& a, const Loaded& b) {
       const bool a_nan = std::isnan(a.primary_median), b_nan = std::isnan(b.primary_median);
       if (a_nan || b_nan) return !a_nan && b_nan;
       return higher_better ? a.primary_median > b.primary_median
                            : a.primary_median < b.primary_median;
     });
   }
-
-  const bool with_geometry = !options.geometry_reference.empty();
-  if (with_geometry) {
+  c.with_geometry = !options.geometry_reference.empty();
+  if (c.with_geometry) {
     options.geometry_options.Check();
     REPHOTO_CHECK(fs::is_regular_file(options.geometry_reference),
                   "{}: the geometric reference does not exist or is not a file",
                   options.geometry_reference.string());
-    for (Loaded& l : runs) {
+    for (Loaded& l : c.runs) {
       l.geometry = geometry::EvaluateRunGeometry(l.entry.run_dir, options.geometry_reference,
                                                  options.geometry_options);
       if (!l.geometry.available) LogWarning("geometry: " + l.geometry.message);
     }
   }
+  return c;
+}
 
+// False only when summary.json says "cross_validated": false.
+bool CrossValidated(const RunData& run) {
+  return !(run.summary.is_object() && run.summary.contains("cross_validated") &&
+           run.summary["cross_validated"].is_boolean() && !run.summary["cross_validated"]);
+}
+
+// Each run's note: completeness well below the most complete run's, or not cross-validated
+// beside runs that are (a collection of fixed models alone, the demo's, compares fairly among
+// itself).
+void AddNotes(const fs::path& out_html, const CollectionOptions& options,
+              std::vector<Loaded>& runs) {
   REPHOTO_CHECK(options.completeness_margin >= 0 && options.completeness_margin <= 1,
                 "{}: completeness margin {} is not in [0, 1]", out_html.string(),
                 options.completeness_margin);
@@ -178,16 +200,10 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       best_completeness = l.completeness_median;
     }
   }
-  // Not cross-validated (summary.json "cross_validated": false) matters beside runs that are: a
-  // collection of fixed models alone (the demo's) compares fairly among itself.
-  const auto cross_validated = [](const RunData& run) {
-    return !(run.summary.is_object() && run.summary.contains("cross_validated") &&
-             run.summary["cross_validated"].is_boolean() && !run.summary["cross_validated"]);
-  };
   const bool mixed = std::any_of(runs.begin(), runs.end(),
-                                 [&](const Loaded& l) { return cross_validated(l.run); }) &&
+                                 [&](const Loaded& l) { return CrossValidated(l.run); }) &&
                      std::any_of(runs.begin(), runs.end(),
-                                 [&](const Loaded& l) { return !cross_validated(l.run); });
+                                 [&](const Loaded& l) { return !CrossValidated(l.run); });
   for (Loaded& l : runs) {
     std::vector<std::string> notes;
     if (!std::isnan(l.completeness_median) &&
@@ -197,31 +213,28 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
           "accuracy covers fewer pixels and does not compare",
           l.completeness_median, options.completeness_margin, best_completeness));
     }
-    if (mixed && !cross_validated(l.run)) {
+    if (mixed && !CrossValidated(l.run)) {
       notes.push_back("not cross-validated: the model may have seen the test photos");
     }
     for (const std::string& n : notes) l.note += (l.note.empty() ? "" : "; ") + n;
   }
+}
 
-  const std::string title = options.title.empty()
-                                ? fmt::format("rephoto comparison of {} runs", runs.size())
-                                : options.title;
-  std::string html = PageStart(title);
-  html += fmt::format(
-      "<header><h1>{}</h1><p class=\"meta\"><span>{} runs</span><span>primary "
-      "metric {}{}</span>{}</p></header>\n",
-      HtmlEscape(title), runs.size(), HtmlEscape(options.primary_metric),
-      higher_better ? " (higher is better)" : " (lower is better)",
-      sweep
-          ? fmt::format("<span>sweep over {}</span>",
-                        HtmlEscape(options.setting_name.empty() ? "setting" : options.setting_name))
-          : "");
+std::string SettingName(const CollectionOptions& options) {
+  return options.setting_name.empty() ? "setting" : options.setting_name;
+}
 
-  // Ranking table.
+// The median of metric `m` of a run; NaN when the run does not have it.
+double MetricMedian(const Loaded& l, const std::string& m) {
+  const int index = l.run.MetricIndex(m);
+  return index >= 0 ? Summarize(l.run.Values(index)).median : NAN;
+}
+
+std::string RankingTableHtml(const Collection& c, const CollectionOptions& options) {
+  const std::vector<Loaded>& runs = c.runs;
   bool any_series = false;
   for (const Loaded& l : runs) any_series = any_series || !l.entry.series.empty();
-  const std::string setting_name = options.setting_name.empty() ? "setting" : options.setting_name;
-  html += fmt::format(
+  std::string html = fmt::format(
       "<section id=\"ranking\"><h2>{}</h2><p class=\"muted\">Medians {}; completeness next to "
       "the primary metric: accuracy compares only between runs of similar completeness "
       "(\u26a0 marks runs whose completeness is more than {} below the most complete run's, or "
@@ -233,18 +246,18 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
       "across folds (evaluate runs with several folds) or over images",
       fmt::format("{:g}", options.completeness_margin));
   if (any_series) html += "<th class=\"text\" data-col=\"series\">series</th>";
-  if (sweep) {
-    html += fmt::format("<th data-col=\"setting\">{}</th>", HtmlEscape(setting_name));
+  if (c.sweep) {
+    html += fmt::format("<th data-col=\"setting\">{}</th>", HtmlEscape(SettingName(options)));
   }
   html += fmt::format(
       "<th data-col=\"count\">n</th><th data-col=\"{0}\">{0} median</th>"
       "<th data-col=\"completeness\">completeness median</th>",
       HtmlEscape(options.primary_metric));
-  for (const std::string& m : metric_names) {
+  for (const std::string& m : c.metric_names) {
     if (m == options.primary_metric) continue;
     html += fmt::format("<th data-col=\"{0}\">{0}</th>", HtmlEscape(m));
   }
-  if (with_geometry) html += GeometryHeaderCells(options.geometry_options);
+  if (c.with_geometry) html += GeometryHeaderCells(options.geometry_options);
   bool any_description = false;
   for (const Loaded& l : runs) any_description = any_description || !l.entry.description.empty();
   html += "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>";
@@ -263,7 +276,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
             ? ""
             : " <span class=\"warn\" title=\"" + HtmlEscape(l.note) + "\">\u26a0</span>");
     if (any_series) html += fmt::format("<td class=\"text\">{}</td>", HtmlEscape(l.entry.series));
-    if (sweep) {
+    if (c.sweep) {
       html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(*l.entry.setting),
                           fmt::format("{:g}", *l.entry.setting));
     }
@@ -272,13 +285,12 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
         "<td data-v=\"{}\"{}>{}</td><td data-v=\"{}\">{}</td>", DataNumber(l.primary_median),
         i == 0 && options.rank ? " class=\"best\"" : "", DisplayNumber(l.primary_median),
         DataNumber(l.completeness_median), DisplayNumber(l.completeness_median));
-    for (const std::string& m : metric_names) {
+    for (const std::string& m : c.metric_names) {
       if (m == options.primary_metric) continue;
-      const int index = l.run.MetricIndex(m);
-      const double median = index >= 0 ? Summarize(l.run.Values(index)).median : NAN;
+      const double median = MetricMedian(l, m);
       html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(median), DisplayNumber(median));
     }
-    if (with_geometry) html += GeometryRowCells(l.geometry, options.geometry_options);
+    if (c.with_geometry) html += GeometryRowCells(l.geometry, options.geometry_options);
     html += fmt::format("<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>",
                         l.run.failed_folds.size(), l.run.missing.size());
     if (any_note) html += fmt::format("<td class=\"text note\">{}</td>", HtmlEscape(l.note));
@@ -289,57 +301,63 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     html += "</tr>\n";
   }
   html += "</tbody></table></div></section>\n";
+  return html;
+}
 
-  if (!options.ranking_csv.empty()) {
-    io::CsvWriter csv;
-    std::vector<std::string> header = {"rank", "label", "n", options.primary_metric + "_median",
-                                       "completeness_median"};
-    for (const std::string& m : metric_names) {
-      if (m != options.primary_metric) header.push_back(m + "_median");
-    }
-    if (with_geometry) {
-      for (const std::string& c : geometry::RunGeometryColumns(options.geometry_options)) {
-        header.push_back(c);
-      }
-    }
-    for (const char* column : {"failed_folds", "missing", "cross_validated", "note"}) {
-      header.emplace_back(column);
-    }
-    csv.AddRow(header);
-    for (size_t i = 0; i < runs.size(); ++i) {
-      const Loaded& l = runs[i];
-      std::vector<std::string> row = {std::to_string(i + 1), l.entry.label, std::to_string(l.count),
-                                      io::CsvNumber(l.primary_median),
-                                      io::CsvNumber(l.completeness_median)};
-      for (const std::string& m : metric_names) {
-        if (m == options.primary_metric) continue;
-        const int index = l.run.MetricIndex(m);
-        row.push_back(io::CsvNumber(index >= 0 ? Summarize(l.run.Values(index)).median : NAN));
-      }
-      if (with_geometry) {
-        for (double v : geometry::RunGeometryValues(l.geometry, options.geometry_options)) {
-          row.push_back(io::CsvNumber(v));
-        }
-      }
-      row.push_back(std::to_string(l.run.failed_folds.size()));
-      row.push_back(std::to_string(l.run.missing.size()));
-      row.push_back(cross_validated(l.run) ? "true" : "false");
-      row.push_back(l.note);
-      csv.AddRow(row);
-    }
-    WriteTextFileAtomically(options.ranking_csv, csv.text());
+void WriteRankingCsv(const Collection& c, const CollectionOptions& options) {
+  io::CsvWriter csv;
+  std::vector<std::string> header = {"rank", "label", "n", options.primary_metric + "_median",
+                                     "completeness_median"};
+  for (const std::string& m : c.metric_names) {
+    if (m != options.primary_metric) header.push_back(m + "_median");
   }
+  if (c.with_geometry) {
+    for (const std::string& column : geometry::RunGeometryColumns(options.geometry_options)) {
+      header.push_back(column);
+    }
+  }
+  for (const char* column : {"failed_folds", "missing", "cross_validated", "note"}) {
+    header.emplace_back(column);
+  }
+  csv.AddRow(header);
+  for (size_t i = 0; i < c.runs.size(); ++i) {
+    const Loaded& l = c.runs[i];
+    std::vector<std::string> row = {std::to_string(i + 1), l.entry.label, std::to_string(l.count),
+                                    io::CsvNumber(l.primary_median),
+                                    io::CsvNumber(l.completeness_median)};
+    for (const std::string& m : c.metric_names) {
+      if (m == options.primary_metric) continue;
+      row.push_back(io::CsvNumber(MetricMedian(l, m)));
+    }
+    if (c.with_geometry) {
+      for (double v : geometry::RunGeometryValues(l.geometry, options.geometry_options)) {
+        row.push_back(io::CsvNumber(v));
+      }
+    }
+    row.push_back(std::to_string(l.run.failed_folds.size()));
+    row.push_back(std::to_string(l.run.missing.size()));
+    row.push_back(CrossValidated(l.run) ? "true" : "false");
+    row.push_back(l.note);
+    csv.AddRow(row);
+  }
+  WriteTextFileAtomically(options.ranking_csv, csv.text());
+}
 
-  // Boxplots: per entry, or per setting and series.
+// Boxplots of the primary metric, completeness and the other metrics: per entry, or per setting
+// and series (a sweep, series in the caller's order).
+std::vector<BoxPlot> CollectionPlots(const Collection& c,
+                                     const std::vector<CollectionEntry>& entries,
+                                     const CollectionOptions& options) {
+  const std::vector<Loaded>& runs = c.runs;
   std::vector<std::string> categories, series;
   std::vector<std::pair<int, int>> position(runs.size());  // (category, series)
-  if (sweep) {
+  if (c.sweep) {
     std::vector<double> settings;
     for (const Loaded& l : runs) settings.push_back(*l.entry.setting);
     std::sort(settings.begin(), settings.end());
     settings.erase(std::unique(settings.begin(), settings.end()), settings.end());
     for (double s : settings) categories.push_back(fmt::format("{:g}", s));
-    for (const CollectionEntry& e : entries) {  // series in the caller's order
+    for (const CollectionEntry& e : entries) {
       if (std::find(series.begin(), series.end(), e.series) == series.end()) {
         series.push_back(e.series);
       }
@@ -361,17 +379,17 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
   }
   std::vector<BoxPlot> plots;
   std::vector<std::string> plotted = {options.primary_metric, "completeness"};
-  for (const std::string& m : metric_names) {
+  for (const std::string& m : c.metric_names) {
     if (m != options.primary_metric) plotted.push_back(m);
   }
   for (const std::string& name : plotted) {
     BoxPlot plot;
     plot.title = name;
     plot.y_label = name + (HigherIsBetter(name) ? " (higher = better)" : "");
-    plot.x_label = sweep ? setting_name : "";
+    plot.x_label = c.sweep ? SettingName(options) : "";
     plot.categories = categories;
     plot.series = series;
-    plot.connect_medians = sweep;
+    plot.connect_medians = c.sweep;
     for (size_t i = 0; i < runs.size(); ++i) {
       const int index = name == "completeness" ? -1 : runs[i].run.MetricIndex(name);
       if (name != "completeness" && index < 0) continue;
@@ -379,25 +397,14 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     }
     plots.push_back(std::move(plot));
   }
-  html +=
-      "<section id=\"plots\"><h2>Boxplots</h2><p class=\"muted\">Each box: the run's values "
-      "across folds (evaluate runs with several folds) or over images. Box Q1\u2013Q3, "
-      "black line median, diamond mean, whiskers min and max.</p>\n" +
-      PlotsHtml(plots) + "</section>\n";
+  return plots;
+}
 
-  if (with_geometry) {
-    std::vector<GeometryRun> geometry_runs;
-    for (const Loaded& l : runs) {
-      geometry_runs.push_back({l.entry.label, l.entry.series, l.primary_median, l.geometry});
-    }
-    html += GeometrySectionHtml(geometry_runs, options.geometry_reference.string(),
-                                options.geometry_options, options.primary_metric);
-  }
-
-  // Per entry: problems, examples, per-image table and settings.
-  html += "<section id=\"entries\"><h2>Runs</h2>\n";
-  for (size_t i = 0; i < runs.size(); ++i) {
-    const Loaded& l = runs[i];
+// Per entry: problems, examples, per-image table and settings.
+std::string EntriesHtml(const Collection& c, const CollectionOptions& options) {
+  std::string html = "<section id=\"entries\"><h2>Runs</h2>\n";
+  for (size_t i = 0; i < c.runs.size(); ++i) {
+    const Loaded& l = c.runs[i];
     html += fmt::format(
         "<div class=\"entry\" id=\"entry-{}\"><h3>{}{}</h3>", i, HtmlEscape(l.entry.label),
         l.entry.description.empty()
@@ -414,7 +421,42 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     html += PerImageTableHtml(l.run, fmt::format("per-image-{}", i));
     html += "</details></div>\n";
   }
-  html += "</section>\n" + PageEnd();
+  return html + "</section>\n";
+}
+
+}  // namespace
+
+void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs::path& out_html,
+                           const CollectionOptions& options) {
+  REPHOTO_CHECK(!entries.empty(), "{}: no runs given for the report", out_html.string());
+  Collection c = LoadCollection(entries, out_html, options);
+  AddNotes(out_html, options, c.runs);
+  const std::string title = options.title.empty()
+                                ? fmt::format("rephoto comparison of {} runs", c.runs.size())
+                                : options.title;
+  std::string html = PageStart(title);
+  html += fmt::format(
+      "<header><h1>{}</h1><p class=\"meta\"><span>{} runs</span><span>primary "
+      "metric {}{}</span>{}</p></header>\n",
+      HtmlEscape(title), c.runs.size(), HtmlEscape(options.primary_metric),
+      HigherIsBetter(options.primary_metric) ? " (higher is better)" : " (lower is better)",
+      c.sweep ? fmt::format("<span>sweep over {}</span>", HtmlEscape(SettingName(options))) : "");
+  html += RankingTableHtml(c, options);
+  if (!options.ranking_csv.empty()) WriteRankingCsv(c, options);
+  html +=
+      "<section id=\"plots\"><h2>Boxplots</h2><p class=\"muted\">Each box: the run's values "
+      "across folds (evaluate runs with several folds) or over images. Box Q1\u2013Q3, "
+      "black line median, diamond mean, whiskers min and max.</p>\n" +
+      PlotsHtml(CollectionPlots(c, entries, options)) + "</section>\n";
+  if (c.with_geometry) {
+    std::vector<GeometryRun> geometry_runs;
+    for (const Loaded& l : c.runs) {
+      geometry_runs.push_back({l.entry.label, l.entry.series, l.primary_median, l.geometry});
+    }
+    html += GeometrySectionHtml(geometry_runs, options.geometry_reference.string(),
+                                options.geometry_options, options.primary_metric);
+  }
+  html += EntriesHtml(c, options) + PageEnd();
   WriteTextFileAtomically(out_html, html);
 }
 

@@ -48,6 +48,9 @@
 // JSON, evaluate run without per_fold.csv) throws rephoto::Error naming the file; unreadable
 // photos, renderings or error images only replace that thumbnail by the reason. The HTML is
 // written atomically (core/file.h); parent folders are created.
+//
+// Thread safety: reentrant (reads the run folders; writes only the files named: the report and,
+// when asked, the ranking CSV, atomically); concurrent calls must write different files.
 #pragma once
 
 #include <filesystem>

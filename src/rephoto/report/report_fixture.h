@@ -1,4 +1,6 @@
 // Test fixtures of the report tests: small run directories written on the fly.
+//
+// Thread safety: test fixture; each call writes its own folder.
 #pragma once
 
 #include <filesystem>

@@ -1,5 +1,7 @@
 // Internal building blocks of report.cc (HTML fragments of one run), shared by the run and
 // the collection report. Not part of the public API.
+//
+// Thread safety: pure functions of the RunData given (ExamplesHtml also reads the images it names).
 #pragma once
 
 #include <string>

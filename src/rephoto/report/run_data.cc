@@ -23,7 +23,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 class Table {
  public:
   Table(const fs::path& path) : name_(path.string()) {
-    rows_ = io::ParseCsv(ReadFileToString(path), name_);
+    rows_ = io::ReadCsvFile(path);
     REPHOTO_CHECK(!rows_.empty(), "{}: empty file (no header line)", name_);
     for (size_t i = 0; i < rows_[0].size(); ++i) columns_[rows_[0][i]] = static_cast<int>(i);
   }

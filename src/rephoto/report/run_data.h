@@ -5,6 +5,8 @@
 // a "fold" column, or summary.json has schema "rephoto.evaluate/...") also has per_fold.csv and
 // run.json, and its images' outputs live in folds/<fold>/. Metric columns are the per_image.csv
 // columns whose name is a metric name (metrics::ParseMetric), in file order.
+//
+// Thread safety: reentrant (reads files only; RunData is a plain value type).
 #pragma once
 
 #include <filesystem>

@@ -10,6 +10,8 @@
 // not evaluated.
 // Failures never throw: a missing or unreadable file gives an empty data_uri and the reason in
 // `error` (the report shows it in place of the image).
+//
+// Thread safety: reentrant (reads the images named; no shared state).
 #pragma once
 
 #include <filesystem>

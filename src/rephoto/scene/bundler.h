@@ -21,6 +21,9 @@
 // - Unregistered cameras (f = 0, typically with all-zero R and t) get no view; each is reported
 //   with LogWarning. Track observations in them are dropped.
 // One camera per registered view (identical intrinsics share one camera id).
+//
+// Thread safety: reentrant (no shared state; warnings go through the thread-safe log); the
+// ImageSizeLookup given is called from the calling thread only.
 #pragma once
 
 #include <filesystem>

@@ -41,18 +41,7 @@ Scene ReadSmall(const std::string& text) {
 }
 
 std::string ErrorOf(const std::string& text) {
-  try {
-    ReadSmall(text);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
-std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
+  return testing::ErrorOf([&] { ReadSmall(text); });
 }
 
 TEST(BundlerTest, ConvertsAxesIntrinsicsAndKeypoints) {
@@ -93,26 +82,28 @@ TEST(BundlerTest, ImageListFormats) {
 }
 
 TEST(BundlerTest, BadInputNamesFileAndLine) {
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "500 0 0", "nan 0 0")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "500 0 0", "nan 0 0")),
               HasSubstr("bundle.out:3: f k1 k2 is not finite"));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "0 1 0\n0 0 1\n0 0 -10", "0 2 0\n0 0 1\n0 0 -10")),
-              AllOf(HasSubstr("bundle.out:3"), HasSubstr("not a rotation")));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "2 1\n", "3 1\n")),
+  EXPECT_THAT(
+      ErrorOf(testing::Replace(kSmallBundle, "0 1 0\n0 0 1\n0 0 -10", "0 2 0\n0 0 1\n0 0 -10")),
+      AllOf(HasSubstr("bundle.out:3"), HasSubstr("not a rotation")));
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "2 1\n", "3 1\n")),
               HasSubstr("bundle.out:2: 3 cameras but the image list has 2 entries"));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "1 0 7 100 -50", "1 5 7 100 -50")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "1 0 7 100 -50", "1 5 7 100 -50")),
               HasSubstr("bundle.out:15: camera index = 5 is outside [0, 1]"));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "1 0 7 100 -50", "2 0 7 100 -50")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "1 0 7 100 -50", "2 0 7 100 -50")),
               HasSubstr("bundle.out:15: view list of 2 entries needs 9 values"));
   const std::string text = kSmallBundle;
   EXPECT_THAT(ErrorOf(text.substr(0, text.find("0 0 -10\n") + 8)),
               HasSubstr("bundle.out:8: unexpected end of file, expected camera 1 (f k1 k2)"));
   EXPECT_THAT(ErrorOf(text.substr(0, text.size() - 5)),
               HasSubstr("bundle.out:15: view list of 1 entries needs 5 values"));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "v0.3", "v0.1")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "v0.3", "v0.1")),
               HasSubstr("bundle.out:1: unsupported Bundler version"));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "10 20 30", "10 20 300")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "10 20 30", "10 20 300")),
               HasSubstr("bundle.out:14: colour = 300 is outside [0, 255]"));
-  EXPECT_THAT(ErrorOf(Replace(kSmallBundle, "500 0 0", "-500 0 0")), HasSubstr("negative"));
+  EXPECT_THAT(ErrorOf(testing::Replace(kSmallBundle, "500 0 0", "-500 0 0")),
+              HasSubstr("negative"));
   EXPECT_THAT(ErrorOf(""), HasSubstr("empty file"));
 }
 

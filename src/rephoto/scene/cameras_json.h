@@ -22,6 +22,8 @@
 //   when none does: photos and rephotos are paired by file stem).
 // Views are in file order; cameras are shared where intrinsics are identical. Errors name the
 // file and the entry: "cameras.json: [3].rotation: expected 3 rows of 3 numbers".
+//
+// Thread safety: reentrant (no shared state; warnings go through the thread-safe log).
 #pragma once
 
 #include <filesystem>

@@ -26,12 +26,7 @@ constexpr char kCameras[] = R"([
 
 std::string ErrorOf(const std::string& text) {
   std::istringstream in(text);
-  try {
-    ReadCamerasJson(in, "cameras.json", "/images");
-  } catch (const Error& error) {
-    return error.what();
-  }
-  return "(no error)";
+  return testing::ErrorOf([&] { ReadCamerasJson(in, "cameras.json", "/images"); });
 }
 
 TEST(CamerasJsonTest, PosesIntrinsicsAndNames) {

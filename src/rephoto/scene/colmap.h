@@ -14,6 +14,9 @@
 // pixel (0,0) = corner of the top-left pixel), so poses and pixels are taken as they are.
 // Every error is a rephoto::Error naming the file and the line (text: "images.txt:12: ...")
 // or the record (binary: "images.bin: record 3 (byte 812): ...").
+//
+// Thread safety: reentrant; concurrent reads are fine, concurrent writes must go to different
+// folders.
 #pragma once
 
 #include <Eigen/Core>

@@ -19,11 +19,6 @@ using ::testing::HasSubstr;
 
 using testing::ErrorOf;
 
-void WriteFile(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
-
 TEST(ImageName, NormalNamesPassUnchanged) {
   for (const char* name : {"a.jpg", "images/a.jpg", "cam0/000001.png", "a b.JPG", "..a.png",
                            "a..png", "ünïcode/ä.png", ".hidden.png"}) {
@@ -60,10 +55,11 @@ TEST(ImageName, HostileNamesAreRefusedWithWhereAndWhy) {
 
 TEST(ImageName, ColmapTextNamesAreCheckedWithFileAndLine) {
   const fs::path dir = testing::MakeTempDir();
-  WriteFile(dir / "sparse/cameras.txt", "1 PINHOLE 64 48 50 50 32 24\n");
-  WriteFile(dir / "sparse/points3D.txt", "");
-  WriteFile(dir / "sparse/images.txt",
-            "# comment\n1 1 0 0 0 0 0 0 1 a.png\n\n2 1 0 0 0 0 0 0 1 ../../../../X/secret.png\n\n");
+  testing::WriteFile(dir / "sparse/cameras.txt", "1 PINHOLE 64 48 50 50 32 24\n");
+  testing::WriteFile(dir / "sparse/points3D.txt", "");
+  testing::WriteFile(
+      dir / "sparse/images.txt",
+      "# comment\n1 1 0 0 0 0 0 0 1 a.png\n\n2 1 0 0 0 0 0 0 1 ../../../../X/secret.png\n\n");
   const std::string error = ErrorOf([&] { ReadScene(dir / "sparse"); });
   EXPECT_THAT(error, HasSubstr("images.txt:4"));
   EXPECT_THAT(error, HasSubstr("image name '../../../../X/secret.png' contains '..'"));
@@ -73,31 +69,32 @@ TEST(ImageName, ColmapTextNamesAreCheckedWithFileAndLine) {
 TEST(ImageName, TransformsJsonPathsAreCheckedBeforeAnyFileIsRead) {
   const fs::path dir = testing::MakeTempDir();
   const std::string frame = R"("transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]])";
-  WriteFile(dir / "transforms.json",
-            R"({"fl_x": 50, "fl_y": 50, "cx": 32, "cy": 24, "w": 64, "h": 48, "frames": [)"
-            R"({"file_path": "/etc/passwd", )" +
-                frame + "}]}");
+  testing::WriteFile(dir / "transforms.json",
+                     R"({"fl_x": 50, "fl_y": 50, "cx": 32, "cy": 24, "w": 64, "h": 48, "frames": [)"
+                     R"({"file_path": "/etc/passwd", )" +
+                         frame + "}]}");
   EXPECT_THAT(ErrorOf([&] { ReadScene(dir / "transforms.json"); }),
               HasSubstr("frames[0].file_path: image name '/etc/passwd' is an absolute path"));
-  WriteFile(dir / "transforms.json",
-            R"({"fl_x": 50, "fl_y": 50, "cx": 32, "cy": 24, "w": 64, "h": 48, "frames": [)"
-            R"({"file_path": "a.png", "mask_path": "../../m", )" +
-                frame + "}]}");
+  testing::WriteFile(dir / "transforms.json",
+                     R"({"fl_x": 50, "fl_y": 50, "cx": 32, "cy": 24, "w": 64, "h": 48, "frames": [)"
+                     R"({"file_path": "a.png", "mask_path": "../../m", )" +
+                         frame + "}]}");
   EXPECT_THAT(ErrorOf([&] { ReadScene(dir / "transforms.json"); }),
               HasSubstr("frames[0].mask_path: image name '../../m' contains '..'"));
-  WriteFile(dir / "transforms.json",
-            R"({"fl_x": 50, "fl_y": 50, "cx": 32, "cy": 24, "w": 64, "h": 48, "frames": [)"
-            R"({"file_path": "./train/a.png", )" +
-                frame + "}]}");
+  testing::WriteFile(dir / "transforms.json",
+                     R"({"fl_x": 50, "fl_y": 50, "cx": 32, "cy": 24, "w": 64, "h": 48, "frames": [)"
+                     R"({"file_path": "./train/a.png", )" +
+                         frame + "}]}");
   EXPECT_EQ(ReadScene(dir / "transforms.json", {.check_image_sizes = false}).views[0].name,
             "train/a.png");
 }
 
 TEST(ImageName, TwoSpellingsOfOneNameAreOneViewTwice) {
   const fs::path dir = testing::MakeTempDir();
-  WriteFile(dir / "sparse/cameras.txt", "1 PINHOLE 64 48 50 50 32 24\n");
-  WriteFile(dir / "sparse/points3D.txt", "");
-  WriteFile(dir / "sparse/images.txt", "1 1 0 0 0 0 0 0 1 a.png\n\n2 1 0 0 0 0 0 0 1 ./a.png\n\n");
+  testing::WriteFile(dir / "sparse/cameras.txt", "1 PINHOLE 64 48 50 50 32 24\n");
+  testing::WriteFile(dir / "sparse/points3D.txt", "");
+  testing::WriteFile(dir / "sparse/images.txt",
+                     "1 1 0 0 0 0 0 0 1 a.png\n\n2 1 0 0 0 0 0 0 1 ./a.png\n\n");
   EXPECT_THAT(ErrorOf([&] { ReadScene(dir / "sparse"); }),
               HasSubstr("image name 'a.png' is used twice"));
 }

@@ -14,6 +14,9 @@
 // - Each view gets a PINHOLE camera (fx, fy, cx + 0.5, cy + 0.5); identical ones are shared.
 //   K must be upper triangular with zero skew and k33 != 0 (it is divided by k33).
 // - The file stores no image size: it comes from the image files (ImageSizeLookup).
+//
+// Thread safety: reentrant (no shared state); the ImageSizeLookup given is called from the calling
+// thread only.
 #pragma once
 
 #include <filesystem>

@@ -25,12 +25,7 @@ Scene Read(const std::string& text) {
 }
 
 std::string ErrorOf(const std::string& text) {
-  try {
-    Read(text);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return testing::ErrorOf([&] { Read(text); });
 }
 
 TEST(MiddleburyTest, ConvertsKRt) {

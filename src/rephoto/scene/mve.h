@@ -25,6 +25,8 @@
 // mark for an unregistered view) are skipped with a warning.
 // The view name is "view_XXXX.mve/<image file>" relative to image_root = <scene>/views: the
 // file stem ("undistorted"/"original") is therefore not unique across MVE views.
+//
+// Thread safety: reentrant (no shared state; warnings go through the thread-safe log).
 #pragma once
 
 #include <array>

@@ -35,19 +35,8 @@ name = IMG_0007.JPG
 )";
 
 std::string ErrorOf(const std::string& text) {
-  try {
-    std::istringstream in(text);
-    ReadMveMetaIni(in, "meta.ini");
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
-std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
+  std::istringstream in(text);
+  return testing::ErrorOf([&] { ReadMveMetaIni(in, "meta.ini"); });
 }
 
 void WriteBlankPng(const fs::path& path, int width, int height) {
@@ -94,19 +83,20 @@ TEST(MveTest, PortraitAndDistortion) {
 }
 
 TEST(MveTest, BadMetaIni) {
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "focal_length = 1.25", "focal_length = nan")),
-              HasSubstr("meta.ini:3: camera.focal_length is not finite"));
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "0 1 0 -1 0 0 0 0 1", "0 1 0 -1 0 0 0 0 2")),
+  EXPECT_THAT(
+      ErrorOf(testing::Replace(kLandscapeMeta, "focal_length = 1.25", "focal_length = nan")),
+      HasSubstr("meta.ini:3: camera.focal_length is not finite"));
+  EXPECT_THAT(ErrorOf(testing::Replace(kLandscapeMeta, "0 1 0 -1 0 0 0 0 1", "0 1 0 -1 0 0 0 0 2")),
               AllOf(HasSubstr("meta.ini:7"), HasSubstr("not a rotation")));
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "translation = 1 2 3", "translation = 1 2")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kLandscapeMeta, "translation = 1 2 3", "translation = 1 2")),
               HasSubstr("meta.ini:8: expected 3 values (camera.translation), got 2"));
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "translation = 1 2 3\n", "")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kLandscapeMeta, "translation = 1 2 3\n", "")),
               HasSubstr("meta.ini: [camera] has no translation"));
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "[view]", "[view")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kLandscapeMeta, "[view]", "[view")),
               HasSubstr("meta.ini:10: malformed section header"));
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "id = 7", "id 7")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kLandscapeMeta, "id = 7", "id 7")),
               HasSubstr("meta.ini:11: expected 'key = value'"));
-  EXPECT_THAT(ErrorOf(Replace(kLandscapeMeta, "pixel_aspect = 1.1", "pixel_aspect = 0")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kLandscapeMeta, "pixel_aspect = 1.1", "pixel_aspect = 0")),
               HasSubstr("not positive"));
 }
 
@@ -119,8 +109,9 @@ TEST(MveTest, ReadsSceneFolder) {
   WriteBlankPng(view0 / "undistorted.png", 64, 48);
   WriteBlankPng(view0 / "original.png", 64, 48);
   WriteTextFileAtomically(view1 / "meta.ini", "[view]\nid = 1\nname = unregistered\n");
-  WriteTextFileAtomically(view2 / "meta.ini", Replace(kLandscapeMeta, "radial_distortion = 0 0",
-                                                      "radial_distortion = -0.2 0.05"));
+  WriteTextFileAtomically(
+      view2 / "meta.ini",
+      testing::Replace(kLandscapeMeta, "radial_distortion = 0 0", "radial_distortion = -0.2 0.05"));
   WriteBlankPng(view2 / "original.png", 64, 48);
   const Scene scene = ReadMveScene(root);
   ASSERT_EQ(scene.views.size(), 2u);

@@ -8,6 +8,8 @@
 // OPENCV when paspect != 1; PINHOLE when both are zero). texrecon itself ignores d0 d1 and
 // expects undistorted photos, which then carry zeros.
 // The image size comes from the image file.
+//
+// Thread safety: reentrant (no shared state).
 #pragma once
 
 #include <filesystem>

@@ -20,6 +20,8 @@
 // Every scene returned has passed ValidateScene. Images missing on disk are not an error here
 // (MissingImages lists them); an image that exists but whose size differs from its camera's
 // is (CheckImageSizes), unless disabled.
+//
+// Thread safety: reentrant (no shared state; warnings go through the thread-safe log).
 #pragma once
 
 #include <filesystem>

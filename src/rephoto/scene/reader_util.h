@@ -3,6 +3,9 @@
 //
 // Every parse failure throws rephoto::Error "<name>:<line>: <what is wrong>" where <name> is the
 // name the caller gave for the stream (usually the file path).
+//
+// Thread safety: the free functions are pure; a LineReader holds the position in its stream and
+// belongs to one thread.
 #pragma once
 
 #include <Eigen/Core>

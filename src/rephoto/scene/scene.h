@@ -1,6 +1,9 @@
 // A calibrated scene: cameras (intrinsics), views (one per photo: image file, camera, pose),
 // and optionally sparse 3D points, all in one world frame with rephoto's conventions (see
 // rephoto/camera/camera.h). Readers for every supported format produce this type.
+//
+// Thread safety: plain value types without synchronization: a Scene may be read by several threads
+// at once, not modified while another thread uses it.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,6 +1,8 @@
 // A summary of a scene for people (`rephoto scene info`) and scripts (--json): how many
 // images and cameras, which camera models, the resolution range, where the cameras and points
 // are, where the optical axes meet, and which photos are missing on disk.
+//
+// Thread safety: reentrant (reads the scene and probes image files; no shared state).
 #pragma once
 
 #include <Eigen/Core>

@@ -17,6 +17,8 @@
 //   +0.5. An assumption: the data cannot confirm it at sub-pixel level.
 // - PINHOLE camera (fx, fy, cx + 0.5, cy + 0.5). A non-zero distortion line is rejected: the
 //   benchmark does not document its model, and its published files hold zeros.
+//
+// Thread safety: reentrant (no shared state).
 #pragma once
 
 #include <filesystem>

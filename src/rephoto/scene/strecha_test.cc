@@ -23,19 +23,8 @@ constexpr const char* kCamera =
     "2048 1536\n";
 
 std::string ErrorOf(const std::string& text) {
-  try {
-    std::istringstream in(text);
-    ReadStrechaCamera(in, "0000.jpg.camera");
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-
-std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
+  std::istringstream in(text);
+  return testing::ErrorOf([&] { ReadStrechaCamera(in, "0000.jpg.camera"); });
 }
 
 TEST(StrechaTest, ConvertsCameraToWorldRotationAndCentre) {
@@ -55,16 +44,17 @@ TEST(StrechaTest, ConvertsCameraToWorldRotationAndCentre) {
 }
 
 TEST(StrechaTest, BadInput) {
-  EXPECT_THAT(ErrorOf(Replace(kCamera, "1 2 3\n", "1 inf 3\n")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kCamera, "1 2 3\n", "1 inf 3\n")),
               HasSubstr("0000.jpg.camera:8: camera centre is not finite"));
-  EXPECT_THAT(ErrorOf(Replace(kCamera, "0 -1 0\n1 0 0", "0 -1 0\n1 0.5 0")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kCamera, "0 -1 0\n1 0 0", "0 -1 0\n1 0.5 0")),
               AllOf(HasSubstr("0000.jpg.camera:7"), HasSubstr("not a rotation")));
-  EXPECT_THAT(ErrorOf(Replace(kCamera, "0 0 1\n1 2 3", "0 0 -1\n1 2 3")), HasSubstr("reflection"));
-  EXPECT_THAT(ErrorOf(Replace(kCamera, "2048 1536\n", "")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kCamera, "0 0 1\n1 2 3", "0 0 -1\n1 2 3")),
+              HasSubstr("reflection"));
+  EXPECT_THAT(ErrorOf(testing::Replace(kCamera, "2048 1536\n", "")),
               HasSubstr("0000.jpg.camera:9: unexpected end of file, expected the image size"));
-  EXPECT_THAT(ErrorOf(Replace(kCamera, "2048 1536", "2048 0")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kCamera, "2048 1536", "2048 0")),
               HasSubstr("0000.jpg.camera:9: height = 0 is outside"));
-  EXPECT_THAT(ErrorOf(Replace(kCamera, "0 0 0\n", "0.1 0 0\n")),
+  EXPECT_THAT(ErrorOf(testing::Replace(kCamera, "0 0 0\n", "0.1 0 0\n")),
               HasSubstr("0000.jpg.camera:4: non-zero distortion"));
   EXPECT_THAT(ErrorOf(std::string(kCamera) + "5\n"), HasSubstr("unexpected data"));
 }

@@ -46,6 +46,8 @@
 // "OPENCV_FISHEYE" (identical projections); FOV, THIN_PRISM_FISHEYE and rational FULL_OPENCV
 // cannot be written (Error). file_path is image_path relative to the JSON file's folder
 // (absolute when there is no relative path, e.g. another drive).
+//
+// Thread safety: reentrant; concurrent writes must go to different paths.
 #pragma once
 
 #include <filesystem>

@@ -18,12 +18,7 @@ using ::testing::HasSubstr;
 
 std::string ErrorOf(const std::string& text, bool splat = false) {
   std::istringstream in(text);
-  try {
-    ReadGaussians(in, "model.ply", splat);
-  } catch (const Error& error) {
-    return error.what();
-  }
-  return "(no error)";
+  return testing::ErrorOf([&] { ReadGaussians(in, "model.ply", splat); });
 }
 
 // An ascii Inria-layout PLY with the properties in an unusual order, normals, an unknown

@@ -2,6 +2,9 @@
 // library: SplitMix64 (Steele, Lea, Flood 2014; Vigna's reference splitmix64.c) for the bits,
 // unbiased bounded integers by rejection, Fisher-Yates for the shuffle. std::shuffle and
 // std::uniform_int_distribution are implementation-defined and are not used.
+//
+// Thread safety: SeededShuffle is reentrant; a SplitMix64 is a plain mutable generator, one per
+// thread.
 #pragma once
 
 #include <cstdint>

@@ -31,6 +31,9 @@
 //                     out photos; flagged as not cross-validated (the error is then a fit
 //                     error, not a prediction error).
 // Names are compared byte-wise (std::string operator<), the order Python's sorted() gives.
+//
+// Thread safety: pure functions (ParseScheme, MakeSplit read only their arguments and the list
+// files named).
 #pragma once
 
 #include <cstdint>

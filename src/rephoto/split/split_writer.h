@@ -21,6 +21,8 @@
 // With scheme "none" (train = all views) points keep all their observations.
 // Intrinsics that transforms.json cannot hold (FOV, THIN_PRISM_FISHEYE, rational FULL_OPENCV)
 // skip the transforms.json files with a warning and "transforms_json": false in split.json.
+//
+// Thread safety: reentrant; concurrent calls must write to different folders.
 #pragma once
 
 #include <filesystem>

@@ -12,6 +12,8 @@
 //                                            compared at the evaluation resolution
 // A sweep is the Cartesian product of its axes, in the order given (the last axis varies
 // fastest). One axis is the plots' x axis; the combinations of the other axes are the series.
+//
+// Thread safety: pure functions.
 #pragma once
 
 #include <filesystem>

@@ -105,23 +105,23 @@ SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
   nlohmann::json tables;
   eval::LoadConfigText(text, file, &options.base, {"sweep", "slurm"}, &tables);
   if (tables.contains("slurm")) ApplySlurmTable(tables["slurm"], file, &options.base.slurm);
-  REPHOTO_CHECK(tables.contains("sweep") && tables["sweep"].is_object(),
-                "{}: no [sweep] table (the settings to vary)", file.string());
+  REPHOTO_CHECK_USAGE(tables.contains("sweep") && tables["sweep"].is_object(),
+                      "{}: no [sweep] table (the settings to vary)", file.string());
   const fs::path base_dir = fs::absolute(file).parent_path();
   for (const auto& [key, value] : tables["sweep"].items()) {
     const std::string source = fmt::format("{}: [sweep] {}", file.string(), key);
     if (key == "x") {
-      REPHOTO_CHECK(value.is_string(), "{}: expected a parameter name", source);
+      REPHOTO_CHECK_USAGE(value.is_string(), "{}: expected a parameter name", source);
       options.x_axis = value.get<std::string>();
     } else if (key == "out") {
-      REPHOTO_CHECK(value.is_string(), "{}: expected a folder", source);
+      REPHOTO_CHECK_USAGE(value.is_string(), "{}: expected a folder", source);
       options.out = base_dir / value.get<std::string>();
     } else if (key == "min_train_count") {
-      REPHOTO_CHECK(value.is_number_integer() && value.get<int64_t>() >= 1,
-                    "{}: expected a whole number >= 1", source);
+      REPHOTO_CHECK_USAGE(value.is_number_integer() && value.get<int64_t>() >= 1,
+                          "{}: expected a whole number >= 1", source);
       options.min_train_count = value.get<int>();
     } else if (key == "report") {
-      REPHOTO_CHECK(value.is_boolean(), "{}: expected true or false", source);
+      REPHOTO_CHECK_USAGE(value.is_boolean(), "{}: expected true or false", source);
       options.report = value.get<bool>();
     } else if (key == "reference") {
       REPHOTO_CHECK(value.is_string() && !value.get<std::string>().empty(),
@@ -145,20 +145,20 @@ SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
                     "{}: expected a whole number >= 1", source);
       options.geometry.samples = value.get<size_t>();
     } else {
-      REPHOTO_CHECK(IsSweepParameter(key),
-                    "{}: unknown key (parameters: {}; also x, out, "
-                    "min_train_count, report, reference, tolerances, accuracy_fraction, "
-                    "geometry_samples)",
-                    source, SweepParameterList());
+      REPHOTO_CHECK_USAGE(IsSweepParameter(key),
+                          "{}: unknown key (parameters: {}; also x, out, "
+                          "min_train_count, report, reference, tolerances, accuracy_fraction, "
+                          "geometry_samples)",
+                          source, SweepParameterList());
       SweepAxis axis{.parameter = key, .values = {}};
       if (key == "train_count" && value.is_string()) {
-        REPHOTO_CHECK(value.get<std::string>() == "halve",
-                      "{}: expected \"halve\" or a list of sizes", source);
+        REPHOTO_CHECK_USAGE(value.get<std::string>() == "halve",
+                            "{}: expected \"halve\" or a list of sizes", source);
         options.halve_train_count = true;
       } else {
-        REPHOTO_CHECK(value.is_array(), "{}: expected a list of numbers", source);
+        REPHOTO_CHECK_USAGE(value.is_array(), "{}: expected a list of numbers", source);
         for (const auto& item : value) {
-          REPHOTO_CHECK(item.is_number(), "{}: expected a list of numbers", source);
+          REPHOTO_CHECK_USAGE(item.is_number(), "{}: expected a list of numbers", source);
           axis.values.push_back(item.get<double>());
         }
       }
@@ -204,17 +204,18 @@ SweepPlan PlanSweep(const SweepOptions& options, SweepResult* result) {
   SweepPlan plan;
   plan.x_axis = options.x_axis;
   if (plan.x_axis.empty() && !result->axes.empty()) plan.x_axis = result->axes.back().parameter;
-  REPHOTO_CHECK(
-      plan.x_axis.empty() ||
-          std::any_of(result->axes.begin(), result->axes.end(),
-                      [&](const SweepAxis& a) { return a.parameter == plan.x_axis; }),
-      "sweep: the x axis '{}' is not a swept parameter", plan.x_axis);
+  REPHOTO_CHECK_USAGE(plan.x_axis.empty() || std::any_of(result->axes.begin(), result->axes.end(),
+                                                         [&](const SweepAxis& a) {
+                                                           return a.parameter == plan.x_axis;
+                                                         }),
+                      "sweep: the x axis '{}' is not a swept parameter", plan.x_axis);
   const bool defects = std::any_of(result->axes.begin(), result->axes.end(), [](const auto& a) {
     return a.parameter == "texture_noise" || a.parameter == "geometry_noise" ||
            a.parameter == "simplify" || a.parameter == "seed";
   });
-  REPHOTO_CHECK(!defects || options.base.source() != eval::ModelSource::kRender,
-                "sweep: model defects need a model rendered by rephoto, not an external renderer");
+  REPHOTO_CHECK_USAGE(
+      !defects || options.base.source() != eval::ModelSource::kRender,
+      "sweep: model defects need a model rendered by rephoto, not an external renderer");
   plan.settings = ExpandGrid(result->axes);
   return plan;
 }
@@ -227,6 +228,19 @@ eval::EvaluateOptions SettingOptions(const SweepOptions& options, const SweepSet
   if (evaluate.cache_dir.empty()) evaluate.cache_dir = options.out / "cache";
   ApplySetting(setting, &evaluate);
   return evaluate;
+}
+
+// Every setting's evaluate options checked before anything is written: a bad value in the
+// config (a scheme, a metric) would otherwise only show when the first setting runs.
+void CheckSettings(const SweepOptions& options, const SweepPlan& plan) {
+  for (const SweepSetting& setting : plan.settings) {
+    try {
+      SettingOptions(options, setting).Check();
+    } catch (const UsageError& e) {
+      if (options.base.config_file.empty()) throw;
+      throw UsageError(fmt::format("{}: {}", options.base.config_file.string(), e.what()));
+    }
+  }
 }
 
 void AddTimings(const eval::EvaluateResult& r, SweepResult* result) {
@@ -328,10 +342,10 @@ bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
   LogInfo(fmt::format("sweep on Slurm: {} settings, {} tasks ({} done before) -> {}",
                       plan.settings.size(), tasks + 1, done_before + (sweep_done ? 1 : 0),
                       options.out.string()));
-  const cluster::RunOutcome run = cluster::RunTaskGroups(
-      options.out, groups, slurm, [](const cluster::Progress& p) {
-        LogInfo(fmt::format("slurm: {} of {} tasks done, {} failed, {} running, {} pending",
-                            p.done, p.total, p.failed, p.running, p.pending));
+  const cluster::RunOutcome run =
+      cluster::RunTaskGroups(options.out, groups, slurm, [](const cluster::Progress& p) {
+        LogInfo(fmt::format("slurm: {} of {} tasks done, {} failed, {} running, {} pending", p.done,
+                            p.total, p.failed, p.running, p.pending));
       });
   result->slurm = run;
   for (const std::string& line : run.FailureLines()) LogWarning("slurm: failed: " + line);
@@ -430,6 +444,7 @@ SweepResult RunSweep(const SweepOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   SweepResult result;
   const SweepPlan plan = PlanSweep(options, &result);
+  CheckSettings(options, plan);
   // One writer; only a folder that holds a sweep (or nothing). Each setting's evaluate run
   // locks its own folder below it. The aggregation task of a sweep on Slurm runs while the
   // submitting sweep holds the lock: it writes only the sweep's tables, report and sweep.json.

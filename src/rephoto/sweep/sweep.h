@@ -48,6 +48,10 @@
 // Settings are independent tasks; each is an evaluate run and resumes like one, so rerunning
 // the same command skips everything already done. A setting whose evaluation fails is recorded
 // and the others go on (exit code kIncomplete).
+//
+// Thread safety: LoadSweepConfig* are reentrant. RunSweep is a whole run: it owns its output folder
+// (one writer per folder, run/run_folder.h) and reads the process-wide interrupt flag; run at most
+// one per folder.
 #pragma once
 
 #include <filesystem>

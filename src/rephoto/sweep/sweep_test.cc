@@ -44,23 +44,9 @@ const SceneFiles& Files() {
   return files;
 }
 
-fs::path WriteConfig(const fs::path& dir, const std::string& name, const std::string& text) {
-  fs::create_directories(dir);
-  std::ofstream(dir / name) << text;
-  return dir / name;
-}
-
-std::vector<std::vector<std::string>> ReadCsv(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return io::ParseCsv(text.str(), path.string());
-}
-
 TEST(Sweep, TextureNoiseOrdersTheErrorInEverySeriesAndResumes) {
   const fs::path dir = testing::MakeTempDir();
-  const fs::path config = WriteConfig(dir, "exp.toml",
-                                      fmt::format(R"(
+  const fs::path config = testing::WriteFile(dir / "exp.toml", fmt::format(R"(
 scene = "{0}/sparse"
 image_root = "{0}/images"
 model = "{0}/truth.ply"
@@ -73,7 +59,7 @@ seed = [1, 2]
 x = "texture_noise"
 out = "noise"
 )",
-                                                  Files().root.string()));
+                                                                           Files().root.string()));
   const SweepOptions options = LoadSweepConfig(config);
   ASSERT_EQ(options.axes.size(), 2u);
   EXPECT_EQ(options.axes[0].parameter, "seed");  // x axis last
@@ -104,13 +90,13 @@ out = "noise"
   EXPECT_EQ(result.table.settings[0].across_folds[1].median,
             result.table.settings[3].across_folds[1].median);
 
-  const auto table = ReadCsv(options.out / "sweep.csv");
+  const auto table = io::ReadCsvFile(options.out / "sweep.csv");
   ASSERT_EQ(table.size(), 7u);
   EXPECT_EQ(table[0][0], "setting");
   EXPECT_EQ(table[0][1], "seed");
   EXPECT_EQ(table[0][2], "texture_noise");
   EXPECT_EQ(table[2][0], "seed-1_texture_noise-0.1");
-  EXPECT_EQ(ReadCsv(options.out / "sweep_per_fold.csv").size(), 1u + 6u * 2u);
+  EXPECT_EQ(io::ReadCsvFile(options.out / "sweep_per_fold.csv").size(), 1u + 6u * 2u);
   EXPECT_TRUE(fs::exists(options.out / "report.html"));
   EXPECT_TRUE(fs::exists(options.out / "settings" / "seed-2_texture_noise-0.3" / "report.html"));
   std::ifstream json_file(options.out / "sweep.json");
@@ -129,19 +115,18 @@ out = "noise"
   }
   EXPECT_EQ(rendered, 0u);
   EXPECT_EQ(reused, 6u * 8u);
-  EXPECT_EQ(ReadCsv(options.out / "sweep.csv"), table);
+  EXPECT_EQ(io::ReadCsvFile(options.out / "sweep.csv"), table);
 }
 
 TEST(Sweep, HalvingTrainingSetsFromTheSmallestFold) {
   const fs::path dir = testing::MakeTempDir();
   // JSON config; colouring from each fold's training photos, |T| halved from the fold's 4.
-  const fs::path config = WriteConfig(dir, "exp.json",
-                                      fmt::format(R"({{
+  const fs::path config = testing::WriteFile(dir / "exp.json", fmt::format(R"({{
   "scene": "{0}/sparse", "image-root": "{0}/images", "model": "{0}/plain.ply",
   "colorize": true, "scheme": "kfold:2", "metrics": "1-ncc", "projection-metric": "none",
   "sweep": {{"train_count": "halve", "min_train_count": 1}}
 }})",
-                                                  Files().root.string()));
+                                                                           Files().root.string()));
   SweepOptions options = LoadSweepConfig(config);
   options.report = false;
   EXPECT_EQ(options.out, dir / "exp.sweep");
@@ -163,7 +148,7 @@ TEST(Sweep, HalvingTrainingSetsFromTheSmallestFold) {
 TEST(Sweep, BadConfigsAreErrorsNamingTheFileAndKey) {
   const fs::path dir = testing::MakeTempDir();
   auto message = [&](const std::string& text) {
-    const fs::path config = WriteConfig(dir, "bad.toml", text);
+    const fs::path config = testing::WriteFile(dir / "bad.toml", text);
     try {
       RunSweep(LoadSweepConfig(config));
     } catch (const Error& e) {

@@ -1,31 +1,20 @@
-#include "rephoto/run/records.h"
 #include "rephoto/sweep/table.h"
 
 #include <algorithm>
-#include <fstream>
 #include <limits>
-#include <sstream>
 
 #include "rephoto/core/error.h"
 #include "rephoto/io/csv.h"
+#include "rephoto/run/records.h"
 
 namespace rephoto::sweep {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  REPHOTO_CHECK(in.good(), "{}: cannot open", path.string());
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 double ParseNumber(const std::string& field, const std::filesystem::path& path, size_t line) {
   const std::optional<double> value = run::ParseCsvNumber(field);
-  REPHOTO_CHECK(value.has_value(), "{}: line {}: '{}' is not a number", path.string(), line,
-                field);
+  REPHOTO_CHECK(value.has_value(), "{}: line {}: '{}' is not a number", path.string(), line, field);
   return *value;
 }
 
@@ -48,7 +37,7 @@ SweepTable ReadSweepTable(const std::vector<SweepSetting>& settings,
     rows.setting = settings[s];
     const auto path = run_dirs[s] / "per_fold.csv";
     if (std::filesystem::exists(path)) {
-      const auto csv = io::ParseCsv(ReadText(path), path.string());
+      const auto csv = io::ReadCsvFile(path);
       REPHOTO_CHECK(!csv.empty(), "{}: empty file", path.string());
       const auto& header = csv[0];
       auto find = [&](const std::string& name) {

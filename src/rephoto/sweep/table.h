@@ -13,6 +13,8 @@
 // Rows follow the order of the settings; metric columns the order of the first run that has
 // them. A setting whose run directory has no per_fold.csv (not run yet, or failed before any
 // fold finished) gives a row with folds = 0 and empty statistics.
+//
+// Thread safety: reentrant (reads the run folders; SweepSummaryCsv and SweepPerFoldCsv are pure).
 #pragma once
 
 #include <filesystem>

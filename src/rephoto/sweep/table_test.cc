@@ -11,27 +11,23 @@
 namespace rephoto::sweep {
 namespace {
 
-void Write(const std::filesystem::path& path, const std::string& text) {
-  std::filesystem::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
-
 TEST(SweepTable, StatisticsAcrossFoldsFromEachRunsPerFoldCsv) {
   const auto dir = testing::MakeTempDir();
   const std::vector<SweepAxis> axes = {{"train_count", {4, 2, 1}}};
   const auto settings = ExpandGrid(axes);
   // Setting 0: four folds; setting 1: two folds, one failed; setting 2: not run yet.
-  Write(dir / "a" / "per_fold.csv",
-        "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,cb+cr\n"
-        "fold_00,ok,2,2,1.5,0.9,0.1,0.02\n"
-        "fold_01,ok,2,2,1.5,0.8,0.4,0.03\n"
-        "fold_02,ok,2,2,1.5,1.0,0.2,0.01\n"
-        "fold_03,ok,2,2,1.5,0.7,0.3,\n");
+  testing::WriteFile(dir / "a" / "per_fold.csv",
+                     "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,cb+cr\n"
+                     "fold_00,ok,2,2,1.5,0.9,0.1,0.02\n"
+                     "fold_01,ok,2,2,1.5,0.8,0.4,0.03\n"
+                     "fold_02,ok,2,2,1.5,1.0,0.2,0.01\n"
+                     "fold_03,ok,2,2,1.5,0.7,0.3,\n");
   // As evaluate writes it: the message column last (text, not a measurement).
-  Write(dir / "b" / "per_fold.csv",
-        "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,cb+cr,message\n"
-        "fold_00,ok,2,2,1.5,0.5,0.6,0.05,\n"
-        "fold_01,failed,2,0,0.1,,,,fold_01: reconstruct command failed (exit status 1)\n");
+  testing::WriteFile(
+      dir / "b" / "per_fold.csv",
+      "fold,status,test_images,evaluated_images,seconds,completeness,1-ncc,cb+cr,message\n"
+      "fold_00,ok,2,2,1.5,0.5,0.6,0.05,\n"
+      "fold_01,failed,2,0,0.1,,,,fold_01: reconstruct command failed (exit status 1)\n");
   const SweepTable table = ReadSweepTable(settings, {dir / "a", dir / "b", dir / "c"});
   ASSERT_EQ(table.columns, (std::vector<std::string>{"completeness", "1-ncc", "cb+cr"}));
   ASSERT_EQ(table.settings.size(), 3u);
@@ -72,7 +68,7 @@ TEST(SweepTable, StatisticsAcrossFoldsFromEachRunsPerFoldCsv) {
 
 TEST(SweepTable, MalformedPerFoldCsvNamesTheFile) {
   const auto dir = testing::MakeTempDir();
-  Write(dir / "a" / "per_fold.csv", "fold,status,completeness\nfold_00,ok,abc\n");
+  testing::WriteFile(dir / "a" / "per_fold.csv", "fold,status,completeness\nfold_00,ok,abc\n");
   try {
     ReadSweepTable(ExpandGrid({}), {dir / "a"});
     FAIL() << "no error";

@@ -6,6 +6,8 @@
 // sphere of radius 0.5 with low-frequency bumps, centred at (0, 0, 0.5)) stands on it.
 // Colours are vertex colours sampled from DemoAlbedo, dense enough (about one vertex per
 // photo pixel on the object) that the mesh acts as the scene's ground-truth texture.
+//
+// Thread safety: reentrant (the noise is cached per thread; no shared mutable state).
 #pragma once
 
 #include <Eigen/Core>

@@ -1,10 +1,13 @@
 #include "rephoto/testing/testing.h"
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
+#include <sstream>
 #include <string>
 
 #include "rephoto/core/error.h"
@@ -63,6 +66,39 @@ std::string ErrorOf(const std::function<void()>& f) {
     return e.what();
   }
   return "(no error)";
+}
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at == std::string::npos) return text;
+  return text.replace(at, from.size(), to);
+}
+
+fs::path WriteFile(const fs::path& path, std::string_view content) {
+  if (path.has_parent_path()) fs::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary);
+  out.write(content.data(), static_cast<std::streamsize>(content.size()));
+  EXPECT_TRUE(out.good()) << path;
+  return path;
+}
+
+namespace {
+std::string ReadWholeFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+}  // namespace
+
+ShellOutcome RunShell(const std::string& command) {
+  const fs::path dir = MakeTempDir();
+  const std::string redirected =
+      command + " >'" + (dir / "stdout").string() + "' 2>'" + (dir / "stderr").string() + "'";
+  const int status = std::system(redirected.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadWholeFile(dir / "stderr"),
+          ReadWholeFile(dir / "stdout")};
 }
 
 }  // namespace rephoto::testing

@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Writes the seed corpora of the COLMAP and transforms.json fuzz targets (colmap_fuzz.cc,
-transforms_json_fuzz.cc): small valid inputs from which libFuzzer mutates.
+"""Writes the seed corpora of the COLMAP and transforms.json fuzz targets
+(fuzz/fuzz_scene_colmap.cc, fuzz/fuzz_scene_transforms_json.cc): small valid inputs from which
+libFuzzer mutates.
 
 colmap seeds: first byte = reader (0 cameras.txt, 1 images.txt, 2 points3D.txt, 3 cameras.bin,
 4 images.bin, 5 points3D.bin, 6 the three text files separated by NUL bytes).
-Usage: /usr/bin/python3 make_seeds.py   (writes ./colmap/* and ./transforms_json/*)
+Usage: /usr/bin/python3 make_scene_seeds.py   (writes ./scene_colmap/* and ./scene_transforms_json/*)
 """
 import json
 import os
@@ -44,19 +45,19 @@ def write(folder, name, data):
         f.write(data if isinstance(data, bytes) else data.encode())
 
 
-write("colmap", "cameras_txt", b"\0" + CAMERAS.encode())
-write("colmap", "images_txt", b"\1" + IMAGES.encode())
-write("colmap", "points3d_txt", b"\2" + POINTS.encode())
-write("colmap", "cameras_bin", b"\3" + cameras_bin())
-write("colmap", "images_bin", b"\4" + images_bin())
-write("colmap", "points3d_bin", b"\5" + points_bin())
-write("colmap", "model_txt", b"\6" + "\0".join([CAMERAS, IMAGES, POINTS]).encode())
+write("scene_colmap", "cameras_txt", b"\0" + CAMERAS.encode())
+write("scene_colmap", "images_txt", b"\1" + IMAGES.encode())
+write("scene_colmap", "points3d_txt", b"\2" + POINTS.encode())
+write("scene_colmap", "cameras_bin", b"\3" + cameras_bin())
+write("scene_colmap", "images_bin", b"\4" + images_bin())
+write("scene_colmap", "points3d_bin", b"\5" + points_bin())
+write("scene_colmap", "model_txt", b"\6" + "\0".join([CAMERAS, IMAGES, POINTS]).encode())
 
 identity = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 4], [0, 0, 0, 1]]
-write("transforms_json", "nerf_synthetic.json", json.dumps({
+write("scene_transforms_json", "nerf_synthetic.json", json.dumps({
     "camera_angle_x": 0.6911112070083618,
     "frames": [{"file_path": "./train/r_0", "rotation": 0.0126, "transform_matrix": identity}]}))
-write("transforms_json", "instant_ngp.json", json.dumps({
+write("scene_transforms_json", "instant_ngp.json", json.dumps({
     "fl_x": 1375.52, "fl_y": 1374.49, "cx": 554.558, "cy": 965.268, "w": 1080.0, "h": 1920.0,
     "k1": 0.0578421, "k2": -0.0805099, "p1": -0.000980296, "p2": 0.00015575, "aabb_scale": 4,
     "frames": [{"file_path": "images/0001.jpg", "sharpness": 31.7, "transform_matrix": identity},
