@@ -54,7 +54,7 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
             render_mask: Optional[np.ndarray] = None, error_images: bool = False,
             window: int = 9, ssim_mode: str = "gaussian", dark: float = 0.0,
             saturated: float = 1.0, compat: Optional[str] = None,
-            background: Sequence[float] = (0.0, 0.0, 0.0)) -> Dict[str, Any]:
+            background: Sequence[float] = (0.0, 0.0, 0.0), resize: bool = False) -> Dict[str, Any]:
     """Compares a photo with a rendering of the same view, as ``rephoto compare`` does.
 
     Args:
@@ -66,7 +66,8 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
         like ``--photo-masks``.
       metrics: names ("1-ncc", "cb+cr", "zssd", "dssim", "census", "icid", "psnr", "ssim"),
         a comma-separated string or "all" (default: all; with ``compat``: psnr and ssim).
-      render_mask: optional H x W mask overriding the rendering's alpha/black rule (``--masks``).
+      render_mask: optional mask of the rendering's size overriding its alpha/black rule
+        (``--masks``).
       error_images: also return the per-pixel error images (float32 H x W, NaN = not evaluated).
       window: window side of 1-ncc, zssd, census and completeness (odd, ``--window``).
       ssim_mode: "gaussian" (11x11, sigma 1.5) or "skimage" (7x7 uniform, sample covariance).
@@ -76,10 +77,13 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
         nerfstudio's ns-eval compute them (every pixel, no masks; ``--compat``), for numbers
         comparable with papers. The photo's alpha is composited over ``background``.
       background: RGB in [0, 1] for ``compat`` (the colour the model was trained with).
+      resize: a render (and ``render_mask``) of another size is rescaled to the photo's size
+        with the CLI's area filter (``--resize``); validity is decided before rescaling.
+        Otherwise the sizes must be equal.
 
     Returns:
       A dict: "completeness" (float, NaN if the photo has no valid window),
-      "valid_photo_windows", "valid_both_windows" (not in compat mode), one float per metric
+      "valid_photo_windows", "valid_both_windows", "resized" (not in compat mode), one float per metric
       (its masked mean; psnr in dB; NaN when nothing was evaluated), "evaluated" (metric ->
       positions in the mean) and, with ``error_images``, "errors" (metric -> array).
 
@@ -88,7 +92,7 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
       Error: anything the library rejects.
     """
     return _rephoto.compare(photo, render, mask, metrics, render_mask, error_images, window,
-                            ssim_mode, dark, saturated, compat, list(background))
+                            ssim_mode, dark, saturated, compat, list(background), resize)
 
 
 def error_image(photo: np.ndarray, render: np.ndarray, metric: str,
