@@ -546,6 +546,24 @@ double CliPairSeconds(const py::object& photo_object, const py::object& render_o
   return seconds[seconds.size() / 2];
 }
 
+// For the timing comparison: seconds (median of `repeats`) of the one copy or conversion
+// rephoto.compare makes of this array (Decode into a buffer reused between repeats).
+double DecodeSeconds(const py::object& object, int repeats) {
+  const ArrayView view = ViewImage(object, "array");
+  py::gil_scoped_release release;
+  Decoded decoded;
+  std::vector<double> seconds;
+  for (int i = 0; i < std::max(repeats, 1) + 1; ++i) {  // the first call touches fresh pages
+    const auto start = std::chrono::steady_clock::now();
+    Decode(view, &decoded);
+    seconds.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  seconds.erase(seconds.begin());
+  std::sort(seconds.begin(), seconds.end());
+  return seconds[seconds.size() / 2];
+}
+
 }  // namespace
 }  // namespace rephoto::python
 
@@ -684,6 +702,7 @@ PYBIND11_MODULE(_rephoto, m) {
            py::arg("gaussian_mode") = "classic");
   m.def("load_model", &LoadModel, py::arg("path"), py::arg("point_radius") = 0.0f);
   m.def("evaluate", &Evaluate);
+  m.def("_decode_seconds", &DecodeSeconds, py::arg("array"), py::arg("repeats") = 5);
   m.def("_cli_pair_seconds", &CliPairSeconds, py::arg("photo"), py::arg("render"),
         py::arg("metrics") = py::none(), py::arg("repeats") = 3);
 }
