@@ -6,12 +6,14 @@ release the GIL while they work, so Python threads run them in parallel.
 Images are numpy arrays H x W (grey) or H x W x C with C = 1 (grey), 2 (grey + alpha), 3 (RGB)
 or 4 (RGBA); dtype uint8 (v / 255), uint16 (v / 65535) or float32 (values in [0, 1], used as
 they are). Any strides (slices, transposes) are accepted. Because the library's image type owns
-its memory, each input image is converted once into it in one parallel pass (float32 RGB
-C-contiguous: a plain copy); nothing else is copied. Returned images (error maps, renderings)
-are float32 arrays that take over the library's buffers without a copy. Each thread that calls
-:func:`compare` keeps its last working buffers (converted images, masks, error images not
-returned) for the next call, as the CLI does from pair to pair: touching fresh memory costs
-more than the metrics of a small image.
+its memory, each input image is brought once, in one parallel pass, into the form the CLI's
+image decoder gives: uint8 copied as 8-bit samples (as JPEG and 8-bit PNG are kept), float32
+copied, uint16 scaled to float; nothing else is copied. :func:`compare` then runs the very
+function ``rephoto compare`` runs for each pair (so values are the CLI's, bit for bit).
+Returned images (error maps, renderings) are float32 arrays that take over the library's
+buffers without a copy. Each thread that calls :func:`compare` keeps its last working buffers
+(converted images, masks) for the next call, as the CLI does from pair to pair: touching fresh
+memory costs more than the metrics of a small image.
 
 Errors raise :class:`rephoto.Error` (a ``RuntimeError``) with the one-line message of the CLI;
 bad arguments raise :class:`rephoto.UsageError`, which is both a ``rephoto.Error`` and a
