@@ -469,7 +469,9 @@ ImageResult CompareInMemory(const CompareOptions& options, const ImageT<P>& phot
       !options.compat || (!photo_mask && !render_mask),
       "compat {}: masks do not exist in this mode",
       options.compat ? metrics::CompatPresetName(*options.compat) : std::string_view());
-  return CompareImages(options, "", "photo", "render", photo, render, photo_mask, render_mask, {},
+  CompareOptions in_memory = options;
+  in_memory.write_error_images = false;  // nothing is written, whatever `options` says
+  return CompareImages(in_memory, "", "photo", "render", photo, render, photo_mask, render_mask, {},
                        error_images, workspace->buffers.get());
 }
 

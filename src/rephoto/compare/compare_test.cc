@@ -568,6 +568,7 @@ TEST(Compare, InMemoryEqualsRunCompareAndItsErrorImages) {
     }
   }
   EXPECT_EQ(FolderEntries(f.out / "errors").size(), 2 * options.metrics.size());
+  EXPECT_FALSE(fs::exists(fs::current_path() / ".psnr.exr"));  // nothing written in memory mode
 
   options.metrics = {Metric::kPsnr, Metric::kPsnr};
   try {
