@@ -30,7 +30,6 @@
 #include <vector>
 
 #include "rephoto/compare/compare.h"
-#include "rephoto/compare/compat_compare.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/image.h"
 #include "rephoto/core/parallel.h"
@@ -39,7 +38,6 @@
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/metrics.h"
-#include "rephoto/metrics/validity.h"
 #include "rephoto/render/render.h"
 #include "rephoto/render/render_model.h"
 #include "rephoto/scene/read_scene.h"
