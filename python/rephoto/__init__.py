@@ -6,12 +6,14 @@ release the GIL while they work, so Python threads run them in parallel.
 Images are numpy arrays H x W (grey) or H x W x C with C = 1 (grey), 2 (grey + alpha), 3 (RGB)
 or 4 (RGBA); dtype uint8 (v / 255), uint16 (v / 65535) or float32 (values in [0, 1], used as
 they are). Any strides (slices, transposes) are accepted. Because the library's image type owns
-its memory, each input image is converted once into it in one parallel pass (float32 RGB
-C-contiguous: a plain copy); nothing else is copied. Returned images (error maps, renderings)
-are float32 arrays that take over the library's buffers without a copy. Each thread that calls
-:func:`compare` keeps its last working buffers (converted images, masks, error images not
-returned) for the next call, as the CLI does from pair to pair: touching fresh memory costs
-more than the metrics of a small image.
+its memory, each input image is brought once, in one parallel pass, into the form the CLI's
+image decoder gives: uint8 copied as 8-bit samples (as JPEG and 8-bit PNG are kept), float32
+copied, uint16 scaled to float; nothing else is copied. :func:`compare` then runs the very
+function ``rephoto compare`` runs for each pair (so values are the CLI's, bit for bit).
+Returned images (error maps, renderings) are float32 arrays that take over the library's
+buffers without a copy. Each thread that calls :func:`compare` keeps its last working buffers
+(converted images, masks) for the next call, as the CLI does from pair to pair: touching fresh
+memory costs more than the metrics of a small image.
 
 Errors raise :class:`rephoto.Error` (a ``RuntimeError``) with the one-line message of the CLI;
 bad arguments raise :class:`rephoto.UsageError`, which is both a ``rephoto.Error`` and a
@@ -54,7 +56,7 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
             render_mask: Optional[np.ndarray] = None, error_images: bool = False,
             window: int = 9, ssim_mode: str = "gaussian", dark: float = 0.0,
             saturated: float = 1.0, compat: Optional[str] = None,
-            background: Sequence[float] = (0.0, 0.0, 0.0)) -> Dict[str, Any]:
+            background: Sequence[float] = (0.0, 0.0, 0.0), resize: bool = False) -> Dict[str, Any]:
     """Compares a photo with a rendering of the same view, as ``rephoto compare`` does.
 
     Args:
@@ -66,7 +68,8 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
         like ``--photo-masks``.
       metrics: names ("1-ncc", "cb+cr", "zssd", "dssim", "census", "icid", "psnr", "ssim"),
         a comma-separated string or "all" (default: all; with ``compat``: psnr and ssim).
-      render_mask: optional H x W mask overriding the rendering's alpha/black rule (``--masks``).
+      render_mask: optional mask of the rendering's size overriding its alpha/black rule
+        (``--masks``).
       error_images: also return the per-pixel error images (float32 H x W, NaN = not evaluated).
       window: window side of 1-ncc, zssd, census and completeness (odd, ``--window``).
       ssim_mode: "gaussian" (11x11, sigma 1.5) or "skimage" (7x7 uniform, sample covariance).
@@ -76,10 +79,13 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
         nerfstudio's ns-eval compute them (every pixel, no masks; ``--compat``), for numbers
         comparable with papers. The photo's alpha is composited over ``background``.
       background: RGB in [0, 1] for ``compat`` (the colour the model was trained with).
+      resize: a render (and ``render_mask``) of another size is rescaled to the photo's size
+        with the CLI's area filter (``--resize``); validity is decided before rescaling.
+        Otherwise the sizes must be equal.
 
     Returns:
       A dict: "completeness" (float, NaN if the photo has no valid window),
-      "valid_photo_windows", "valid_both_windows" (not in compat mode), one float per metric
+      "valid_photo_windows", "valid_both_windows", "resized" (not in compat mode), one float per metric
       (its masked mean; psnr in dB; NaN when nothing was evaluated), "evaluated" (metric ->
       positions in the mean) and, with ``error_images``, "errors" (metric -> array).
 
@@ -88,7 +94,7 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
       Error: anything the library rejects.
     """
     return _rephoto.compare(photo, render, mask, metrics, render_mask, error_images, window,
-                            ssim_mode, dark, saturated, compat, list(background))
+                            ssim_mode, dark, saturated, compat, list(background), resize)
 
 
 def error_image(photo: np.ndarray, render: np.ndarray, metric: str,

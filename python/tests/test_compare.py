@@ -42,6 +42,35 @@ def test_values_equal_the_cli_bit_for_bit(cli, tmp_path, pair):
         assert int(row[name + "_evaluated"]) == result["evaluated"][name]
 
 
+def test_resize_equals_the_cli(cli, tmp_path, pair):
+    """A half-size RGBA rendering, rescaled to the photo's size as `rephoto compare --resize`."""
+    photo, render = pair
+    small = np.dstack([render[::2, ::2], np.full((34, 46), 255, np.uint8)])
+    small[25:, 30:, 3] = 0  # not covered: validity decided before rescaling
+    row = cli_values(cli, tmp_path, photo, small, ["--resize"])
+    assert row["resized"] == "1"
+    for kind in ("uint8", "float32"):
+        args = (photo, small) if kind == "uint8" else (photo, small.astype(np.float32) / 255)
+        result = rephoto.compare(*args, resize=True)
+        assert result["resized"]
+        assert float(row["completeness"]) == result["completeness"]
+        assert int(row["valid_both_windows"]) == result["valid_both_windows"]
+        for name in rephoto.METRICS:
+            if kind == "uint8":  # the CLI's 8-bit path, bit for bit
+                assert same(float(row[name]), result[name]), name
+            else:
+                assert float(row[name]) == pytest.approx(result[name], rel=1e-5, abs=1e-6), name
+            assert int(row[name + "_evaluated"]) == result["evaluated"][name]
+    # The render mask is rescaled with the rendering; it must have the rendering's size.
+    render_mask = np.ones((34, 46), bool)
+    masked = rephoto.compare(photo, small[..., :3], render_mask=render_mask, resize=True,
+                             metrics="psnr")
+    assert masked["evaluated"]["psnr"] > result["evaluated"]["psnr"]
+    with pytest.raises(ValueError, match=r"^render_mask is 91x67 but render is 46x34$"):
+        rephoto.compare(photo, small, render_mask=np.ones(photo.shape[:2], bool), resize=True)
+    assert not rephoto.compare(photo, render, resize=True)["resized"]
+
+
 def test_compat_equals_the_cli(cli, tmp_path, pair):
     photo, render = pair
     row = cli_values(cli, tmp_path, photo, render, ["--compat", "nerfstudio"])
@@ -117,7 +146,8 @@ def test_error_images(pair):
 
 def test_errors_are_one_line_exceptions(pair):
     photo, render = pair
-    with pytest.raises(ValueError, match=r"^render is 91x60 but photo is 91x67 \(same size required\)$"):
+    with pytest.raises(ValueError, match=r"^render is 91x60 but photo is 91x67 "
+                       r"\(same size required, or resize=True\)$"):
         rephoto.compare(photo, render[:60])
     with pytest.raises(rephoto.UsageError, match="dtype float64 is not supported"):
         rephoto.compare(photo.astype(np.float64), render)

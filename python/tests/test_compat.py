@@ -52,3 +52,18 @@ def test_compat_on_random_float_images():
         result = rephoto.compare(a, b, compat=preset)
         assert result["ssim"] == pytest.approx(ssim(b.astype(np.float64), a.astype(np.float64)),
                                                abs=1e-6)
+
+
+def test_compat_error_images_average_to_the_values():
+    """Under compat the psnr image is the squared error (its mean is the MSE of the PSNR) and
+    the ssim image the SSIM map (its mean is the SSIM), from the same C++ call as the CLI's."""
+    rng = np.random.default_rng(1)
+    photo = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
+    render = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
+    result = rephoto.compare(photo, render, compat="3dgs", error_images=True)
+    squared = result["errors"]["psnr"].astype(np.float64)
+    expected = ((photo / 255.0 - render / 255.0) ** 2).mean(axis=2)
+    np.testing.assert_allclose(squared, expected, rtol=1e-5, atol=1e-9)
+    assert -10 * np.log10(squared.mean()) == pytest.approx(result["psnr"], abs=1e-6)
+    assert result["errors"]["ssim"].mean(dtype=np.float64) == pytest.approx(result["ssim"],
+                                                                              abs=1e-6)

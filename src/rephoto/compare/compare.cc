@@ -1,5 +1,4 @@
 #include "rephoto/compare/compare.h"
-#include "rephoto/compare/compat_compare.h"
 
 #include <signal.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -23,6 +22,7 @@
 #include <set>
 #include <thread>
 
+#include "rephoto/compare/compat_compare.h"
 #include "rephoto/compare/error_images.h"
 #include "rephoto/compare/resample.h"
 #include "rephoto/core/colormap.h"
@@ -324,11 +324,21 @@ template <typename P, typename R>
 ImageResult CompareImages(const CompareOptions& options, const std::string& name,
                           const fs::path& photo_path, const fs::path& render_path,
                           const ImageT<P>& photo, const ImageT<R>& render, const Mask* photo_mask,
-                          const Mask* render_mask, const fs::path& error_folder, Workspace* ws) {
+                          const Mask* render_mask, const fs::path& error_folder,
+                          std::vector<Image>* error_images, Workspace* ws) {
   if (options.compat) {  // the numbers other tools publish (compat_compare.h)
-    Image photo_float, render_float;
-    return CompareCompat(options, *options.compat, name, photo_path, render_path,
-                         AsFloatImage(photo, &photo_float), AsFloatImage(render, &render_float));
+    Image photo_float, render_float, squared_error, ssim_map;
+    ImageResult result =
+        CompareCompat(options, *options.compat, name, photo_path, render_path,
+                      AsFloatImage(photo, &photo_float), AsFloatImage(render, &render_float),
+                      error_images ? &squared_error : nullptr, error_images ? &ssim_map : nullptr);
+    if (error_images) {
+      error_images->clear();
+      for (metrics::Metric metric : options.metrics) {
+        error_images->push_back(metric == metrics::Metric::kPsnr ? squared_error : ssim_map);
+      }
+    }
+    return result;
   }
   if (!options.resize) {
     REPHOTO_CHECK(photo.SameSize(render),
@@ -396,7 +406,7 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
   const auto stem = [&](metrics::Metric metric) {
     return fmt::format("{}.{}", name, metrics::MetricName(metric));
   };
-  if (options.write_error_images) {
+  if (options.write_error_images && !error_images) {
     for (metrics::Metric metric : options.metrics) {
       exrs.push_back(
           std::make_unique<ErrorExrWriter>(error_folder / (stem(metric) + ".exr"), width, height));
@@ -406,6 +416,15 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
   if (!exrs.empty()) {
     sink = [&](int y0, int y1, std::span<const float* const> rows) {
       for (size_t i = 0; i < exrs.size(); ++i) exrs[i]->WriteRows(y0, y1, rows[i]);
+    };
+  } else if (error_images) {  // whole images in memory (CompareInMemory)
+    error_images->resize(options.metrics.size());
+    for (Image& error : *error_images) error.Resize(width, height, 1);
+    sink = [&](int y0, int y1, std::span<const float* const> rows) {
+      const size_t count = static_cast<size_t>(y1 - y0) * width;
+      for (size_t i = 0; i < rows.size(); ++i) {
+        std::memcpy((*error_images)[i].row(y0), rows[i], count * sizeof(float));
+      }
     };
   }
   metrics::ComputeMetricsInBands(photo_rgb, render_view, valid, options.metrics,
@@ -432,8 +451,39 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
                                   const Mask* render_mask, const fs::path& error_folder,
                                   CompareWorkspace* workspace) {
   return CompareImages(options, name, photo_path, render_path, photo, render, photo_mask,
-                       render_mask, error_folder, workspace->buffers.get());
+                       render_mask, error_folder, nullptr, workspace->buffers.get());
 }
+
+template <typename P, typename R>
+ImageResult CompareInMemory(const CompareOptions& options, const ImageT<P>& photo,
+                            const ImageT<R>& render, const Mask* photo_mask,
+                            const Mask* render_mask, std::vector<Image>* error_images,
+                            CompareWorkspace* workspace) {
+  REPHOTO_CHECK_USAGE(!options.metrics.empty(), "no metric selected");
+  std::set<Metric> seen;
+  for (Metric metric : options.metrics) {
+    REPHOTO_CHECK_USAGE(seen.insert(metric).second, "metric '{}' is listed twice",
+                        metrics::MetricName(metric));
+  }
+  REPHOTO_CHECK_USAGE(
+      !options.compat || (!photo_mask && !render_mask),
+      "compat {}: masks do not exist in this mode",
+      options.compat ? metrics::CompatPresetName(*options.compat) : std::string_view());
+  CompareOptions in_memory = options;
+  in_memory.write_error_images = false;  // nothing is written, whatever `options` says
+  return CompareImages(in_memory, "", "photo", "render", photo, render, photo_mask, render_mask, {},
+                       error_images, workspace->buffers.get());
+}
+
+#define REPHOTO_COMPARE_IN_MEMORY(P, R)                                                  \
+  template ImageResult CompareInMemory<P, R>(const CompareOptions&, const ImageT<P>&,    \
+                                             const ImageT<R>&, const Mask*, const Mask*, \
+                                             std::vector<Image>*, CompareWorkspace*);
+REPHOTO_COMPARE_IN_MEMORY(float, float)
+REPHOTO_COMPARE_IN_MEMORY(float, uint8_t)
+REPHOTO_COMPARE_IN_MEMORY(uint8_t, float)
+REPHOTO_COMPARE_IN_MEMORY(uint8_t, uint8_t)
+#undef REPHOTO_COMPARE_IN_MEMORY
 
 namespace {
 
@@ -445,7 +495,7 @@ ImageResult ComparePair(const CompareOptions& options, const PlannedPair& pair,
   Workspace* ws = workspace->buffers.get();
   const auto run = [&](const auto& photo, const auto& render) {
     return CompareImages(options, pair.files.name, pair.files.photo, pair.files.render, photo,
-                         render, photo_mask, render_mask, error_folder, ws);
+                         render, photo_mask, render_mask, error_folder, nullptr, ws);
   };
   if (images.photo_is_8bit) {
     return images.render_is_8bit ? run(images.photo8, images.render8)
@@ -543,25 +593,25 @@ std::string SummaryJsonText(const CompareOptions& options, const CompareResult& 
   j["tool"] = {{"name", "rephoto"}, {"version", ToolVersion()}};
   Json metric_names = Json::array();
   for (Metric metric : options.metrics) metric_names.push_back(metrics::MetricName(metric));
-  j["parameters"] = {{"photos", options.photos.string()},
-                     {"renders", options.renders.string()},
-                     {"render_masks", OptionalPath(options.render_masks)},
-                     {"photo_masks", OptionalPath(options.photo_masks)},
-                     {"metrics", metric_names},
-                     {"window", mo.window},
-                     {"completeness_window", mo.window},
-                     {"ssim_mode", mo.ssim_gaussian ? "gaussian" : "uniform"},
-                     {"ssim_window", mo.ssim_window},
-                     {"ssim_sigma", mo.ssim_sigma},
-                     {"ncc_flat_threshold", mo.ncc_flat_threshold},
-                     {"icid_window", mo.icid_window},
-                     {"icid_sigma", mo.icid_sigma},
-                     {"dark_threshold", options.exposure.dark_threshold},
-                     {"saturated_threshold", options.exposure.saturated_threshold},
-                     {"resize", options.resize},
-                     {"error_images", options.write_error_images},
-                     {"compat", options.compat ? Json(metrics::CompatPresetName(*options.compat))
-                                               : Json()}};
+  j["parameters"] = {
+      {"photos", options.photos.string()},
+      {"renders", options.renders.string()},
+      {"render_masks", OptionalPath(options.render_masks)},
+      {"photo_masks", OptionalPath(options.photo_masks)},
+      {"metrics", metric_names},
+      {"window", mo.window},
+      {"completeness_window", mo.window},
+      {"ssim_mode", mo.ssim_gaussian ? "gaussian" : "uniform"},
+      {"ssim_window", mo.ssim_window},
+      {"ssim_sigma", mo.ssim_sigma},
+      {"ncc_flat_threshold", mo.ncc_flat_threshold},
+      {"icid_window", mo.icid_window},
+      {"icid_sigma", mo.icid_sigma},
+      {"dark_threshold", options.exposure.dark_threshold},
+      {"saturated_threshold", options.exposure.saturated_threshold},
+      {"resize", options.resize},
+      {"error_images", options.write_error_images},
+      {"compat", options.compat ? Json(metrics::CompatPresetName(*options.compat)) : Json()}};
   if (options.compat) j["parameters"]["compat_background"] = options.compat_background;
   size_t missing_render = 0, missing_photo = 0, resized = 0;
   for (const MissingImage& m : result.missing) {

@@ -56,8 +56,8 @@
 
 #include <array>
 #include <filesystem>
-#include <optional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -161,6 +161,23 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
                                   const Mask* render_mask,
                                   const std::filesystem::path& error_folder,
                                   CompareWorkspace* workspace);
+
+// One pair compared in memory (the Python package, rephoto.compare): the same function as
+// ComparePhotoAndRender underneath, so the same validity, resizing, compat and values, bit for
+// bit, without file paths. `photo` and `render` are Image (floats in [0,1]) or Image8 (8-bit
+// samples, v standing for v / 255 as io::ReadImage8 gives them; instantiated for float and
+// uint8_t), 1 to 4 channels, as a decoder returns them; messages name them "photo" and
+// "render". options.write_error_images and the folders of `options` are ignored, nothing is
+// written. When `error_images` is not null it receives one whole width x height x 1 error image
+// per metric of options.metrics, in that order (NaN = not evaluated; under options.compat the
+// squared error for psnr and the SSIM map for ssim). Throws UsageError on an empty or repeated
+// metric list or masks under compat, Error as ComparePhotoAndRender. `workspace`: one per
+// concurrent caller.
+template <typename P, typename R>
+ImageResult CompareInMemory(const CompareOptions& options, const ImageT<P>& photo,
+                            const ImageT<R>& render, const Mask* photo_mask,
+                            const Mask* render_mask, std::vector<Image>* error_images,
+                            CompareWorkspace* workspace);
 
 // per_image.csv columns (see above) for these metrics, and one "ok" row of an image.
 std::vector<std::string> PerImageCsvHeader(const std::vector<metrics::Metric>& metrics);

@@ -508,6 +508,73 @@ TEST(Compare, PrefetchDoesNotChangeResultsAndRerunReplacesErrorImages) {
             (std::vector<std::string>{".rephoto-run", "per_image.csv", "summary.json"}));
 }
 
+// The in-memory entry point (the Python package's) is RunCompare's per-pair function: same
+// values bit for bit, and the error images equal the EXR files, here with a resized RGBA
+// rendering and 8-bit as well as float inputs.
+TEST(Compare, InMemoryEqualsRunCompareAndItsErrorImages) {
+  auto rng = testing::MakeRng();
+  const Folders f = MakeFolders();
+  Image render = RandomImage(rng, kWidth / 2, kHeight / 2);
+  Image rgba(render.width(), render.height(), 4);
+  for (size_t i = 0; i < render.pixel_count(); ++i) {
+    for (int c = 0; c < 3; ++c) rgba.data()[4 * i + c] = render.data()[3 * i + c];
+    rgba.data()[4 * i + 3] = i % 7 == 3 ? 0.f : 1.f;  // a few pixels not covered
+  }
+  io::WritePng(f.photos / "a.png", RandomImage(rng));
+  io::WritePng(f.renders / "a.png", rgba);
+  CompareOptions options = Options(f);
+  options.resize = true;
+  const CompareResult run = RunCompare(options);
+  ASSERT_EQ(run.images.size(), 1u);
+  const ImageResult& expected = run.images[0];
+  ASSERT_TRUE(expected.resized);
+
+  Image8 photo8, render8;
+  Image photo_float, render_float;
+  ASSERT_TRUE(io::ReadImage8(f.photos / "a.png", &photo8, &photo_float));
+  ASSERT_TRUE(io::ReadImage8(f.renders / "a.png", &render8, &render_float));
+  photo_float = io::ReadImage(f.photos / "a.png");
+  render_float = io::ReadImage(f.renders / "a.png");
+  CompareWorkspace workspace;
+  std::vector<Image> errors;
+  options.write_error_images = true;  // ignored: nothing is written
+  const ImageResult bytes =
+      CompareInMemory(options, photo8, render8, nullptr, nullptr, &errors, &workspace);
+  const ImageResult floats =
+      CompareInMemory(options, photo_float, render_float, nullptr, nullptr, nullptr, &workspace);
+  for (const ImageResult* result : {&bytes, &floats}) {
+    EXPECT_TRUE(result->resized);
+    EXPECT_EQ(result->completeness.valid_both, expected.completeness.valid_both);
+    ASSERT_EQ(result->metrics.size(), options.metrics.size());
+    for (size_t i = 0; i < options.metrics.size(); ++i) {
+      EXPECT_EQ(result->metrics[i].evaluated, expected.metrics[i].evaluated);
+      const double a = result->metrics[i].mean, b = expected.metrics[i].mean;
+      EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b)))
+          << metrics::MetricName(options.metrics[i]) << " " << a << " vs " << b;
+    }
+  }
+  ASSERT_EQ(errors.size(), options.metrics.size());
+  for (size_t i = 0; i < options.metrics.size(); ++i) {
+    const Image exr = io::ReadImage(
+        f.out / "errors" / fmt::format("a.{}.exr", metrics::MetricName(options.metrics[i])));
+    ASSERT_TRUE(exr.SameSize(errors[i]));
+    for (size_t p = 0; p < exr.size(); ++p) {
+      const float a = errors[i].data()[p], b = exr.data()[p];
+      ASSERT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << p;
+    }
+  }
+  EXPECT_EQ(FolderEntries(f.out / "errors").size(), 2 * options.metrics.size());
+  EXPECT_FALSE(fs::exists(fs::current_path() / ".psnr.exr"));  // nothing written in memory mode
+
+  options.metrics = {Metric::kPsnr, Metric::kPsnr};
+  try {
+    CompareInMemory(options, photo8, render8, nullptr, nullptr, nullptr, &workspace);
+    ADD_FAILURE() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_STREQ(e.what(), "metric 'psnr' is listed twice");
+  }
+}
+
 // issue 14: compare --out never destroys a folder it did not make, has one writer, and a
 // failure leaves no empty folder behind.
 TEST(Compare, RefusesAFolderItDidNotMakeAndLeavesItUntouched) {
