@@ -288,8 +288,8 @@ TEST(Cli, GeometryWritesItsOutputsAndRefusesBadInputInOneLine) {
         RunCli("geometry '" + truth + "' --reference '" + truth + "' --tolerances " + tolerances +
                " --out '" + (dir / "b").string() + "'");
     EXPECT_EQ(bad.exit_code, 2) << bad.err;
-    const std::string message = bad.err.find("Run with") != std::string::npos
-                                    ? bad.err.substr(0, bad.err.find("Run with"))
+    const std::string message = bad.err.find("Run 'rephoto") != std::string::npos
+                                    ? bad.err.substr(0, bad.err.find("Run 'rephoto"))
                                     : bad.err;
     EXPECT_EQ(Lines(message), 1u) << bad.err;
     EXPECT_THAT(bad.err, HasSubstr("tolerance"));
