@@ -18,11 +18,8 @@ packages=(
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   chromium
   slurmctld slurmd slurm-client munge
-  libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev nodejs
+  libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev python3-websocket
 )
-# npm for the browser tests' tooling; a nodejs from elsewhere (NodeSource) bundles its own npm
-# and conflicts with Debian's package.
-command -v npm >/dev/null 2>&1 || packages+=(npm)
 
 missing=()
 for p in "${packages[@]}"; do

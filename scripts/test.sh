@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sets everything up and runs the whole test suite (what CI runs, see .ci/run):
-#   1. installs Debian packages, builds Release in ./build, installs the browser tests' npm
-#      tooling (tests/browser), runs every ctest test;
+#   1. installs Debian packages, builds Release in ./build, runs every ctest test (the browser
+#      tests drive Debian's headless chromium: report/ with --dump-dom, benchmark/ through the
+#      DevTools protocol with Debian's python3-websocket, tests/browser/);
 #   2. builds the file readers' tests (scene, split, io, mesh) and the libFuzzer targets with
 #      clang, AddressSanitizer + UndefinedBehaviorSanitizer in ./build-sanitize (preset
 #      "sanitize") and runs the tests (skip with REPHOTO_SKIP_SANITIZE=1);
@@ -14,12 +15,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh
-# The browser tests' tooling (puppeteer-core, no browser download; tests/browser/package-lock.json),
-# installed again only when the lock file changed.
-if ! cmp -s tests/browser/package-lock.json tests/browser/node_modules/.rephoto-installed-lock; then
-  npm ci --prefix tests/browser --no-audit --no-fund --loglevel=error
-  cp tests/browser/package-lock.json tests/browser/node_modules/.rephoto-installed-lock
-fi
 ctest --test-dir build --output-on-failure -j2
 
 if [ -z "${REPHOTO_SKIP_PYTHON:-}" ]; then

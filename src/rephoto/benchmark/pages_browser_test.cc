@@ -1,7 +1,8 @@
 // The benchmark's pages in a real browser: starts a server with one dataset and two scored
-// submissions and runs tests/browser/benchmark_pages.mjs (puppeteer-core driving Debian's
-// headless chromium; see that file for the checks). Needs `node`, `chromium` and
-// `npm ci --prefix tests/browser` (scripts/test.sh does it); fails saying so when one is missing.
+// submissions and runs tests/browser/benchmark_pages.py (Debian's headless chromium driven
+// through the DevTools protocol with Debian's python3-websocket; see that file for the checks).
+// Needs `chromium` and `python3-websocket` (scripts/install-deps.sh); fails saying so when one
+// is missing.
 #include <gtest/gtest.h>
 
 #include <thread>
@@ -17,10 +18,10 @@ namespace fs = std::filesystem;
 
 TEST(PagesBrowserTest, PagesWorkInHeadlessChromium) {
   const fs::path tooling = rephoto::testing::SourceDir() / "tests" / "browser";
-  ASSERT_TRUE(fs::exists(tooling / "node_modules" / "puppeteer-core"))
-      << "run: npm ci --prefix tests/browser (scripts/test.sh does)";
-  ASSERT_EQ(std::system("command -v node >/dev/null && command -v chromium >/dev/null"), 0)
-      << "install nodejs and chromium (scripts/install-deps.sh)";
+  ASSERT_EQ(std::system("command -v chromium >/dev/null && /usr/bin/python3 -c 'import "
+                        "websocket' 2>/dev/null"),
+            0)
+      << "install chromium and python3-websocket (scripts/install-deps.sh)";
   std::mt19937_64 rng = rephoto::testing::MakeRng();
   const fs::path base = rephoto::testing::MakeTempDir();
   const fs::path root = base / "root";
@@ -41,7 +42,8 @@ TEST(PagesBrowserTest, PagesWorkInHeadlessChromium) {
   ASSERT_TRUE(server.submissions().WaitIdle(120));
 
   const fs::path log = base / "browser.log";
-  const std::string command = "timeout 180 node '" + (tooling / "benchmark_pages.mjs").string() +
+  const std::string command = "timeout 180 /usr/bin/python3 '" +
+                              (tooling / "benchmark_pages.py").string() +
                               "' http://127.0.0.1:" + std::to_string(port) + " >'" + log.string() +
                               "' 2>&1";
   const int status = std::system(command.c_str());
