@@ -1,3 +1,4 @@
+#include "rephoto/core/process.h"
 #include "rephoto/cluster/subprocess.h"
 
 #include <fcntl.h>
@@ -71,29 +72,15 @@ ProgramOutput RunProgram(const std::vector<std::string>& argv) {
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_adddup2(&actions, out_pipe.fd[1], STDOUT_FILENO);
   posix_spawn_file_actions_adddup2(&actions, err_pipe.fd[1], STDERR_FILENO);
-  posix_spawnattr_t attributes;
-  posix_spawnattr_init(&attributes);
-  posix_spawnattr_setpgroup(&attributes, 0);
-  sigset_t defaults;
-  sigemptyset(&defaults);
-  sigaddset(&defaults, SIGINT);
-  sigaddset(&defaults, SIGTERM);
-  sigaddset(&defaults, SIGPIPE);
-  posix_spawnattr_setsigdefault(&attributes, &defaults);
-  sigset_t no_mask;
-  sigemptyset(&no_mask);
-  posix_spawnattr_setsigmask(&attributes, &no_mask);
-  posix_spawnattr_setflags(&attributes,
-                           POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
+  const ChildSpawnAttributes attributes;
 
   std::vector<char*> args;
   for (const std::string& arg : argv) args.push_back(const_cast<char*>(arg.c_str()));
   args.push_back(nullptr);
   pid_t pid = 0;
   const int spawned =
-      ::posix_spawnp(&pid, argv[0].c_str(), &actions, &attributes, args.data(), environ);
+      ::posix_spawnp(&pid, argv[0].c_str(), &actions, attributes.get(), args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  posix_spawnattr_destroy(&attributes);
   REPHOTO_CHECK(spawned == 0, "{}: cannot start: {}", argv[0], std::strerror(spawned));
   out_pipe.CloseEnd(1);
   err_pipe.CloseEnd(1);

@@ -1,5 +1,7 @@
 #include "rephoto/core/process.h"
 
+#include <csignal>
+
 #include <climits>
 
 #if defined(__GLIBC__)
@@ -24,5 +26,23 @@ double ProcessCpuSeconds() {
   struct rusage usage {};
   return ::getrusage(RUSAGE_SELF, &usage) == 0 ? CpuSeconds(usage) : 0.0;
 }
+
+ChildSpawnAttributes::ChildSpawnAttributes() {
+  posix_spawnattr_init(&attributes_);
+  posix_spawnattr_setpgroup(&attributes_, 0);
+  sigset_t defaults;
+  sigemptyset(&defaults);
+  sigaddset(&defaults, SIGINT);
+  sigaddset(&defaults, SIGTERM);
+  sigaddset(&defaults, SIGPIPE);
+  posix_spawnattr_setsigdefault(&attributes_, &defaults);
+  sigset_t no_mask;
+  sigemptyset(&no_mask);
+  posix_spawnattr_setsigmask(&attributes_, &no_mask);
+  posix_spawnattr_setflags(&attributes_,
+                           POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
+}
+
+ChildSpawnAttributes::~ChildSpawnAttributes() { posix_spawnattr_destroy(&attributes_); }
 
 }  // namespace rephoto

@@ -1,6 +1,7 @@
 // Process-wide settings and accounting for rephoto's programs: memory allocation and CPU time.
 #pragma once
 
+#include <spawn.h>
 #include <sys/resource.h>
 
 namespace rephoto {
@@ -19,5 +20,22 @@ void KeepFreedMemory();
 double CpuSeconds(const struct rusage& usage);
 // User + system CPU seconds used so far by this process (all threads; not its children).
 double ProcessCpuSeconds();
+
+// posix_spawn attributes for a child rephoto starts (a reconstruction command, a Slurm client
+// program): its own process group (so it and its children can be signalled together, and a
+// Ctrl-C at the terminal reaches rephoto first), default handling of SIGINT, SIGTERM and SIGPIPE
+// and no blocked signals (rephoto's own handlers and mask are not inherited).
+// Thread safety: one object per spawn; not copyable.
+class ChildSpawnAttributes {
+ public:
+  ChildSpawnAttributes();
+  ~ChildSpawnAttributes();
+  ChildSpawnAttributes(const ChildSpawnAttributes&) = delete;
+  ChildSpawnAttributes& operator=(const ChildSpawnAttributes&) = delete;
+  const posix_spawnattr_t* get() const { return &attributes_; }
+
+ private:
+  posix_spawnattr_t attributes_;
+};
 
 }  // namespace rephoto

@@ -201,29 +201,15 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(),
                                    O_WRONLY | O_APPEND | O_CREAT, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-  posix_spawnattr_t attributes;
-  posix_spawnattr_init(&attributes);
-  posix_spawnattr_setpgroup(&attributes, 0);
-  // The child starts with default signal handling (ours is for rephoto itself).
-  sigset_t defaults;
-  sigemptyset(&defaults);
-  sigaddset(&defaults, SIGINT);
-  sigaddset(&defaults, SIGTERM);
-  sigaddset(&defaults, SIGPIPE);
-  posix_spawnattr_setsigdefault(&attributes, &defaults);
-  sigset_t no_mask;
-  sigemptyset(&no_mask);
-  posix_spawnattr_setsigmask(&attributes, &no_mask);
-  posix_spawnattr_setflags(&attributes,
-                           POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
+  const ChildSpawnAttributes attributes;  // own group, default signals (core/process.h)
 
   const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
   const auto start = std::chrono::steady_clock::now();
   pid_t pid = 0;
   const int spawned =
-      posix_spawn(&pid, "/bin/sh", &actions, &attributes, const_cast<char* const*>(argv), environ);
+      posix_spawn(&pid, "/bin/sh", &actions, attributes.get(), const_cast<char* const*>(argv),
+                  environ);
   posix_spawn_file_actions_destroy(&actions);
-  posix_spawnattr_destroy(&attributes);
   REPHOTO_CHECK(spawned == 0, "{}: cannot start /bin/sh: {}", log_file.string(),
                 std::strerror(spawned));
   const int slot = RegisterChild(pid);
