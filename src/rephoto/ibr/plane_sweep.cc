@@ -99,11 +99,11 @@ inline void RowWindowSum(const float* in, int n, int r, float* out) {
 
 }  // namespace
 
-PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
-                                        std::span<const PlaneSweepView> neighbors,
-                                        const PlaneSweepOptions& options) {
-  REPHOTO_CHECK(!neighbors.empty() && neighbors.size() <= 16,
-                "plane sweep: {} neighbour views (1 to 16 are supported)", neighbors.size());
+namespace {
+
+void CheckSweepOptions(size_t neighbors, const PlaneSweepOptions& options) {
+  REPHOTO_CHECK(neighbors > 0 && neighbors <= 16,
+                "plane sweep: {} neighbour views (1 to 16 are supported)", neighbors);
   REPHOTO_CHECK(options.min_depth > 0 && options.max_depth > options.min_depth &&
                     std::isfinite(options.max_depth),
                 "plane sweep: invalid depth range [{}, {}]", options.min_depth, options.max_depth);
@@ -112,32 +112,54 @@ PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
   REPHOTO_CHECK(options.window >= 3 && options.window % 2 == 1 && options.window <= 31,
                 "plane sweep: window {} must be odd and in [3, 31]", options.window);
   REPHOTO_CHECK(options.max_width >= 0, "plane sweep: max width {} < 0", options.max_width);
+}
 
-  const WorkingView ref = Prepare(reference, options.max_width, "reference");
-  std::vector<WorkingView> others;
-  for (const PlaneSweepView& n : neighbors)
-    others.push_back(Prepare(n, options.max_width, "neighbour"));
-  const int width = ref.grey.width(), height = ref.grey.height();
-  const int r = options.window / 2;
-  const float n_window = static_cast<float>(options.window * options.window);
-  const int J = static_cast<int>(others.size());
-  const int best_m = std::clamp(options.best_neighbors, 1, J);
-
+// Everything the sweep of one band of rows reads.
+struct Sweep {
+  const PlaneSweepOptions& options;
+  const WorkingView& ref;
+  const std::vector<WorkingView>& others;
+  int width = 0, height = 0, r = 0, J = 0, best_m = 0;
+  float n_window = 0;
+  float min_var = 0;
   // Reference window statistics: sum and centred sum of squares (NaN when the window leaves
   // the image or holds invalid pixels).
-  Image ref_sum(width, height, 1), ref_var(width, height, 1);
+  Image ref_sum, ref_var;
+  Eigen::Matrix3d K_ref_inv;
+  std::vector<Eigen::Matrix3d> rel_rotation;
+  std::vector<Eigen::Vector3d> rel_translation;
+  double inv_far = 0, inv_near = 0;
+
+  double InverseDepth(double plane) const {
+    return inv_far + (inv_near - inv_far) * plane / (options.num_planes - 1);
+  }
+  // Plane homography: reference pinhole pixel -> neighbour j's pinhole pixel for plane depth d:
+  // H = K_j (R_rel + t_rel (0, 0, 1/d)) K_ref^-1.
+  Eigen::Matrix3d Homography(int j, double inv_depth) const {
+    return others[j].K *
+           (rel_rotation[j] + rel_translation[j] * Eigen::RowVector3d(0, 0, inv_depth)) *
+           K_ref_inv;
+  }
+};
+
+void ReferenceWindowStats(Sweep& s) {
+  const int width = s.width, height = s.height, r = s.r;
+  s.ref_sum = Image(width, height, 1);
+  s.ref_var = Image(width, height, 1);
   ParallelFor(0, height, 16, [&](int64_t y0, int64_t y1) {
     std::vector<float> col_s(width), col_ss(width), row_s(width), row_ss(width);
     for (int64_t y = y0; y < y1; ++y) {
+      float* sum = s.ref_sum.row(static_cast<int>(y));
+      float* var = s.ref_var.row(static_cast<int>(y));
       if (y < r || y + r >= height) {
-        std::fill(ref_sum.row(static_cast<int>(y)), ref_sum.row(static_cast<int>(y)) + width, kNaN);
-        std::fill(ref_var.row(static_cast<int>(y)), ref_var.row(static_cast<int>(y)) + width, kNaN);
+        std::fill(sum, sum + width, kNaN);
+        std::fill(var, var + width, kNaN);
         continue;
       }
       std::fill(col_s.begin(), col_s.end(), 0.f);
       std::fill(col_ss.begin(), col_ss.end(), 0.f);
       for (int k = -r; k <= r; ++k) {
-        const float* g = ref.grey.row(static_cast<int>(y) + k);
+        const float* g = s.ref.grey.row(static_cast<int>(y) + k);
         for (int x = 0; x < width; ++x) {
           col_s[x] += g[x];
           col_ss[x] += g[x] * g[x];
@@ -146,152 +168,154 @@ PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
       RowWindowSum(col_s.data(), width, r, row_s.data());
       RowWindowSum(col_ss.data(), width, r, row_ss.data());
       for (int x = 0; x < width; ++x) {
-        ref_sum.at(x, static_cast<int>(y)) = row_s[x];
-        ref_var.at(x, static_cast<int>(y)) =
-            std::max(0.f, row_ss[x] - row_s[x] * row_s[x] / n_window);
+        sum[x] = row_s[x];
+        var[x] = std::max(0.f, row_ss[x] - row_s[x] * row_s[x] / s.n_window);
       }
     }
   });
+}
 
-  // Plane homographies: reference pinhole pixel -> neighbour pinhole pixel for plane depth d:
-  // H = K_j (R_rel + t_rel (0, 0, 1/d)) K_ref^-1.
-  const double inv_far = 1.0 / options.max_depth, inv_near = 1.0 / options.min_depth;
-  auto inverse_depth = [&](double plane) {
-    return inv_far + (inv_near - inv_far) * plane / (options.num_planes - 1);
-  };
-  const Eigen::Matrix3d K_ref_inv = ref.K.inverse();
-  std::vector<Eigen::Matrix3d> rel_rotation(J);
-  std::vector<Eigen::Vector3d> rel_translation(J);
-  for (int j = 0; j < J; ++j) {
-    const camera::Pose& a = ref.cam_from_world;
-    const camera::Pose& b = others[j].cam_from_world;
-    rel_rotation[j] = b.rotation * a.rotation.transpose();
-    rel_translation[j] = b.translation - rel_rotation[j] * a.translation;
-  }
+// Buffers of one band, reused from plane to plane.
+struct BandBuffers {
+  std::vector<float> best, before, after, prev, ncc, warped, product;
+  std::vector<int> best_plane;
+  std::vector<float> col_w, col_ww, col_rw, row_w, row_ww, row_rw;
+};
 
-  PlaneSweepResult result;
-  Image depth_pinhole(width, height, 1, kNaN);
-  result.score = Image(width, height, 1, kNaN);
-  const int bands = (height + kBandRows - 1) / kBandRows;
-  const float min_var = static_cast<float>(options.min_texture * options.min_texture) * n_window;
-  ParallelFor(0, bands, 1, [&](int64_t band_begin, int64_t band_end) {
-    for (int64_t band = band_begin; band < band_end; ++band) {
-      const int y0 = static_cast<int>(band) * kBandRows;
-      const int y1 = std::min(height, y0 + kBandRows);
-      const int rows = y1 - y0;
-      const int wy0 = std::max(0, y0 - r), wy1 = std::min(height, y1 + r);
-      const size_t cells = static_cast<size_t>(rows) * width;
-      std::vector<float> best(cells, -std::numeric_limits<float>::infinity());
-      std::vector<int> best_plane(cells, -1);
-      std::vector<float> before(cells, kNaN), after(cells, kNaN), prev(cells, kNaN);
-      std::vector<float> ncc(cells * J);
-      std::vector<float> warped(static_cast<size_t>(wy1 - wy0) * width);
-      std::vector<float> product(warped.size());
-      std::vector<float> col_w(width), col_ww(width), col_rw(width), row_w(width), row_ww(width),
-          row_rw(width);
-      float top[16];
-      for (int plane = 0; plane < options.num_planes; ++plane) {
-        const double inv_depth = inverse_depth(plane);
-        for (int j = 0; j < J; ++j) {
-          const Eigen::Matrix3d H =
-              others[j].K *
-              (rel_rotation[j] + rel_translation[j] * Eigen::RowVector3d(0, 0, inv_depth)) *
-              K_ref_inv;
-          const Image& grey = others[j].grey;
-          for (int y = wy0; y < wy1; ++y) {
-            const Eigen::Vector3d h0 = H * Eigen::Vector3d(0.5, y + 0.5, 1.0);
-            const Eigen::Vector3d hx = H.col(0);
-            float* out = warped.data() + static_cast<size_t>(y - wy0) * width;
-            float* prod = product.data() + static_cast<size_t>(y - wy0) * width;
-            const float* g = ref.grey.row(y);
-            for (int x = 0; x < width; ++x) {
-              const double w = h0.z() + x * hx.z();
-              float v = kNaN;
-              if (w > 1e-12) {
-                v = SampleOrNaN(grey, static_cast<float>((h0.x() + x * hx.x()) / w),
-                                static_cast<float>((h0.y() + x * hx.y()) / w));
-              }
-              out[x] = v;
-              prod[x] = v * g[x];
-            }
-          }
-          for (int y = y0; y < y1; ++y) {
-            float* score = ncc.data() + (static_cast<size_t>(y - y0) * width) * J;
-            if (y < r || y + r >= height) {
-              for (int x = 0; x < width; ++x) score[x * J + j] = -1.f;
-              continue;
-            }
-            std::fill(col_w.begin(), col_w.end(), 0.f);
-            std::fill(col_ww.begin(), col_ww.end(), 0.f);
-            std::fill(col_rw.begin(), col_rw.end(), 0.f);
-            for (int k = -r; k <= r; ++k) {
-              const float* wv = warped.data() + static_cast<size_t>(y + k - wy0) * width;
-              const float* pv = product.data() + static_cast<size_t>(y + k - wy0) * width;
-              for (int x = 0; x < width; ++x) {
-                col_w[x] += wv[x];
-                col_ww[x] += wv[x] * wv[x];
-                col_rw[x] += pv[x];
-              }
-            }
-            RowWindowSum(col_w.data(), width, r, row_w.data());
-            RowWindowSum(col_ww.data(), width, r, row_ww.data());
-            RowWindowSum(col_rw.data(), width, r, row_rw.data());
-            const float* rs = ref_sum.row(y);
-            const float* rv = ref_var.row(y);
-            for (int x = 0; x < width; ++x) {
-              const float var_w = row_ww[x] - row_w[x] * row_w[x] / n_window;
-              const float cov = row_rw[x] - rs[x] * row_w[x] / n_window;
-              const float denom = var_w * rv[x];
-              // NaN (invalid pixels) fails the comparison too.
-              score[x * J + j] = denom > 1e-12f && var_w > 1e-9f ? cov / std::sqrt(denom) : -1.f;
-            }
-          }
-        }
-        // Plane score: mean of the best_m neighbour scores; winner-take-all bookkeeping.
-        for (size_t cell = 0; cell < cells; ++cell) {
-          const float* s = ncc.data() + cell * J;
-          for (int j = 0; j < J; ++j) top[j] = s[j];
-          std::partial_sort(top, top + best_m, top + J, std::greater<float>());
-          float score = 0;
-          for (int j = 0; j < best_m; ++j) score += top[j];
-          score /= static_cast<float>(best_m);
-          if (best_plane[cell] == plane - 1) after[cell] = score;
-          if (score > best[cell]) {
-            best[cell] = score;
-            best_plane[cell] = plane;
-            before[cell] = plane > 0 ? prev[cell] : kNaN;
-            after[cell] = kNaN;
-          }
-          prev[cell] = score;
-        }
+// Neighbour j warped onto the reference rows [wy0, wy1) by plane homography H, and its product
+// with the reference (NaN outside the neighbour).
+void WarpNeighbour(const Sweep& s, int j, const Eigen::Matrix3d& H, int wy0, int wy1,
+                   BandBuffers& b) {
+  const Image& grey = s.others[j].grey;
+  const int width = s.width;
+  for (int y = wy0; y < wy1; ++y) {
+    const Eigen::Vector3d h0 = H * Eigen::Vector3d(0.5, y + 0.5, 1.0);
+    const Eigen::Vector3d hx = H.col(0);
+    float* out = b.warped.data() + static_cast<size_t>(y - wy0) * width;
+    float* prod = b.product.data() + static_cast<size_t>(y - wy0) * width;
+    const float* g = s.ref.grey.row(y);
+    for (int x = 0; x < width; ++x) {
+      const double w = h0.z() + x * hx.z();
+      float v = kNaN;
+      if (w > 1e-12) {
+        v = SampleOrNaN(grey, static_cast<float>((h0.x() + x * hx.x()) / w),
+                        static_cast<float>((h0.y() + x * hx.y()) / w));
       }
-      for (int y = y0; y < y1; ++y) {
-        for (int x = 0; x < width; ++x) {
-          const size_t cell = static_cast<size_t>(y - y0) * width + x;
-          const float var_r = ref_var.at(x, y);
-          if (best_plane[cell] < 0 || best[cell] <= -1.f) continue;
-          result.score.at(x, y) = best[cell];
-          if (!(best[cell] >= options.min_ncc) || !(var_r >= min_var)) continue;
-          double offset = 0;
-          const float a = before[cell], c = after[cell], b = best[cell];
-          if (std::isfinite(a) && std::isfinite(c)) {
-            const double curvature = a - 2.0 * b + c;
-            if (curvature < 0) offset = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
-          }
-          depth_pinhole.at(x, y) =
-              static_cast<float>(1.0 / inverse_depth(best_plane[cell] + offset));
-        }
+      out[x] = v;
+      prod[x] = v * g[x];
+    }
+  }
+}
+
+// NCC of the reference and the warped neighbour j over each window of rows [y0, y1), into
+// b.ncc[cell * J + j] (-1 where undefined).
+void NeighbourScores(const Sweep& s, int j, int y0, int y1, int wy0, BandBuffers& b) {
+  const int width = s.width, r = s.r, J = s.J;
+  for (int y = y0; y < y1; ++y) {
+    float* score = b.ncc.data() + (static_cast<size_t>(y - y0) * width) * J;
+    if (y < r || y + r >= s.height) {
+      for (int x = 0; x < width; ++x) score[x * J + j] = -1.f;
+      continue;
+    }
+    std::fill(b.col_w.begin(), b.col_w.end(), 0.f);
+    std::fill(b.col_ww.begin(), b.col_ww.end(), 0.f);
+    std::fill(b.col_rw.begin(), b.col_rw.end(), 0.f);
+    for (int k = -r; k <= r; ++k) {
+      const float* wv = b.warped.data() + static_cast<size_t>(y + k - wy0) * width;
+      const float* pv = b.product.data() + static_cast<size_t>(y + k - wy0) * width;
+      for (int x = 0; x < width; ++x) {
+        b.col_w[x] += wv[x];
+        b.col_ww[x] += wv[x] * wv[x];
+        b.col_rw[x] += pv[x];
       }
     }
-  });
-
-  result.camera = ref.distorted;
-  if (ref.distorted.IsPinhole()) {
-    result.depth = std::move(depth_pinhole);
-    return result;
+    RowWindowSum(b.col_w.data(), width, r, b.row_w.data());
+    RowWindowSum(b.col_ww.data(), width, r, b.row_ww.data());
+    RowWindowSum(b.col_rw.data(), width, r, b.row_rw.data());
+    const float* rs = s.ref_sum.row(y);
+    const float* rv = s.ref_var.row(y);
+    for (int x = 0; x < width; ++x) {
+      const float var_w = b.row_ww[x] - b.row_w[x] * b.row_w[x] / s.n_window;
+      const float cov = b.row_rw[x] - rs[x] * b.row_w[x] / s.n_window;
+      const float denom = var_w * rv[x];
+      // NaN (invalid pixels) fails the comparison too.
+      score[x * J + j] = denom > 1e-12f && var_w > 1e-9f ? cov / std::sqrt(denom) : -1.f;
+    }
   }
-  // Back to the distorted grid: each pixel takes the undistorted estimate along its ray.
-  result.depth = Image(width, height, 1, kNaN);
+}
+
+// Plane score: mean of the best_m neighbour scores; winner-take-all bookkeeping.
+void KeepBestPlane(const Sweep& s, int plane, size_t cells, BandBuffers& b) {
+  float top[16];
+  for (size_t cell = 0; cell < cells; ++cell) {
+    const float* scores = b.ncc.data() + cell * s.J;
+    for (int j = 0; j < s.J; ++j) top[j] = scores[j];
+    std::partial_sort(top, top + s.best_m, top + s.J, std::greater<float>());
+    float score = 0;
+    for (int j = 0; j < s.best_m; ++j) score += top[j];
+    score /= static_cast<float>(s.best_m);
+    if (b.best_plane[cell] == plane - 1) b.after[cell] = score;
+    if (score > b.best[cell]) {
+      b.best[cell] = score;
+      b.best_plane[cell] = plane;
+      b.before[cell] = plane > 0 ? b.prev[cell] : kNaN;
+      b.after[cell] = kNaN;
+    }
+    b.prev[cell] = score;
+  }
+}
+
+// Sweeps every plane over the rows of one band; writes its depths (parabolic sub-plane
+// refinement) and scores.
+void SweepBand(const Sweep& s, int band, Image* depth_pinhole, Image* score_image) {
+  const int width = s.width;
+  const int y0 = band * kBandRows;
+  const int y1 = std::min(s.height, y0 + kBandRows);
+  const int wy0 = std::max(0, y0 - s.r), wy1 = std::min(s.height, y1 + s.r);
+  const size_t cells = static_cast<size_t>(y1 - y0) * width;
+  BandBuffers b;
+  b.best.assign(cells, -std::numeric_limits<float>::infinity());
+  b.best_plane.assign(cells, -1);
+  b.before.assign(cells, kNaN);
+  b.after.assign(cells, kNaN);
+  b.prev.assign(cells, kNaN);
+  b.ncc.resize(cells * s.J);
+  b.warped.resize(static_cast<size_t>(wy1 - wy0) * width);
+  b.product.resize(b.warped.size());
+  for (auto* v : {&b.col_w, &b.col_ww, &b.col_rw, &b.row_w, &b.row_ww, &b.row_rw}) {
+    v->resize(width);
+  }
+  for (int plane = 0; plane < s.options.num_planes; ++plane) {
+    const double inv_depth = s.InverseDepth(plane);
+    for (int j = 0; j < s.J; ++j) {
+      WarpNeighbour(s, j, s.Homography(j, inv_depth), wy0, wy1, b);
+      NeighbourScores(s, j, y0, y1, wy0, b);
+    }
+    KeepBestPlane(s, plane, cells, b);
+  }
+  for (int y = y0; y < y1; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const size_t cell = static_cast<size_t>(y - y0) * width + x;
+      const float var_r = s.ref_var.at(x, y);
+      if (b.best_plane[cell] < 0 || b.best[cell] <= -1.f) continue;
+      score_image->at(x, y) = b.best[cell];
+      if (!(b.best[cell] >= s.options.min_ncc) || !(var_r >= s.min_var)) continue;
+      double offset = 0;
+      const float a = b.before[cell], c = b.after[cell], best = b.best[cell];
+      if (std::isfinite(a) && std::isfinite(c)) {
+        const double curvature = a - 2.0 * best + c;
+        if (curvature < 0) offset = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
+      }
+      depth_pinhole->at(x, y) =
+          static_cast<float>(1.0 / s.InverseDepth(b.best_plane[cell] + offset));
+    }
+  }
+}
+
+// Back to the distorted grid: each pixel takes the undistorted estimate along its ray.
+void ToDistortedGrid(const WorkingView& ref, const Image& depth_pinhole, PlaneSweepResult* result) {
+  const int width = depth_pinhole.width(), height = depth_pinhole.height();
+  result->depth = Image(width, height, 1, kNaN);
   Image score(width, height, 1, kNaN);
   ParallelFor(0, height, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
@@ -302,12 +326,61 @@ PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
         const int px = static_cast<int>(std::floor(p.x())),
                   py = static_cast<int>(std::floor(p.y()));
         if (px < 0 || py < 0 || px >= width || py >= height) continue;
-        result.depth.at(x, static_cast<int>(y)) = depth_pinhole.at(px, py);
-        score.at(x, static_cast<int>(y)) = result.score.at(px, py);
+        result->depth.at(x, static_cast<int>(y)) = depth_pinhole.at(px, py);
+        score.at(x, static_cast<int>(y)) = result->score.at(px, py);
       }
     }
   });
-  result.score = std::move(score);
+  result->score = std::move(score);
+}
+
+}  // namespace
+
+PlaneSweepResult ComputePlaneSweepDepth(const PlaneSweepView& reference,
+                                        std::span<const PlaneSweepView> neighbors,
+                                        const PlaneSweepOptions& options) {
+  CheckSweepOptions(neighbors.size(), options);
+  const WorkingView ref = Prepare(reference, options.max_width, "reference");
+  std::vector<WorkingView> others;
+  for (const PlaneSweepView& n : neighbors) {
+    others.push_back(Prepare(n, options.max_width, "neighbour"));
+  }
+  Sweep s{options, ref, others};
+  s.width = ref.grey.width();
+  s.height = ref.grey.height();
+  s.r = options.window / 2;
+  s.n_window = static_cast<float>(options.window * options.window);
+  s.J = static_cast<int>(others.size());
+  s.best_m = std::clamp(options.best_neighbors, 1, s.J);
+  s.min_var = static_cast<float>(options.min_texture * options.min_texture) * s.n_window;
+  ReferenceWindowStats(s);
+  s.inv_far = 1.0 / options.max_depth;
+  s.inv_near = 1.0 / options.min_depth;
+  s.K_ref_inv = ref.K.inverse();
+  s.rel_rotation.resize(s.J);
+  s.rel_translation.resize(s.J);
+  for (int j = 0; j < s.J; ++j) {
+    const camera::Pose& a = ref.cam_from_world;
+    const camera::Pose& b = others[j].cam_from_world;
+    s.rel_rotation[j] = b.rotation * a.rotation.transpose();
+    s.rel_translation[j] = b.translation - s.rel_rotation[j] * a.translation;
+  }
+
+  PlaneSweepResult result;
+  Image depth_pinhole(s.width, s.height, 1, kNaN);
+  result.score = Image(s.width, s.height, 1, kNaN);
+  const int bands = (s.height + kBandRows - 1) / kBandRows;
+  ParallelFor(0, bands, 1, [&](int64_t band_begin, int64_t band_end) {
+    for (int64_t band = band_begin; band < band_end; ++band) {
+      SweepBand(s, static_cast<int>(band), &depth_pinhole, &result.score);
+    }
+  });
+  result.camera = ref.distorted;
+  if (ref.distorted.IsPinhole()) {
+    result.depth = std::move(depth_pinhole);
+    return result;
+  }
+  ToDistortedGrid(ref, depth_pinhole, &result);
   return result;
 }
 
