@@ -137,8 +137,7 @@ struct Sweep {
   // H = K_j (R_rel + t_rel (0, 0, 1/d)) K_ref^-1.
   Eigen::Matrix3d Homography(int j, double inv_depth) const {
     return others[j].K *
-           (rel_rotation[j] + rel_translation[j] * Eigen::RowVector3d(0, 0, inv_depth)) *
-           K_ref_inv;
+           (rel_rotation[j] + rel_translation[j] * Eigen::RowVector3d(0, 0, inv_depth)) * K_ref_inv;
   }
 };
 

@@ -102,148 +102,113 @@ Eigen::Vector3f RobustMean(const Observation* obs, size_t n, int iterations,
   return estimate;
 }
 
-}  // namespace
+// The vertices of one block that one view sees, in increasing order, with their observations
+// (compact lists: no per-vertex scratch arrays, no global scatter).
+struct ViewObservations {
+  std::vector<uint32_t> vertices;
+  std::vector<Observation> observations;
+};
 
-VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scene,
-                              const std::vector<size_t>& views, const ColorizeOptions& options,
-                              ColorizeReport* report) {
-  const mesh::Mesh& mesh = model.mesh();
-  for (size_t v : views) {
-    REPHOTO_CHECK(v < scene.views.size(), "colorize: view index {} out of range ({} views)", v,
-                  scene.views.size());
-  }
+constexpr int64_t kBlock = 8192;
+
+// Tests every vertex against one view (facing, inside the image, unoccluded: Embree occlusion
+// rays 16 at a time) and records what the view sees, per block.
+void ObserveView(const mesh::Mesh& mesh, const std::vector<Eigen::Vector3f>& normals,
+                 RTCScene rtc_scene, const scene::View& view, camera::Camera camera,
+                 const Photo& photo, const ColorizeOptions& options,
+                 std::vector<ViewObservations>& seen) {
   const size_t n = mesh.positions.size();
-  std::vector<Eigen::Vector3f> computed_normals;
-  if (mesh.normals.empty() && !mesh.faces.empty()) computed_normals = ComputeVertexNormals(mesh);
-  const std::vector<Eigen::Vector3f>& normals =
-      mesh.normals.empty() ? computed_normals : mesh.normals;
-  RTCScene rtc_scene = model.scene();
-
-  // Vertices are tested and their colours fused in fixed blocks, in parallel. seen[v][b]: the
-  // vertices of block b that view v sees, in increasing order, with their observations
-  // (compact lists: no per-vertex scratch arrays, no global scatter).
-  struct ViewObservations {
-    std::vector<uint32_t> vertices;
-    std::vector<Observation> observations;
-  };
-  constexpr int64_t kBlock = 8192;
-  const int64_t blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
-  std::vector<std::vector<ViewObservations>> seen(
-      views.size(), std::vector<ViewObservations>(static_cast<size_t>(blocks)));
-  std::unique_ptr<Progress> progress;
-  if (options.show_progress) progress = std::make_unique<Progress>("colorize", views.size());
-  // Photos are decoded two at a time (decoding dominates; one core each) into two reused
-  // buffers, then processed in view order, so the result does not depend on the thread count.
-  constexpr size_t kBatch = 2;
-  std::vector<Photo> batch(kBatch);
-  for (size_t position = 0; position < views.size(); ++position) {
-    const size_t view_index = views[position];
-    const scene::View& view = scene.views[view_index];
-    if (position % kBatch == 0) {
-      const size_t count = std::min(kBatch, views.size() - position);
-      ParallelFor(0, static_cast<int64_t>(count), 1, [&](int64_t begin, int64_t end) {
-        for (int64_t b = begin; b < end; ++b) {
-          Photo& photo = batch[b];
-          photo.is8 = io::ReadImage8(scene.views[views[position + b]].image_path, &photo.bytes,
-                                     &photo.floats);
-        }
-      });
-    }
-    const Photo& photo = batch[position % kBatch];  // buffers reused: no zeroing, no faults
-    REPHOTO_CHECK(photo.channels() >= 1 && photo.channels() <= 4 && !photo.empty(),
-                  "{}: unsupported photo ({} channels)", view.image_path.string(),
-                  photo.channels());
-    camera::Camera camera = scene.CameraOf(view);
-    if (camera.width != photo.width() || camera.height != photo.height()) {
-      camera = camera.Scaled(photo.width(), photo.height());
-    }
-    const Eigen::Vector3d center = view.cam_from_world.Center();
-    const double focal = camera.MeanFocalLength();
-    const double min_x = 0.5, max_x = photo.width() - 0.5;
-    const double min_y = 0.5, max_y = photo.height() - 0.5;
-    const float org_x = static_cast<float>(center.x()), org_y = static_cast<float>(center.y()),
-                org_z = static_cast<float>(center.z());
-    const float tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
-    ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      // Occlusion rays go 16 at a time (neighbouring vertices: a coherent packet from the
-      // camera centre); lanes keep vertex order.
-      alignas(64) RTCRay16 packet;
-      alignas(64) int valid[16];
-      struct Lane {
-        uint32_t vertex;
-        float weight;
-        double px, py;
-      };
-      Lane lanes[16];
-      int count = 0;
-      ViewObservations* found = nullptr;
-      auto trace = [&] {
-        for (int k = count; k < 16; ++k) valid[k] = 0;
-        rtcOccluded16(valid, rtc_scene, &context, &packet);
-        for (int k = 0; k < count; ++k) {
-          if (packet.tfar[k] < 0) continue;  // something lies between the camera and the vertex
-          found->vertices.push_back(lanes[k].vertex);
-          found->observations.push_back(
-              {lanes[k].weight, photo.is8
-                                    ? SampleBilinear(photo.bytes, lanes[k].px, lanes[k].py)
-                                    : SampleBilinear(photo.floats, lanes[k].px, lanes[k].py)});
-        }
-        count = 0;
-      };
-      for (int64_t block = block_begin; block < block_end; ++block) {
-        found = &seen[position][block];
-        const int64_t begin = block * kBlock;
-        const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
-        for (int64_t i = begin; i < end; ++i) {
-          const Eigen::Vector3d p = mesh.positions[i].cast<double>();
-          const Eigen::Vector3d to_camera = center - p;
-          const double distance = to_camera.norm();
-          if (!(distance > 0)) continue;
-          double cosine = 1.0;
-          if (!normals.empty() && normals[i].squaredNorm() > 0) {
-            cosine = normals[i].cast<double>().normalized().dot(to_camera / distance);
-            if (cosine <= options.min_facing_cosine) continue;
-          }
-          const auto pixel = camera.ImgFromCam(view.cam_from_world.CamFromWorld(p));
-          if (!pixel || !(pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
-                          pixel->y() <= max_y)) {
-            continue;
-          }
-          packet.org_x[count] = org_x;
-          packet.org_y[count] = org_y;
-          packet.org_z[count] = org_z;
-          packet.dir_x[count] = static_cast<float>(-to_camera.x());
-          packet.dir_y[count] = static_cast<float>(-to_camera.y());
-          packet.dir_z[count] = static_cast<float>(-to_camera.z());
-          packet.tnear[count] = 0.0f;
-          packet.tfar[count] = tfar;
-          packet.mask[count] = 0xFFFFFFFFu;
-          packet.time[count] = 0.0f;
-          packet.flags[count] = 0;
-          packet.id[count] = static_cast<unsigned>(count);
-          valid[count] = -1;
-          const double density = focal / distance;
-          lanes[count] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
-                          pixel->x(), pixel->y()};
-          if (++count == 16) trace();
-        }
-        if (count > 0) trace();  // a block's list holds its own vertices only
-      }
-    });
-    if (progress) progress->Advance(view.name);
+  const int64_t blocks = static_cast<int64_t>(seen.size());
+  if (camera.width != photo.width() || camera.height != photo.height()) {
+    camera = camera.Scaled(photo.width(), photo.height());
   }
-  if (progress) progress->Finish();
+  const Eigen::Vector3d center = view.cam_from_world.Center();
+  const double focal = camera.MeanFocalLength();
+  const double min_x = 0.5, max_x = photo.width() - 0.5;
+  const double min_y = 0.5, max_y = photo.height() - 0.5;
+  const float org_x = static_cast<float>(center.x()), org_y = static_cast<float>(center.y()),
+              org_z = static_cast<float>(center.z());
+  const float tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
+  ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    // Occlusion rays go 16 at a time (neighbouring vertices: a coherent packet from the
+    // camera centre); lanes keep vertex order.
+    alignas(64) RTCRay16 packet;
+    alignas(64) int valid[16];
+    struct Lane {
+      uint32_t vertex;
+      float weight;
+      double px, py;
+    };
+    Lane lanes[16];
+    int count = 0;
+    ViewObservations* found = nullptr;
+    auto trace = [&] {
+      for (int k = count; k < 16; ++k) valid[k] = 0;
+      rtcOccluded16(valid, rtc_scene, &context, &packet);
+      for (int k = 0; k < count; ++k) {
+        if (packet.tfar[k] < 0) continue;  // something lies between the camera and the vertex
+        found->vertices.push_back(lanes[k].vertex);
+        found->observations.push_back(
+            {lanes[k].weight, photo.is8 ? SampleBilinear(photo.bytes, lanes[k].px, lanes[k].py)
+                                        : SampleBilinear(photo.floats, lanes[k].px, lanes[k].py)});
+      }
+      count = 0;
+    };
+    for (int64_t block = block_begin; block < block_end; ++block) {
+      found = &seen[block];
+      const int64_t begin = block * kBlock;
+      const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
+      for (int64_t i = begin; i < end; ++i) {
+        const Eigen::Vector3d p = mesh.positions[i].cast<double>();
+        const Eigen::Vector3d to_camera = center - p;
+        const double distance = to_camera.norm();
+        if (!(distance > 0)) continue;
+        double cosine = 1.0;
+        if (!normals.empty() && normals[i].squaredNorm() > 0) {
+          cosine = normals[i].cast<double>().normalized().dot(to_camera / distance);
+          if (cosine <= options.min_facing_cosine) continue;
+        }
+        const auto pixel = camera.ImgFromCam(view.cam_from_world.CamFromWorld(p));
+        if (!pixel || !(pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
+                        pixel->y() <= max_y)) {
+          continue;
+        }
+        packet.org_x[count] = org_x;
+        packet.org_y[count] = org_y;
+        packet.org_z[count] = org_z;
+        packet.dir_x[count] = static_cast<float>(-to_camera.x());
+        packet.dir_y[count] = static_cast<float>(-to_camera.y());
+        packet.dir_z[count] = static_cast<float>(-to_camera.z());
+        packet.tnear[count] = 0.0f;
+        packet.tfar[count] = tfar;
+        packet.mask[count] = 0xFFFFFFFFu;
+        packet.time[count] = 0.0f;
+        packet.flags[count] = 0;
+        packet.id[count] = static_cast<unsigned>(count);
+        valid[count] = -1;
+        const double density = focal / distance;
+        lanes[count] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
+                        pixel->x(), pixel->y()};
+        if (++count == 16) trace();
+      }
+      if (count > 0) trace();  // a block's list holds its own vertices only
+    }
+  });
+}
 
+// Each vertex's colour: the robust mean of its observations in view order.
+VertexColors FuseObservations(size_t n, const std::vector<std::vector<ViewObservations>>& seen,
+                              const ColorizeOptions& options, size_t* total_observations) {
+  const int64_t blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
   // Each vertex's observations in view order (deterministic), gathered per block by walking
   // every view's list of that block.
   VertexColors out;
   out.colors.assign(n, Eigen::Vector3f::Zero());
   out.view_count = {"view_count", std::vector<float>(n, 0.0f)};
-  size_t total_observations = 0;
   for (const auto& view_blocks : seen) {
-    for (const ViewObservations& list : view_blocks) total_observations += list.vertices.size();
+    for (const ViewObservations& list : view_blocks) *total_observations += list.vertices.size();
   }
   ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
     RobustScratch scratch;
@@ -271,6 +236,61 @@ VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scen
       }
     }
   });
+  return out;
+}
+
+}  // namespace
+
+VertexColors ColorizeVertices(const RenderModel& model, const scene::Scene& scene,
+                              const std::vector<size_t>& views, const ColorizeOptions& options,
+                              ColorizeReport* report) {
+  const mesh::Mesh& mesh = model.mesh();
+  for (size_t v : views) {
+    REPHOTO_CHECK(v < scene.views.size(), "colorize: view index {} out of range ({} views)", v,
+                  scene.views.size());
+  }
+  const size_t n = mesh.positions.size();
+  std::vector<Eigen::Vector3f> computed_normals;
+  if (mesh.normals.empty() && !mesh.faces.empty()) computed_normals = ComputeVertexNormals(mesh);
+  const std::vector<Eigen::Vector3f>& normals =
+      mesh.normals.empty() ? computed_normals : mesh.normals;
+  RTCScene rtc_scene = model.scene();
+
+  // Vertices are tested and their colours fused in fixed blocks, in parallel. seen[v][b]: the
+  // vertices of block b that view v sees, with their observations.
+  const int64_t blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
+  std::vector<std::vector<ViewObservations>> seen(
+      views.size(), std::vector<ViewObservations>(static_cast<size_t>(blocks)));
+  std::unique_ptr<Progress> progress;
+  if (options.show_progress) progress = std::make_unique<Progress>("colorize", views.size());
+  // Photos are decoded two at a time (decoding dominates; one core each) into two reused
+  // buffers, then processed in view order, so the result does not depend on the thread count.
+  constexpr size_t kBatch = 2;
+  std::vector<Photo> batch(kBatch);
+  for (size_t position = 0; position < views.size(); ++position) {
+    const size_t view_index = views[position];
+    const scene::View& view = scene.views[view_index];
+    if (position % kBatch == 0) {
+      const size_t count = std::min(kBatch, views.size() - position);
+      ParallelFor(0, static_cast<int64_t>(count), 1, [&](int64_t begin, int64_t end) {
+        for (int64_t b = begin; b < end; ++b) {
+          Photo& photo = batch[b];
+          photo.is8 = io::ReadImage8(scene.views[views[position + b]].image_path, &photo.bytes,
+                                     &photo.floats);
+        }
+      });
+    }
+    const Photo& photo = batch[position % kBatch];  // buffers reused: no zeroing, no faults
+    REPHOTO_CHECK(photo.channels() >= 1 && photo.channels() <= 4 && !photo.empty(),
+                  "{}: unsupported photo ({} channels)", view.image_path.string(),
+                  photo.channels());
+    ObserveView(mesh, normals, rtc_scene, view, scene.CameraOf(view), photo, options,
+                seen[position]);
+    if (progress) progress->Advance(view.name);
+  }
+  if (progress) progress->Finish();
+  size_t total_observations = 0;
+  VertexColors out = FuseObservations(n, seen, options, &total_observations);
   if (report != nullptr) {
     report->vertices = n;
     report->observations = total_observations;
