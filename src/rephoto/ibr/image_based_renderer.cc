@@ -506,13 +506,14 @@ std::vector<Image> EstimateDepthMaps(const std::vector<TrainingView>& views,
   return depths;
 }
 
-// IBR step 1: forward-warps every proxy mesh into the novel view and resolves each pixel's
-// depth into scratch->novel_depth.
-void ImageBasedRenderer::State::RasterizeProxies(const camera::Camera& camera,
-                                                 const camera::Pose& pose,
-                                                 const std::vector<int>& raster_views,
-                                                 Scratch* scratch) const {
-  const int width = camera.width, height = camera.height;
+namespace {
+
+// IBR step 1a: each raster view's proxy grid vertices projected into the novel view ((x, y) in
+// novel pixels, 1/z; NaN behind the camera or outside its model), and per grid row the range of
+// novel rows its quads span.
+void ProjectProxyGrids(const std::vector<ViewData>& views, const camera::Camera& camera,
+                       const camera::Pose& pose, const std::vector<int>& raster_views,
+                       Scratch* scratch) {
   const size_t n = raster_views.size();
   scratch->projected.resize(n);
   scratch->row_range.resize(n);
@@ -562,6 +563,19 @@ void ImageBasedRenderer::State::RasterizeProxies(const camera::Camera& camera,
       }
     }
   });
+}
+
+}  // namespace
+
+// IBR step 1: forward-warps every proxy mesh into the novel view and resolves each pixel's
+// depth into scratch->novel_depth.
+void ImageBasedRenderer::State::RasterizeProxies(const camera::Camera& camera,
+                                                 const camera::Pose& pose,
+                                                 const std::vector<int>& raster_views,
+                                                 Scratch* scratch) const {
+  const int width = camera.width, height = camera.height;
+  const size_t n = raster_views.size();
+  ProjectProxyGrids(views, camera, pose, raster_views, scratch);
 
   scratch->layers.resize(static_cast<size_t>(width) * height);
   scratch->novel_depth.Resize(width, height, 1);
