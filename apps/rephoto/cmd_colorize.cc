@@ -53,15 +53,7 @@ CommandRunner SetupColorize(CLI::App& app) {
   return [args]() {
     const scene::ReadSceneOptions scene_options = MakeReadSceneOptions(args->scene_args);
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
-    std::vector<size_t> views;
-    if (args->images.empty()) {
-      for (size_t v = 0; v < scene.views.size(); ++v) {
-        if (std::filesystem::exists(scene.views[v].image_path)) views.push_back(v);
-      }
-      REPHOTO_CHECK(!views.empty(), "{}: none of the scene's photos exists on disk", args->scene);
-    } else {
-      views = scene::ViewIndices(scene, split::ReadImageList(args->images), args->images);
-    }
+    const std::vector<size_t> views = PhotoViews(scene, args->images, args->scene);
     const mesh::Mesh mesh = mesh::ReadMesh(args->mesh);
     const auto start = std::chrono::steady_clock::now();
     render::ColorizeOptions options;

@@ -83,15 +83,7 @@ CommandRunner SetupTexture(CLI::App& app) {
     args->options.Check();
     const scene::Scene scene =
         scene::ReadScene(args->scene, MakeReadSceneOptions(args->scene_args));
-    std::vector<size_t> views;
-    if (args->images.empty()) {
-      for (size_t v = 0; v < scene.views.size(); ++v) {
-        if (std::filesystem::exists(scene.views[v].image_path)) views.push_back(v);
-      }
-      REPHOTO_CHECK(!views.empty(), "{}: none of the scene's photos exists on disk", args->scene);
-    } else {
-      views = scene::ViewIndices(scene, split::ReadImageList(args->images), args->images);
-    }
+    const std::vector<size_t> views = PhotoViews(scene, args->images, args->scene);
     const mesh::Mesh mesh = mesh::ReadMesh(args->mesh);
     const texture::TexturedMesh textured = texture::TextureMesh(mesh, scene, views, args->options);
     texture::WriteTexturedObj(args->out, textured);

@@ -1,6 +1,10 @@
 #include "scene_args.h"
 
+#include <filesystem>
+
 #include "rephoto/core/error.h"
+#include "rephoto/scene/image_name.h"
+#include "rephoto/split/split.h"
 
 namespace rephoto::cli {
 
@@ -21,6 +25,17 @@ scene::ReadSceneOptions MakeReadSceneOptions(const SceneArguments& args, bool ch
   if (!args.image_root.empty()) options.image_root = args.image_root;
   options.check_image_sizes = check_image_sizes;
   return options;
+}
+
+std::vector<size_t> PhotoViews(const scene::Scene& scene, const std::string& images,
+                               const std::string& scene_name) {
+  if (!images.empty()) return scene::ViewIndices(scene, split::ReadImageList(images), images);
+  std::vector<size_t> views;
+  for (size_t v = 0; v < scene.views.size(); ++v) {
+    if (std::filesystem::exists(scene.views[v].image_path)) views.push_back(v);
+  }
+  REPHOTO_CHECK(!views.empty(), "{}: none of the scene's photos exists on disk", scene_name);
+  return views;
 }
 
 }  // namespace rephoto::cli

@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "rephoto/scene/read_scene.h"
 
@@ -19,5 +20,10 @@ void AddSceneOptions(CLI::App& app, SceneArguments* args);
 // The ReadSceneOptions the arguments ask for; throws Error naming an unknown --format.
 scene::ReadSceneOptions MakeReadSceneOptions(const SceneArguments& args,
                                              bool check_image_sizes = true);
+
+// The photos a command uses: the views named in the list file `images`, or, when it is empty,
+// every view whose photo exists (Error when none does). `scene_name` names the scene in messages.
+std::vector<size_t> PhotoViews(const scene::Scene& scene, const std::string& images,
+                               const std::string& scene_name);
 
 }  // namespace rephoto::cli

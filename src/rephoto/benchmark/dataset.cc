@@ -98,21 +98,9 @@ nlohmann::json ImageList(const scene::Scene& scene, const std::vector<std::strin
   return list;
 }
 
-// Size whose shorter side is `short_side` (never larger than the original; 0 = original), as
-// `rephoto evaluate --eval-short-side` computes it.
-std::pair<int, int> ScaledSize(int width, int height, int short_side) {
-  const int shorter = std::min(width, height);
-  if (short_side <= 0 || shorter <= short_side) return {width, height};
-  const double scale = static_cast<double>(short_side) / shorter;
-  int w = std::max(1, static_cast<int>(std::lround(width * scale)));
-  int h = std::max(1, static_cast<int>(std::lround(height * scale)));
-  (width <= height ? w : h) = short_side;
-  return {w, h};
-}
-
 scene::Scene ScaledScene(scene::Scene scene, int short_side) {
   for (auto& [id, camera] : scene.cameras) {
-    const auto [w, h] = ScaledSize(camera.width, camera.height, short_side);
+    const auto [w, h] = rephoto::camera::ScaledSize(camera.width, camera.height, short_side);
     if (w != camera.width || h != camera.height) camera = camera.Scaled(w, h);
   }
   return scene;

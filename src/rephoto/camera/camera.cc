@@ -453,4 +453,14 @@ Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& matrix, double tolerance,
   return svd.matrixU() * svd.matrixV().transpose();
 }
 
+std::pair<int, int> ScaledSize(int width, int height, int short_side) {
+  const int shorter = std::min(width, height);
+  if (short_side <= 0 || shorter <= short_side) return {width, height};
+  const double scale = static_cast<double>(short_side) / shorter;
+  int w = std::max(1, static_cast<int>(std::lround(width * scale)));
+  int h = std::max(1, static_cast<int>(std::lround(height * scale)));
+  (width <= height ? w : h) = short_side;
+  return {w, h};
+}
+
 }  // namespace rephoto::camera

@@ -19,6 +19,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace rephoto::camera {
@@ -134,5 +135,10 @@ struct Pose {
 // when the determinant is negative (a reflection).
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& matrix, double tolerance,
                                 std::string_view context);
+
+// The image size whose shorter side is `short_side`, the other side scaled in proportion and
+// rounded (never larger than width x height; short_side <= 0 = unchanged): what
+// `--eval-short-side`/`--train-short-side` resize photos and cameras (Camera::Scaled) to.
+std::pair<int, int> ScaledSize(int width, int height, int short_side);
 
 }  // namespace rephoto::camera

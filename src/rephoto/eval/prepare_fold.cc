@@ -113,7 +113,7 @@ void DownscaleTrainingPhotos(RunState& s, FoldState& fold, scene::Scene& train) 
   const fs::path cache_dir = s.CacheDir() / fmt::format("train_photos_s{}", s.o.train_short_side);
   std::map<int, std::pair<int, int>> new_sizes;
   for (const auto& [id, camera] : train.cameras) {
-    new_sizes[id] = ScaledSize(camera.width, camera.height, s.o.train_short_side);
+    new_sizes[id] = rephoto::camera::ScaledSize(camera.width, camera.height, s.o.train_short_side);
   }
   std::map<std::string, fs::path> links;
   const std::map<std::string, std::string> png_names = PngNames(s.scene);
@@ -130,8 +130,7 @@ void DownscaleTrainingPhotos(RunState& s, FoldState& fold, scene::Scene& train) 
     const std::string png_name = png_names.at(view.name);
     const fs::path cached = cache_dir / png_name;
     const fs::path cached_key = cache_dir / (png_name + ".key");
-    const std::string key =
-        Hasher().Add(s.hashes->Hash(view.image_path)).AddInt(w).AddInt(h).Hex();
+    const std::string key = Hasher().Add(s.hashes->Hash(view.image_path)).AddInt(w).AddInt(h).Hex();
     std::error_code ec;
     if (!s.worker && !(fs::is_regular_file(cached, ec) && fs::is_regular_file(cached_key, ec) &&
                        ReadFileToString(cached_key) == key)) {
@@ -173,7 +172,8 @@ void PrepareTestViews(RunState& s, FoldState& fold, const split::Fold& sf,
   scene::Scene test = split::SubsetScene(s.scene, sf.test, /*keep_points=*/false);
   bool scaled_test = false;
   for (auto& [id, camera] : test.cameras) {
-    const auto [w, h] = ScaledSize(camera.width, camera.height, s.o.eval_short_side);
+    const auto [w, h] =
+        rephoto::camera::ScaledSize(camera.width, camera.height, s.o.eval_short_side);
     if (w != camera.width || h != camera.height) {
       camera = camera.Scaled(w, h);
       scaled_test = true;
@@ -215,16 +215,6 @@ void PrepareTestViews(RunState& s, FoldState& fold, const split::Fold& sf,
 }
 
 }  // namespace
-
-std::pair<int, int> ScaledSize(int width, int height, int short_side) {
-  const int shorter = std::min(width, height);
-  if (short_side <= 0 || shorter <= short_side) return {width, height};
-  const double scale = static_cast<double>(short_side) / shorter;
-  int w = std::max(1, static_cast<int>(std::lround(width * scale)));
-  int h = std::max(1, static_cast<int>(std::lround(height * scale)));
-  (width <= height ? w : h) = short_side;
-  return {w, h};
-}
 
 void PrepareFold(RunState& s, FoldState& fold) {
   const split::Fold& sf = s.split.folds[fold.index];

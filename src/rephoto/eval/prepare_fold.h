@@ -22,7 +22,4 @@ void PrepareFold(RunState& s, FoldState& fold);
 void RemoveStaleOutputs(const RunState& s);
 scene::Scene TrainingScene(const RunState& s, const FoldState& fold);
 
-// Size whose shorter side is `short_side` (never larger than the original; 0 = original).
-std::pair<int, int> ScaledSize(int width, int height, int short_side);
-
 }  // namespace rephoto::eval
