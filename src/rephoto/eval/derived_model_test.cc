@@ -1,0 +1,120 @@
+// Models rephoto derives per fold from the fold's training photos (--colorize, --texture): each
+// fold's copy uses only that fold's training photos, is rendered as stored, and is reused.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "rephoto/core/file.h"
+#include "rephoto/eval/evaluate.h"
+#include "rephoto/mesh/ply.h"
+#include "rephoto/mesh/read_mesh.h"
+#include "rephoto/synth/demo_files.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto::eval {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using metrics::Metric;
+
+// The demo scene of evaluate_test: 6 cameras of 160x120.
+const synth::DemoSceneFiles& Files() {
+  static const synth::DemoSceneFiles files = [] {
+    synth::DemoSceneOptions options;
+    options.image_width = 160;
+    options.image_height = 120;
+    options.camera_count = 6;
+    options.ground_cells = 40;
+    options.object_bands = 24;
+    return synth::WriteDemoSceneFiles(options, testing::MakeTempDir() / "scene", [](size_t i) {
+      return synth::PhotoSettings{1.0 + 0.02 * static_cast<double>(i % 3), 0.01, 100 + i};
+    });
+  }();
+  return files;
+}
+
+EvaluateOptions BaseOptions(const fs::path& out) {
+  EvaluateOptions o;
+  o.scene = Files().sparse;
+  o.image_root = Files().images;
+  o.out = out;
+  o.metrics = {Metric::kOneMinusNcc, Metric::kCbCr};
+  o.report = false;
+  o.projection_metric = "none";
+  return o;
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  return nlohmann::json::parse(ReadFileToString(path));
+}
+
+TEST(DerivedModelTest, ColorizeUsesEachFoldsTrainingPhotos) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().plain;
+  o.colorize = true;
+  o.scheme = "kfold:3";
+  o.error_images = false;
+  const EvaluateResult coloured = RunEvaluate(o);
+  EXPECT_EQ(coloured.exit_code, ExitCode::kOk);
+  EXPECT_EQ(coloured.counters.models_colorized, 3u);
+  const mesh::Mesh model = mesh::ReadPly(run / "folds/fold_01/model.ply");
+  EXPECT_EQ(model.colors.size(), model.positions.size());
+  const nlohmann::json fold = ReadJson(run / "folds/fold_01/fold.json");
+  EXPECT_EQ(fold["train"]["count"], 4);
+  // Without colours every face is flat grey: 1-NCC near 1 wherever the photo has texture.
+  EvaluateOptions g = BaseOptions(testing::MakeTempDir() / "grey");
+  g.model = Files().plain;
+  g.scheme = "kfold:3";
+  g.error_images = false;
+  const EvaluateResult grey = RunEvaluate(g);
+  EXPECT_GT(grey.metrics[0].over_images.median, 0.8);
+  EXPECT_LT(coloured.metrics[0].over_images.median, 0.6 * grey.metrics[0].over_images.median);
+  // Resume reuses the coloured models; the recorded costs stay.
+  const std::string per_fold = ReadFileToString(run / "per_fold.csv");
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(ReadFileToString(run / "per_fold.csv"), per_fold);
+  EXPECT_EQ(again.counters.models_colorized, 0u);
+  EXPECT_EQ(again.counters.views_rendered, 0u);
+}
+
+// Issue 22: --texture textures each fold's mesh from that fold's training photos only; the
+// rendered model is the textured OBJ as stored, and a rerun reuses it.
+TEST(DerivedModelTest, TextureUsesEachFoldsTrainingPhotos) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().plain;
+  o.texture = true;
+  o.scheme = "kfold:3";
+  o.error_images = false;
+  const EvaluateResult textured = RunEvaluate(o);
+  EXPECT_EQ(textured.exit_code, ExitCode::kOk);
+  EXPECT_EQ(textured.counters.models_colorized, 3u);
+  const nlohmann::json fold = ReadJson(run / "folds/fold_01/fold.json");
+  EXPECT_EQ(fold["colorized_model"], "textured/model.obj");
+  EXPECT_EQ(fold["train"]["count"], 4);
+  const nlohmann::json report = ReadJson(run / "folds/fold_01/textured/texture.json");
+  EXPECT_EQ(report["views_given"], 4);
+  EXPECT_GT(report["textured_faces"].get<size_t>(), 0u);
+  const mesh::Mesh model = mesh::ReadMesh(run / "folds/fold_01/textured/model.obj");
+  EXPECT_FALSE(model.materials.empty());
+  // Flat grey without texture: 1-NCC near 1; the textured mesh is far below it.
+  EvaluateOptions g = BaseOptions(testing::MakeTempDir() / "grey");
+  g.model = Files().plain;
+  g.scheme = "kfold:3";
+  g.error_images = false;
+  const EvaluateResult grey = RunEvaluate(g);
+  EXPECT_LT(textured.metrics[0].over_images.median, 0.6 * grey.metrics[0].over_images.median);
+  const std::string per_image = ReadFileToString(run / "per_image.csv");
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(ReadFileToString(run / "per_image.csv"), per_image);
+  EXPECT_EQ(again.counters.models_colorized, 0u);
+  EXPECT_EQ(again.counters.views_rendered, 0u);
+  o.colorize = true;
+  EXPECT_THAT(testing::ErrorOf([&] { RunEvaluate(o); }), HasSubstr("either --colorize"));
+}
+
+}  // namespace
+}  // namespace rephoto::eval
