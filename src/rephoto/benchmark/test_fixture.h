@@ -1,5 +1,7 @@
 // Test helpers of the benchmark tests: archives built in memory with libarchive's writer
 // (including the hostile kinds an attacker would send) and a tiny calibrated scene on disk.
+//
+// Thread safety: test helpers; call them from the test's thread.
 #pragma once
 
 #include <filesystem>

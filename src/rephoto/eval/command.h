@@ -7,6 +7,10 @@
 // after '$' is never a placeholder, so shell variables like ${HOME} pass through unchanged.
 // Any other brace text (e.g. awk's '{print $1}', which has a space) is kept as it is.
 // An unknown placeholder is an error listing the known ones.
+//
+// Thread safety: SubstitutePlaceholders and TemplatePlaceholders are pure; RunShellCommand may
+// run from several threads at once (evaluate runs `jobs` commands in worker threads); the
+// interrupt flag is one process-wide atomic, and one InterruptGuard should live at a time.
 #pragma once
 
 #include <atomic>

@@ -11,6 +11,8 @@
 // unparsable file is an Error naming the file and the key.
 //
 // Boolean flags come in pairs on the command line: --colorize / --no-colorize.
+//
+// Thread safety: pure functions of their arguments (the settings table is immutable).
 #pragma once
 
 #include <cstdint>

@@ -23,6 +23,8 @@
 //     10, exponent 1). Error per window = 1 - product of the seven terms, in [0, 1].
 //     |s12| is limited to s1 s2 (Cauchy-Schwarz), which only removes rounding noise and makes
 //     identical images give exactly 0. Accumulation is in double.
+//
+// Thread safety: pure functions of their inputs; safe to call from several threads at once.
 #pragma once
 
 #include <cstddef>

@@ -11,6 +11,8 @@
 //   with windows of side `window` (the 1-NCC window, 9 by default; window 1 gives the pixel
 //   fraction). Windows that leave the image are not counted. NaN when the photo has no valid
 //   window.
+//
+// Thread safety: pure functions of their inputs; safe to call from several threads at once.
 #pragma once
 
 #include "rephoto/core/image.h"

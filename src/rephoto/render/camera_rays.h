@@ -11,6 +11,8 @@
 // 1e-4 pixels for real lens distortion (checked in camera_rays_test). Where the model cannot
 // unproject (beyond its usable field of view) the corner is invalid and samples touching it
 // give no ray.
+//
+// Thread safety: a CameraRays is immutable once built; share it between threads freely.
 #pragma once
 
 #include <Eigen/Core>

@@ -2,6 +2,8 @@
 // geometric accuracy, completeness and F-score (geometry/run_geometry.h) as ranking-table
 // cells, a scatterplot of the primary metric's median against the geometric accuracy, and the
 // Pearson and Spearman correlations (geometry/correlation.h) with the number of runs.
+//
+// Thread safety: pure functions (HTML text from values).
 #pragma once
 
 #include <string>

@@ -16,7 +16,7 @@
 #include "rephoto/report/geometry_section.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_page.h"
-#include "rephoto/report/run_data.h"
+#include "rephoto/run/run_data.h"
 
 namespace rephoto::report {
 namespace fs = std::filesystem;
@@ -36,7 +36,7 @@ std::string DirName(const fs::path& dir) {
 }
 
 // The primary metric's index, falling back to the first metric (with a warning).
-int PrimaryIndex(const RunData& run, const std::string& primary) {
+int PrimaryIndex(const run::RunData& run, const std::string& primary) {
   const int index = run.MetricIndex(primary);
   if (index >= 0 || run.metrics.empty()) return index;
   LogWarning(fmt::format("{}: no \"{}\" column; ranking images by {}", run.dir.string(), primary,
@@ -54,7 +54,7 @@ std::string PlotsHtml(const std::vector<BoxPlot>& plots) {
 
 void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
                     const ReportOptions& options) {
-  const RunData run = LoadRun(run_dir);
+  const run::RunData run = run::LoadRun(run_dir);
   const std::string title =
       options.title.empty() ? "rephoto report: " + DirName(run_dir) : options.title;
   std::string html = PageStart(title);
@@ -90,7 +90,7 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
     html += ExamplesHtml(run, primary, options.example_images, options.thumbnail_width);
     html += "</section>\n";
   }
-  if (run.layout == RunLayout::kEvaluate && !run.folds.empty()) {
+  if (run.layout == run::RunLayout::kEvaluate && !run.folds.empty()) {
     html += fmt::format("<section id=\"folds\"><h2>Per fold ({})</h2>\n", run.folds.size()) +
             PerFoldTableHtml(run) + "</section>\n";
   }
@@ -108,7 +108,7 @@ namespace {
 // One run of a collection, loaded, with what the ranking needs.
 struct Loaded {
   CollectionEntry entry;
-  RunData run;
+  run::RunData run;
   int primary = -1;
   double primary_median = NAN;
   double completeness_median = NAN;
@@ -137,7 +137,7 @@ Collection LoadCollection(const std::vector<CollectionEntry>& entries, const fs:
                   entries[0].label, c.sweep ? "has one" : "has none");
   }
   for (const CollectionEntry& e : entries) {
-    Loaded l{e, LoadRun(e.run_dir)};
+    Loaded l{e, run::LoadRun(e.run_dir)};
     if (l.entry.label.empty()) l.entry.label = DirName(e.run_dir);
     l.primary = l.run.MetricIndex(options.primary_metric);
     const std::vector<double> primary_values =
@@ -181,7 +181,7 @@ Collection LoadCollection(const std::vector<CollectionEntry>& entries, const fs:
 }
 
 // False only when summary.json says "cross_validated": false.
-bool CrossValidated(const RunData& run) {
+bool CrossValidated(const run::RunData& run) {
   return !(run.summary.is_object() && run.summary.contains("cross_validated") &&
            run.summary["cross_validated"].is_boolean() && !run.summary["cross_validated"]);
 }

@@ -188,7 +188,7 @@ std::string Fact(const Json& j, std::initializer_list<const char*> path) {
 }
 
 // summary.json's pooled value of a metric (compare: metrics.<m>.pooled; evaluate: <m>.pooled).
-double Pooled(const RunData& run, const std::string& metric) {
+double Pooled(const run::RunData& run, const std::string& metric) {
   const Json& s = run.summary;
   if (!s.is_object()) return NAN;
   if (s.contains("metrics") && s["metrics"].is_object() && s["metrics"].contains(metric) &&
@@ -208,7 +208,7 @@ std::string MetricLabel(const std::string& metric) {
 }
 
 // One summary table over the given units (folds or images).
-std::string SummaryTable(const RunData& run, bool across_folds) {
+std::string SummaryTable(const run::RunData& run, bool across_folds) {
   const auto values = [&](int m) { return across_folds ? run.FoldValues(m) : run.ImageValues(m); };
   const std::vector<double> completeness = values(-1);
   const bool pooled = !across_folds;
@@ -276,26 +276,26 @@ std::string PageStart(const std::string& title) {
 
 std::string PageEnd() { return fmt::format("<script>{}</script>\n</body>\n</html>\n", kScript); }
 
-std::string SettingsHtml(const RunData& run, bool collapsed) {
+std::string SettingsHtml(const run::RunData& run, bool collapsed) {
   const Json& s = run.summary;
   std::string version = Fact(s, {"tool", "version"});
   if (version.empty()) version = Fact(s, {"tool_version"});
   if (version.empty()) version = Fact(run.run, {"tool_version"});
   if (version.empty()) version = Fact(run.run, {"tool", "version"});
   size_t ok = 0;
-  for (const ImageRow& image : run.images) ok += image.status == "ok" ? 1 : 0;
+  for (const run::ImageRow& image : run.images) ok += image.status == "ok" ? 1 : 0;
   std::string html = "<p class=\"meta\">";
   html +=
       fmt::format("<span>run <span class=\"path\">{}</span></span>", HtmlEscape(run.dir.string()));
   html +=
-      fmt::format("<span>{}</span>", run.layout == RunLayout::kEvaluate ? "rephoto evaluate run"
+      fmt::format("<span>{}</span>", run.layout == run::RunLayout::kEvaluate ? "rephoto evaluate run"
                                                                         : "rephoto compare run");
   if (!version.empty()) html += fmt::format("<span>rephoto {}</span>", HtmlEscape(version));
   for (const char* key : {"scene", "scheme"}) {
     const std::string value = Fact(s, {key});
     if (!value.empty()) html += fmt::format("<span>{} {}</span>", key, HtmlEscape(value));
   }
-  if (run.layout == RunLayout::kEvaluate) {
+  if (run.layout == run::RunLayout::kEvaluate) {
     html +=
         fmt::format("<span>{} folds ({} failed)</span>", run.folds.size(), run.failed_folds.size());
   }
@@ -330,13 +330,13 @@ std::string SettingsHtml(const RunData& run, bool collapsed) {
   return html + "</tbody></table></details>\n";
 }
 
-std::string ProblemsHtml(const RunData& run) {
+std::string ProblemsHtml(const run::RunData& run) {
   if (run.failed_folds.empty() && run.missing.empty()) return "";
   std::string html = "<div class=\"problems\">";
   if (!run.failed_folds.empty()) {
     html += fmt::format("<p><b>{} failed fold{}</b></p><ul class=\"failed-folds\">",
                         run.failed_folds.size(), run.failed_folds.size() == 1 ? "" : "s");
-    for (const FailedFold& f : run.failed_folds) {
+    for (const run::FailedFold& f : run.failed_folds) {
       html += fmt::format("<li><b>{}</b>: {}</li>", HtmlEscape(f.fold), HtmlEscape(f.message));
     }
     html += "</ul>";
@@ -357,7 +357,7 @@ std::string ProblemsHtml(const RunData& run) {
   return html + "</div>\n";
 }
 
-std::string SummaryHtml(const RunData& run) {
+std::string SummaryHtml(const run::RunData& run) {
   std::string html;
   if (run.AcrossFolds()) {
     html += fmt::format(
@@ -376,8 +376,8 @@ std::string SummaryHtml(const RunData& run) {
   return html;
 }
 
-std::string PerFoldTableHtml(const RunData& run) {
-  if (run.layout != RunLayout::kEvaluate || run.folds.empty()) return "";
+std::string PerFoldTableHtml(const run::RunData& run) {
+  if (run.layout != run::RunLayout::kEvaluate || run.folds.empty()) return "";
   std::string html =
       "<div class=\"scroll\"><table class=\"sortable per-fold\" id=\"per-fold\"><thead><tr>"
       "<th class=\"text\" data-col=\"fold\">fold</th><th class=\"text\" "
@@ -388,7 +388,7 @@ std::string PerFoldTableHtml(const RunData& run) {
     html += fmt::format("<th data-col=\"{}\">{}</th>", HtmlEscape(m), HtmlEscape(MetricLabel(m)));
   }
   html += "<th class=\"text\" data-col=\"message\">message</th></tr></thead><tbody>\n";
-  for (const FoldRow& fold : run.folds) {
+  for (const run::FoldRow& fold : run.folds) {
     const bool ok = fold.status == "ok";
     html += fmt::format(
         "<tr data-fold=\"{0}\"{1}><td class=\"text\">{0}</td><td class=\"text{2}\">{3}</td>"
@@ -406,8 +406,8 @@ std::string PerFoldTableHtml(const RunData& run) {
   return html + "</tbody></table></div>\n";
 }
 
-std::string PerImageTableHtml(const RunData& run, const std::string& table_id) {
-  const bool folds = run.layout == RunLayout::kEvaluate;
+std::string PerImageTableHtml(const run::RunData& run, const std::string& table_id) {
+  const bool folds = run.layout == run::RunLayout::kEvaluate;
   std::string html =
       fmt::format("<div class=\"scroll\"><table class=\"sortable per-image\" id=\"{}\"><thead><tr>",
                   HtmlEscape(table_id));
@@ -420,7 +420,7 @@ std::string PerImageTableHtml(const RunData& run, const std::string& table_id) {
     html += fmt::format("<th data-col=\"{}\">{}</th>", HtmlEscape(m), HtmlEscape(MetricLabel(m)));
   }
   html += "</tr></thead><tbody>\n";
-  for (const ImageRow& image : run.images) {
+  for (const run::ImageRow& image : run.images) {
     const bool ok = image.status == "ok";
     html +=
         fmt::format("<tr data-name=\"{}\"{}>", HtmlEscape(image.name), ok ? "" : " class=\"bad\"");
@@ -444,21 +444,21 @@ std::string PerImageTableHtml(const RunData& run, const std::string& table_id) {
   return html + "</tbody></table></div>\n";
 }
 
-std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnail_width) {
+std::string ExamplesHtml(const run::RunData& run, int metric, int count, int thumbnail_width) {
   if (metric < 0 || count <= 0) return "";
   const std::string& name = run.metrics[metric];
   const auto parsed = metrics::ParseMetric(name);
   if (!parsed) return "";
   const bool higher_better = metrics::HigherIsBetter(*parsed);
-  std::vector<const ImageRow*> candidates;
-  for (const ImageRow& image : run.images) {
+  std::vector<const run::ImageRow*> candidates;
+  for (const run::ImageRow& image : run.images) {
     if (image.status == "ok" && !std::isnan(image.metrics[metric])) candidates.push_back(&image);
   }
   if (candidates.empty()) {
     return fmt::format("<p class=\"muted\">No image has a {} value.</p>\n", HtmlEscape(name));
   }
   // Worst first; ties by fold and name for a deterministic choice.
-  std::stable_sort(candidates.begin(), candidates.end(), [&](const ImageRow* a, const ImageRow* b) {
+  std::stable_sort(candidates.begin(), candidates.end(), [&](const run::ImageRow* a, const run::ImageRow* b) {
     const double x = a->metrics[metric], y = b->metrics[metric];
     if (x != y) return higher_better ? x < y : x > y;
     return std::tie(a->fold, a->name) < std::tie(b->fold, b->name);
@@ -466,7 +466,7 @@ std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnai
   const size_t n = candidates.size();
   const size_t worst = std::min<size_t>(count, (n + 1) / 2);
   const size_t best = std::min<size_t>(count, n - worst);
-  std::vector<std::pair<std::string, const ImageRow*>> shown;
+  std::vector<std::pair<std::string, const run::ImageRow*>> shown;
   for (size_t i = 0; i < worst; ++i)
     shown.push_back({fmt::format("worst #{}", i + 1), candidates[i]});
   for (size_t i = 0; i < best; ++i) {
@@ -482,7 +482,7 @@ std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnai
   std::vector<Thumbnails> thumbnails(shown.size());
   ParallelFor(0, static_cast<int64_t>(shown.size()), 1, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
-      const ImageRow& image = *shown[i].second;
+      const run::ImageRow& image = *shown[i].second;
       const std::filesystem::path errors = run.ImageDir(image) / "errors";
       const std::string stem = image.name + "." + name;
       Thumbnails& t = thumbnails[i];
@@ -494,7 +494,7 @@ std::string ExamplesHtml(const RunData& run, int metric, int count, int thumbnai
   });
   for (size_t i = 0; i < shown.size(); ++i) {
     const std::string& rank = shown[i].first;
-    const ImageRow* image = shown[i].second;
+    const run::ImageRow* image = shown[i].second;
     const Thumbnails& t = thumbnails[i];
     html += fmt::format(
         "<div class=\"example\" data-rank=\"{}\" data-name=\"{}\"><h4>{}: {}{} \u2014 {} {}, "

@@ -16,7 +16,7 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_fixture.h"
-#include "rephoto/report/run_data.h"
+#include "rephoto/run/run_data.h"
 #include "rephoto/report/thumbnails.h"
 #include "rephoto/testing/testing.h"
 
@@ -272,8 +272,8 @@ TEST(RunData, FailedFoldMessageFromPerFoldCsvWithoutSummary) {
                           "psnr,message\n"
                           "fold_00,ok,2,2,1.5,0.9,0.1,21,\n"
                           "fold_04,failed,1,0,0.5,,,,\"render: exit 2, see logs\"\n");
-  const RunData run = LoadRun(dir);
-  EXPECT_EQ(run.layout, RunLayout::kEvaluate);  // by the fold column
+  const run::RunData run = run::LoadRun(dir);
+  EXPECT_EQ(run.layout, run::RunLayout::kEvaluate);  // by the fold column
   ASSERT_EQ(run.failed_folds.size(), 1u);
   EXPECT_EQ(run.failed_folds[0].fold, "fold_04");
   EXPECT_EQ(run.failed_folds[0].message, "render: exit 2, see logs");
@@ -357,7 +357,7 @@ TEST(CollectionReport, MarksRunsThatDoNotCompareByAccuracyAlone) {
   std::string summary = ReadFileToString(root / "fixed" / "summary.json");
   summary.replace(summary.find("\"folds\": 5,"), 11, "\"folds\": 5, \"cross_validated\": false,");
   WriteTextFileAtomically(root / "fixed" / "summary.json", summary);
-  const double clean_completeness = Summarize(LoadRun(root / "clean" / "run").Values(-1)).median;
+  const double clean_completeness = Summarize(run::LoadRun(root / "clean" / "run").Values(-1)).median;
   ASSERT_GT(clean_completeness, 0.9);
   const std::vector<CollectionEntry> entries = {
       {.label = "clean", .run_dir = root / "clean" / "run"},
@@ -455,7 +455,7 @@ TEST(Report, BadInputThrowsNamingTheFile) {
   WriteTextFileAtomically(root / "bad" / "per_image.csv",
                           "name,status,completeness,1-ncc\na,ok,0.5,zero\n");
   try {
-    LoadRun(root / "bad");
+    run::LoadRun(root / "bad");
     FAIL();
   } catch (const Error& e) {
     const std::string message = e.what();
@@ -464,7 +464,7 @@ TEST(Report, BadInputThrowsNamingTheFile) {
   }
   WriteTextFileAtomically(root / "bad" / "per_image.csv", "name,status,completeness,1-ncc\n");
   WriteTextFileAtomically(root / "bad" / "summary.json", "{not json");
-  EXPECT_THROW(LoadRun(root / "bad"), Error);
+  EXPECT_THROW(run::LoadRun(root / "bad"), Error);
   EXPECT_THROW(WriteCollectionReport({}, root / "out.html"), Error);
   fs::remove(root / "bad" / "summary.json");
   EXPECT_THROW(WriteCollectionReport({{.run_dir = root / "bad"}}, root / "out.html",

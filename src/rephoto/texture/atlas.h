@@ -18,6 +18,8 @@
 // Texture coordinates (OBJ/OpenGL convention, mesh.h): u = x / width, v = 1 - y / height, with
 // (x, y) the position in atlas texels (pixel-corner convention: texel (i, j) covers
 // [i, i+1) x [j, j+1)), y down from the image's top row; all in [0, 1].
+//
+// Thread safety: functions of their arguments; parallel inside, deterministic.
 #pragma once
 
 #include <Eigen/Core>

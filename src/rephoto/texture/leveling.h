@@ -15,6 +15,8 @@
 // along the seam edges). Points that do not project inside photo l are left out.
 // Solved per channel by conjugate gradients (Eigen, diagonal preconditioner) on the normal
 // equations. Deterministic.
+//
+// Thread safety: a function of its arguments; parallel inside, deterministic.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,4 +1,6 @@
 // Mesh connectivity used by texturing (internal to texture/).
+//
+// Thread safety: pure functions of the mesh; the result is a value.
 #pragma once
 
 #include <cstdint>

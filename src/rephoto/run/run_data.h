@@ -1,3 +1,8 @@
+// Reading a run folder (its contract: docs/run-folder.md). Used by `rephoto report` and the
+// benchmark's pages.
+//
+// Thread safety: LoadRun is reentrant; a RunData is a value.
+//
 // Reading a run directory (the `rephoto evaluate` or `rephoto compare` layout, see
 // /work/notes/run-layout.md and compare/compare.h) into memory for the reports.
 //
@@ -16,7 +21,7 @@
 
 #include "rephoto/core/stats.h"
 
-namespace rephoto::report {
+namespace rephoto::run {
 
 enum class RunLayout { kCompare, kEvaluate };
 
@@ -87,4 +92,4 @@ struct RunData {
 // valid JSON. run.json is optional.
 RunData LoadRun(const std::filesystem::path& dir);
 
-}  // namespace rephoto::report
+}  // namespace rephoto::run

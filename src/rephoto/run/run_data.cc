@@ -1,4 +1,4 @@
-#include "rephoto/report/run_data.h"
+#include "rephoto/run/run_data.h"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,7 @@
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/run/records.h"
 
-namespace rephoto::report {
+namespace rephoto::run {
 namespace fs = std::filesystem;
 namespace {
 
@@ -280,4 +280,4 @@ RunData LoadRun(const fs::path& dir) {
   return run;
 }
 
-}  // namespace rephoto::report
+}  // namespace rephoto::run
