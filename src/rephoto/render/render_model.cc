@@ -57,6 +57,17 @@ inline float IntersectDisc(const RenderModel::PointGeometry& data, unsigned prim
   return t;
 }
 
+// Lane i of a ray packet against point disc `prim` (IntersectDisc); NaN = no hit.
+float IntersectLane(const RenderModel::PointGeometry& data, unsigned prim, RTCRayN* ray,
+                    unsigned n, unsigned i, Eigen::Vector3f* normal) {
+  const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
+                          RTCRayN_org_z(ray, n, i));
+  const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
+                          RTCRayN_dir_z(ray, n, i));
+  return IntersectDisc(data, prim, o, d, RTCRayN_tnear(ray, n, i), RTCRayN_tfar(ray, n, i),
+                       normal);
+}
+
 void PointIntersect(const RTCIntersectFunctionNArguments* args) {
   const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
   const unsigned n = args->N;
@@ -64,13 +75,8 @@ void PointIntersect(const RTCIntersectFunctionNArguments* args) {
   RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, n);
   for (unsigned i = 0; i < n; ++i) {
     if (args->valid[i] == 0) continue;
-    const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
-                            RTCRayN_org_z(ray, n, i));
-    const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
-                            RTCRayN_dir_z(ray, n, i));
     Eigen::Vector3f normal;
-    const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
-                                  RTCRayN_tfar(ray, n, i), &normal);
+    const float t = IntersectLane(*data, args->primID, ray, n, i, &normal);
     if (std::isnan(t)) continue;
     RTCRayN_tfar(ray, n, i) = t;
     RTCHitN_Ng_x(hit, n, i) = normal.x();
@@ -90,13 +96,8 @@ void PointOccluded(const RTCOccludedFunctionNArguments* args) {
   RTCRayN* ray = args->ray;
   for (unsigned i = 0; i < n; ++i) {
     if (args->valid[i] == 0) continue;
-    const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
-                            RTCRayN_org_z(ray, n, i));
-    const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
-                            RTCRayN_dir_z(ray, n, i));
     Eigen::Vector3f normal;
-    const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
-                                  RTCRayN_tfar(ray, n, i), &normal);
+    const float t = IntersectLane(*data, args->primID, ray, n, i, &normal);
     if (!std::isnan(t)) RTCRayN_tfar(ray, n, i) = -std::numeric_limits<float>::infinity();
   }
 }
