@@ -47,17 +47,8 @@ std::vector<std::string> CommandLine() {
 // The [slurm] table of a config file (cluster/slurm_settings.h keys) as SlurmOptions.
 cluster::SlurmOptions SlurmTable(const nlohmann::json& tables, const std::string& config) {
   cluster::SlurmOptions base;
-  if (!tables.is_object() || !tables.contains("slurm")) return base;
-  for (const auto& [name, value] : tables["slurm"].items()) {
-    const std::string where = fmt::format("{}: [slurm] {}", config, name);
-    const auto set = [&](const nlohmann::json& v) {
-      cluster::SetSlurmSetting(base, name, v.is_string() ? v.get<std::string>() : v.dump(), where);
-    };
-    if (value.is_array()) {
-      for (const nlohmann::json& v : value) set(v);
-    } else {
-      set(value);
-    }
+  if (tables.is_object() && tables.contains("slurm")) {
+    cluster::ApplySlurmTable(base, tables["slurm"], config);
   }
   return base;
 }

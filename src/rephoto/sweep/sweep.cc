@@ -49,24 +49,6 @@ int SmallestTrainingSet(const eval::EvaluateOptions& base) {
   return static_cast<int>(smallest);
 }
 
-// A config file's [slurm] table (cluster/slurm_settings.h names) into `slurm`.
-void ApplySlurmTable(const nlohmann::json& table, const fs::path& file,
-                     cluster::SlurmOptions* slurm) {
-  REPHOTO_CHECK_USAGE(table.is_object(), "{}: [slurm] must be a table", file.string());
-  for (const auto& [name, value] : table.items()) {
-    const std::string where = fmt::format("{}: [slurm] {}", file.string(), name);
-    const auto set = [&](const nlohmann::json& v) {
-      cluster::SetSlurmSetting(*slurm, name, v.is_string() ? v.get<std::string>() : v.dump(),
-                               where);
-    };
-    if (value.is_array()) {
-      for (const nlohmann::json& v : value) set(v);
-    } else {
-      set(value);
-    }
-  }
-}
-
 void ApplySetting(const SweepSetting& setting, eval::EvaluateOptions* options) {
   for (const auto& [name, value] : setting.values) {
     if (name == "train_count") {
@@ -104,7 +86,9 @@ SweepOptions LoadSweepConfigText(std::string_view text, const fs::path& file) {
   SweepOptions options;
   nlohmann::json tables;
   eval::LoadConfigText(text, file, &options.base, {"sweep", "slurm"}, &tables);
-  if (tables.contains("slurm")) ApplySlurmTable(tables["slurm"], file, &options.base.slurm);
+  if (tables.contains("slurm")) {
+    cluster::ApplySlurmTable(options.base.slurm, tables["slurm"], file.string());
+  }
   REPHOTO_CHECK_USAGE(tables.contains("sweep") && tables["sweep"].is_object(),
                       "{}: no [sweep] table (the settings to vary)", file.string());
   const fs::path base_dir = fs::absolute(file).parent_path();
