@@ -63,35 +63,6 @@ std::optional<cluster::SlurmOptions> MakeSlurmOptions(const ExecutorArguments& a
   return options;
 }
 
-std::function<void(const cluster::Progress&)> SlurmProgressLogger() {
-  struct State {
-    size_t finished = SIZE_MAX;  // done + failed at the last line
-    size_t held = 0;
-    std::chrono::steady_clock::time_point last_line{};
-  };
-  auto state = std::make_shared<State>();
-  return [state](const cluster::Progress& p) {
-    // A line when tasks end, else at most one a minute (a long queue wait stays readable).
-    const auto now = std::chrono::steady_clock::now();
-    if (p.held > 0 && p.held != state->held) {
-      LogWarning(
-          fmt::format("slurm: {} task(s) wait for a person, not for resources (held, or "
-                      "an impossible dependency, account, QOS or constraint): see "
-                      "`squeue --me -t PD -o '%i %r'`; `scontrol release JOB` runs held "
-                      "ones",
-                      p.held));
-    }
-    state->held = p.held;
-    if (p.done + p.failed == state->finished && now - state->last_line < std::chrono::minutes(1)) {
-      return;
-    }
-    state->finished = p.done + p.failed;
-    state->last_line = now;
-    LogInfo(fmt::format("slurm: {}/{} tasks done, {} failed, {} running, {} pending", p.done,
-                        p.total, p.failed, p.running, p.pending));
-  };
-}
-
 void PrintSlurmOutcome(const cluster::RunOutcome& outcome, const std::string& resume_hint) {
   std::vector<std::string> submitted, followed;
   for (const cluster::GroupOutcome& group : outcome.groups) {

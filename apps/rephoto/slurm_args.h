@@ -35,9 +35,6 @@ void AddExecutorOptions(CLI::App& app, ExecutorArguments* args);
 std::optional<cluster::SlurmOptions> MakeSlurmOptions(const ExecutorArguments& args,
                                                       cluster::SlurmOptions base = {});
 
-// A progress callback for RunTaskGroups that logs "slurm: 3/10 tasks done, 0 failed, 2 running,
-// 5 pending" (rephoto::LogInfo) when tasks have ended since the last line, or a minute passed.
-std::function<void(const cluster::Progress&)> SlurmProgressLogger();
 
 // Prints what a RunTaskGroups call did: the job ids it submitted or follows, one line per failed
 // task (with its log file), and, when it did not wait, how to collect the results later

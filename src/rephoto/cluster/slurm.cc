@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
@@ -16,6 +17,7 @@
 #include "rephoto/cluster/subprocess.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/progress.h"
 #include "rephoto/run/run_folder.h"
 
 namespace rephoto::cluster {
@@ -794,6 +796,35 @@ RunOutcome RunTaskGroups(const fs::path& run_dir, const std::vector<TaskGroup>& 
                          const std::function<void(const Progress&)>& progress) {
   Runner runner(run_dir, groups, options, progress);
   return runner.Run();
+}
+
+std::function<void(const Progress&)> ProgressLogger() {
+  struct State {
+    size_t finished = SIZE_MAX;  // done + failed at the last line
+    size_t held = 0;
+    std::chrono::steady_clock::time_point last_line{};
+  };
+  auto state = std::make_shared<State>();
+  return [state](const Progress& p) {
+    // A line when tasks end, else at most one a minute (a long queue wait stays readable).
+    const auto now = std::chrono::steady_clock::now();
+    if (p.held > 0 && p.held != state->held) {
+      LogWarning(
+          fmt::format("slurm: {} task(s) wait for a person, not for resources (held, or "
+                      "an impossible dependency, account, QOS or constraint): see "
+                      "`squeue --me -t PD -o '%i %r'`; `scontrol release JOB` runs held "
+                      "ones",
+                      p.held));
+    }
+    state->held = p.held;
+    if (p.done + p.failed == state->finished && now - state->last_line < std::chrono::minutes(1)) {
+      return;
+    }
+    state->finished = p.done + p.failed;
+    state->last_line = now;
+    LogInfo(fmt::format("slurm: {}/{} tasks done, {} failed, {} running, {} pending", p.done,
+                        p.total, p.failed, p.running, p.pending));
+  };
 }
 
 }  // namespace rephoto::cluster

@@ -178,6 +178,11 @@ struct RunOutcome {
 // id, empty argv, relative argv[0], `after` naming no earlier task) and options; Error naming
 // the program and its message when sbatch refuses a submission or squeue keeps failing (what was
 // submitted so far is recorded and keeps running); Interrupted (see SlurmOptions::interrupted).
+// A progress callback for RunTaskGroups that logs "slurm: 3/10 tasks done, 0 failed, 2 running,
+// 5 pending" (LogInfo) when tasks have ended since the last line or a minute passed, and warns
+// when tasks wait for a person (held). Each call returns a callback with its own state.
+std::function<void(const Progress&)> ProgressLogger();
+
 RunOutcome RunTaskGroups(const std::filesystem::path& run_dir, const std::vector<TaskGroup>& groups,
                          const SlurmOptions& options,
                          const std::function<void(const Progress&)>& progress = {});

@@ -98,11 +98,8 @@ SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
   LogInfo(fmt::format("evaluate on Slurm: {} folds, {} views, {} tasks ({} done before) -> {}",
                       plan.folds, plan.views, plan.tasks.size(), outcome.tasks_done_before,
                       plan.run.string()));
-  const cluster::RunOutcome run = cluster::RunTaskGroups(
-      plan.run, groups, slurm, [](const cluster::Progress& p) {
-        LogInfo(fmt::format("slurm: {} of {} tasks done, {} failed, {} running, {} pending",
-                            p.done, p.total, p.failed, p.running, p.pending));
-      });
+  const cluster::RunOutcome run =
+      cluster::RunTaskGroups(plan.run, groups, slurm, cluster::ProgressLogger());
   outcome.run = run;
   outcome.jobs = run.JobIds();
   outcome.failed = run.FailureLines();

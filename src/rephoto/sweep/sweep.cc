@@ -280,19 +280,17 @@ void CollectSettings(const SweepOptions& options, const SweepPlan& plan, SweepRe
 
 // The settings as Slurm job arrays: every setting's fold, view and aggregation tasks, then one
 // task that aggregates the sweep (`rephoto sweep CONFIG --out OUT --only-aggregate`).
-bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
-                        SweepResult* result) {
-  std::vector<cluster::TaskGroup> groups = {{"fold", {}, options.base.source() !=
-                                                             eval::ModelSource::kModel},
-                                            {"views", {}, false},
-                                            {"aggregate", {}, false},
-                                            {"sweep", {}, false}};
+bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan, SweepResult* result) {
+  std::vector<cluster::TaskGroup> groups = {
+      {"fold", {}, options.base.source() != eval::ModelSource::kModel},
+      {"views", {}, false},
+      {"aggregate", {}, false},
+      {"sweep", {}, false}};
   size_t tasks = 0, done_before = 0;
   for (const SweepSetting& setting : plan.settings) {
     eval::EvaluatePlan evaluate_plan;
-    const std::vector<cluster::TaskGroup> setting_groups =
-        eval::PrepareEvaluateTasks(SettingOptions(options, setting), setting.name + "/",
-                                   &evaluate_plan);
+    const std::vector<cluster::TaskGroup> setting_groups = eval::PrepareEvaluateTasks(
+        SettingOptions(options, setting), setting.name + "/", &evaluate_plan);
     for (size_t g = 0; g < setting_groups.size(); ++g) {
       for (const cluster::Task& task : setting_groups[g].tasks) groups[g].tasks.push_back(task);
     }
@@ -303,13 +301,11 @@ bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
                       "sweep: --executor slurm needs the sweep's config file");
   const fs::path program =
       options.base.program.empty() ? eval::ThisExecutable() : options.base.program;
-  std::vector<std::string> argv = {program.string(),
-                                   "-q",
-                                   "sweep",
-                                   fs::absolute(options.base.config_file).string(),
-                                   "--out",
-                                   fs::absolute(options.out).string(),
-                                   "--only-aggregate"};
+  std::vector<std::string> argv = {
+      program.string(),  "-q",
+      "sweep",           fs::absolute(options.base.config_file).string(),
+      "--out",           fs::absolute(options.out).string(),
+      "--only-aggregate"};
   if (!options.report) argv.push_back("--no-report");
   const bool sweep_done = done_before == tasks && fs::exists(options.out / "sweep.json");
   if (!sweep_done) {
@@ -327,10 +323,7 @@ bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan,
                       plan.settings.size(), tasks + 1, done_before + (sweep_done ? 1 : 0),
                       options.out.string()));
   const cluster::RunOutcome run =
-      cluster::RunTaskGroups(options.out, groups, slurm, [](const cluster::Progress& p) {
-        LogInfo(fmt::format("slurm: {} of {} tasks done, {} failed, {} running, {} pending", p.done,
-                            p.total, p.failed, p.running, p.pending));
-      });
+      cluster::RunTaskGroups(options.out, groups, slurm, cluster::ProgressLogger());
   result->slurm = run;
   for (const std::string& line : run.FailureLines()) LogWarning("slurm: failed: " + line);
   if (!run.finished) return false;
