@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "rephoto/core/file.h"
-#include "rephoto/io/csv.h"
 #include "rephoto/run/records.h"
+#include "rephoto/run/run_data.h"
 #include "rephoto/run/summary_table.h"
 
 namespace rephoto::eval {
@@ -59,37 +61,6 @@ Summary SummaryFromJson(const Json& j) {
   return s;
 }
 
-double CsvDouble(const std::string& field, const fs::path& path) {
-  const std::optional<double> value = run::ParseCsvNumber(field);
-  REPHOTO_CHECK(value.has_value(), "{}: '{}' is not a number", path.string(), field);
-  return *value;
-}
-
-void ReadFolds(const fs::path& path, const std::vector<metrics::Metric>& metrics,
-               EvaluateResult* result) {
-  const std::vector<std::vector<std::string>> rows =
-      io::ParseCsv(ReadFileToString(path), path.string());
-  REPHOTO_CHECK(!rows.empty() && rows[0].size() == 6 + metrics.size(),
-                "{}: not the per_fold.csv of this run's summary.json", path.string());
-  for (size_t r = 1; r < rows.size(); ++r) {
-    const std::vector<std::string>& row = rows[r];
-    REPHOTO_CHECK(row.size() == rows[0].size(), "{}: line {}: {} fields, expected {}",
-                  path.string(), r + 1, row.size(), rows[0].size());
-    FoldResult fold;
-    fold.index = r - 1;
-    fold.name = row[0];
-    fold.ok = row[1] == "ok";
-    fold.test_images = static_cast<size_t>(CsvDouble(row[2], path));
-    fold.evaluated_images = static_cast<size_t>(CsvDouble(row[3], path));
-    fold.completeness = CsvDouble(row[4], path);
-    for (size_t k = 0; k < metrics.size(); ++k) {
-      fold.metric_means.push_back(CsvDouble(row[5 + k], path));
-    }
-    fold.message = row.back();
-    result->folds.push_back(std::move(fold));
-  }
-}
-
 }  // namespace
 
 EvaluateResult ReadEvaluateResult(const fs::path& run_dir) {
@@ -118,7 +89,24 @@ EvaluateResult ReadEvaluateResult(const fs::path& run_dir) {
   for (const Json& missing : summary->value("missing", Json::array())) {
     result.missing_photos.push_back(missing.value("name", ""));
   }
-  ReadFolds(run_dir / "per_fold.csv", metric_list, &result);
+  // The folds as run/run_data.h reads per_fold.csv.
+  const run::RunData run = run::LoadRun(run_dir);
+  for (size_t f = 0; f < run.folds.size(); ++f) {
+    const run::FoldRow& row = run.folds[f];
+    FoldResult fold;
+    fold.index = f;
+    fold.name = row.fold;
+    fold.ok = row.status == "ok";
+    fold.test_images = static_cast<size_t>(row.test_images);
+    fold.evaluated_images = static_cast<size_t>(row.evaluated_images);
+    fold.completeness = row.completeness;
+    for (metrics::Metric metric : metric_list) {
+      const int k = run.MetricIndex(std::string(metrics::MetricName(metric)));
+      fold.metric_means.push_back(k >= 0 ? row.metrics[k] : std::nan(""));
+    }
+    fold.message = row.message;
+    result.folds.push_back(std::move(fold));
+  }
   bool incomplete = !result.missing_photos.empty();
   for (const FoldResult& fold : result.folds) incomplete |= !fold.ok;
   result.exit_code = incomplete ? ExitCode::kIncomplete : ExitCode::kOk;
