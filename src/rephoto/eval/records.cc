@@ -39,9 +39,8 @@ void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome
   run::WriteJsonRecord(outcome.record, j);
 }
 
-bool ReadViewRecord(const RunState& s, const fs::path& path, const std::string& key,
-                    ViewOutcome* outcome) {
-  const std::optional<Json> json = run::ReadJsonRecord(path);
+bool ReadViewRecord(const RunState& s, const fs::path& path, const std::optional<Json>& json,
+                    const std::string& key, ViewOutcome* outcome) {
   if (!json || json->value("key", "") != key || json->value("status", "") != "ok") return false;
   try {
     compare::ImageResult& image = outcome->image;

@@ -22,9 +22,11 @@ namespace rephoto::eval {
 
 void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome& outcome);
 
-// Fills `outcome` from the record at `path` when it holds `key` with status "ok" and the files it
-// points to (rendering; error images when they are on) still exist; false otherwise.
-bool ReadViewRecord(const RunState& s, const std::filesystem::path& path, const std::string& key,
+// Fills `outcome` from `record` (the view record at `path` as run::ReadJsonRecord read it) when
+// it holds `key` with status "ok" and the files it points to (rendering; error images when they
+// are on) still exist; false otherwise.
+bool ReadViewRecord(const RunState& s, const std::filesystem::path& path,
+                    const std::optional<Json>& record, const std::string& key,
                     ViewOutcome* outcome);
 
 void WriteFoldJson(const RunState& s, const FoldState& fold, const std::string& status);

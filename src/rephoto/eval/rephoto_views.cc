@@ -177,16 +177,16 @@ std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, 
       render_hash = image.empty() ? std::string() : s.hashes->Hash(image);
     }
     outcome.key = ViewKey(test, fold.base_key, render_hash, compare_key);
+    const std::optional<Json> previous = run::ReadJsonRecord(outcome.record);  // read once
     if (!external) {
       outcome.render_key = RenderKey(fold.base_key, test);
-      const std::optional<Json> previous = run::ReadJsonRecord(outcome.record);
       std::error_code ec;
       outcome.reuse_render =
           previous && previous->value("render_key", "") == outcome.render_key &&
           fs::is_regular_file(fold.dir / "renders" / (test.stem + ".png"), ec) &&
           fs::is_regular_file(fold.dir / "renders" / (test.stem + ".depth.exr"), ec);
     }
-    if (ReadViewRecord(s, outcome.record, outcome.key, &outcome)) {
+    if (ReadViewRecord(s, outcome.record, previous, outcome.key, &outcome)) {
       outcome.ok = true;
       outcome.reused = true;
       outcome.image.name = test.stem;
