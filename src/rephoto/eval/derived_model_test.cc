@@ -7,6 +7,7 @@
 
 #include "rephoto/core/file.h"
 #include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/evaluate_fixture.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/synth/demo_files.h"
@@ -17,34 +18,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-using metrics::Metric;
 
-// The demo scene of evaluate_test: 6 cameras of 160x120.
-const synth::DemoSceneFiles& Files() {
-  static const synth::DemoSceneFiles files = [] {
-    synth::DemoSceneOptions options;
-    options.image_width = 160;
-    options.image_height = 120;
-    options.camera_count = 6;
-    options.ground_cells = 40;
-    options.object_bands = 24;
-    return synth::WriteDemoSceneFiles(options, testing::MakeTempDir() / "scene", [](size_t i) {
-      return synth::PhotoSettings{1.0 + 0.02 * static_cast<double>(i % 3), 0.01, 100 + i};
-    });
-  }();
-  return files;
-}
+const synth::DemoSceneFiles& Files() { return EvaluateTestScene(); }
 
-EvaluateOptions BaseOptions(const fs::path& out) {
-  EvaluateOptions o;
-  o.scene = Files().sparse;
-  o.image_root = Files().images;
-  o.out = out;
-  o.metrics = {Metric::kOneMinusNcc, Metric::kCbCr};
-  o.report = false;
-  o.projection_metric = "none";
-  return o;
-}
+EvaluateOptions BaseOptions(const fs::path& out) { return EvaluateTestOptions(out); }
 
 nlohmann::json ReadJson(const fs::path& path) {
   return nlohmann::json::parse(ReadFileToString(path));

@@ -22,6 +22,7 @@
 #include "rephoto/scene/colmap.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/splat/rasterize.h"
+#include "rephoto/eval/evaluate_fixture.h"
 #include "rephoto/synth/demo_files.h"
 #include "rephoto/testing/testing.h"
 
@@ -32,7 +33,7 @@ namespace fs = std::filesystem;
 using metrics::Metric;
 using ::testing::HasSubstr;
 
-constexpr int kViews = 6;
+constexpr int kViews = kTestViews;
 
 // The scene on disk: images/view_XXX.png, sparse/ (COLMAP text), truth.ply (vertex colours),
 // plain.ply (no colours), and by_hand/ = the ground truth rendered at every view with the
@@ -45,17 +46,9 @@ struct SceneFiles {
 const SceneFiles& Files() {
   static const SceneFiles files = [] {
     SceneFiles f;
-    f.root = testing::MakeTempDir() / "scene with space";
+    const synth::DemoSceneFiles& demo = EvaluateTestScene();
+    f.root = demo.root;
     f.by_hand = f.root / "by_hand";
-    synth::DemoSceneOptions options;
-    options.image_width = 160;
-    options.image_height = 120;
-    options.camera_count = kViews;
-    options.ground_cells = 40;
-    options.object_bands = 24;
-    const synth::DemoSceneFiles demo = synth::WriteDemoSceneFiles(options, f.root, [](size_t i) {
-      return synth::PhotoSettings{1.0 + 0.02 * static_cast<double>(i % 3), 0.01, 100 + i};
-    });
     f.sparse = demo.sparse;
     f.images = demo.images;
     f.truth = demo.truth;
@@ -75,14 +68,8 @@ const SceneFiles& Files() {
 }
 
 EvaluateOptions BaseOptions(const fs::path& out) {
-  EvaluateOptions o;
-  o.scene = Files().sparse;
-  o.image_root = Files().images;
-  o.out = out;
-  o.metrics = {Metric::kOneMinusNcc, Metric::kCbCr};
-  o.report = false;
-  o.projection_metric = "none";
-  return o;
+  Files();  // the by-hand renderings too
+  return EvaluateTestOptions(out);
 }
 
 std::vector<std::vector<std::string>> ReadCsv(const fs::path& path) {
