@@ -66,9 +66,15 @@ bool ReadViewRecord(const RunState& s, const fs::path& path, const std::optional
   } catch (const std::exception&) {
     return false;
   }
-  // The files the record points to must still be there.
+  // The files the record points to must still be there; a record naming a rendering outside
+  // the run folder (absolute, or with "..") is not this run's and is recomputed.
+  const fs::path& render = outcome->image.render;
+  if (render.is_absolute() || render.empty() ||
+      render.lexically_normal().generic_string().rfind("..", 0) == 0) {
+    return false;
+  }
   std::error_code ec;
-  if (!fs::exists(s.run / outcome->image.render, ec)) return false;
+  if (!fs::exists(s.run / render, ec)) return false;
   if (s.o.error_images) {
     for (metrics::Metric metric : s.o.metrics) {
       const std::string base = outcome->stem + "." + std::string(metrics::MetricName(metric));
