@@ -25,6 +25,7 @@
 #include "rephoto/compare/compat_compare.h"
 #include "rephoto/compare/error_images.h"
 #include "rephoto/compare/resample.h"
+#include "rephoto/core/background_worker.h"
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/parallel.h"
@@ -136,55 +137,6 @@ struct PairImages {
   bool render_is_8bit = false;
   Mask render_mask;
   Mask photo_mask;
-};
-
-// One thread that runs jobs in order; lives for the whole run so that the decoders' per-thread
-// buffers are reused from pair to pair.
-class BackgroundWorker {
- public:
-  BackgroundWorker() : thread_([this] { Loop(); }) {}
-  ~BackgroundWorker() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_one();
-    thread_.join();
-  }
-  BackgroundWorker(const BackgroundWorker&) = delete;
-  BackgroundWorker& operator=(const BackgroundWorker&) = delete;
-
-  std::future<void> Submit(std::function<void()> job) {
-    std::packaged_task<void()> task(std::move(job));
-    std::future<void> done = task.get_future();
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      jobs_.push_back(std::move(task));
-    }
-    wake_.notify_one();
-    return done;
-  }
-
- private:
-  void Loop() {
-    for (;;) {
-      std::packaged_task<void()> task;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [this] { return stop_ || !jobs_.empty(); });
-        if (jobs_.empty()) return;
-        task = std::move(jobs_.front());
-        jobs_.pop_front();
-      }
-      task();
-    }
-  }
-
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<std::packaged_task<void()>> jobs_;
-  bool stop_ = false;
-  std::thread thread_;  // last: starts after the members above exist
 };
 
 std::string SizeText(const io::ImageHeader& h) { return fmt::format("{}x{}", h.width, h.height); }
@@ -449,9 +401,9 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
                                   const fs::path& photo_path, const fs::path& render_path,
                                   const Image& photo, const Image& render, const Mask* photo_mask,
                                   const Mask* render_mask, const fs::path& error_folder,
-                                  CompareWorkspace* workspace) {
+                                  CompareWorkspace* workspace, std::vector<Image>* error_images) {
   return CompareImages(options, name, photo_path, render_path, photo, render, photo_mask,
-                       render_mask, error_folder, nullptr, workspace->buffers.get());
+                       render_mask, error_folder, error_images, workspace->buffers.get());
 }
 
 template <typename P, typename R>

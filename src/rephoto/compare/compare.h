@@ -153,14 +153,15 @@ class CompareWorkspace {
 // options.resize and the sizes differ, else sizes must match). `photo_path` and `render_path`
 // are only recorded in the result. When options.write_error_images, writes
 // <error_folder>/<name>.<metric>.exr and .png (`name` may contain '/': the subfolders must
-// exist). Masks may be null. Throws Error naming the files on a size mismatch.
-ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::string& name,
-                                  const std::filesystem::path& photo_path,
-                                  const std::filesystem::path& render_path, const Image& photo,
-                                  const Image& render, const Mask* photo_mask,
-                                  const Mask* render_mask,
-                                  const std::filesystem::path& error_folder,
-                                  CompareWorkspace* workspace);
+// exist) while it compares. When `error_images` is not null, nothing is written: it receives
+// the error images instead, as CompareInMemory gives them, for a caller that writes them later
+// (WriteErrorImages in error_images.h writes the same files). Masks may be null. Throws Error
+// naming the files on a size mismatch.
+ImageResult ComparePhotoAndRender(
+    const CompareOptions& options, const std::string& name, const std::filesystem::path& photo_path,
+    const std::filesystem::path& render_path, const Image& photo, const Image& render,
+    const Mask* photo_mask, const Mask* render_mask, const std::filesystem::path& error_folder,
+    CompareWorkspace* workspace, std::vector<Image>* error_images = nullptr);
 
 // One pair compared in memory (the Python package, rephoto.compare): the same function as
 // ComparePhotoAndRender underneath, so the same validity, resizing, compat and values, bit for

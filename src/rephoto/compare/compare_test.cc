@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "rephoto/compare/error_images.h"
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
@@ -573,6 +574,52 @@ TEST(Compare, InMemoryEqualsRunCompareAndItsErrorImages) {
   } catch (const UsageError& e) {
     EXPECT_STREQ(e.what(), "metric 'psnr' is listed twice");
   }
+}
+
+// issue 18: evaluate compares a view and writes its error images later, in a background
+// writer: ComparePhotoAndRender with `error_images` writes nothing, and WriteErrorImages then
+// writes the very files (bytes) and the same result the streaming path gives.
+TEST(Compare, ErrorImagesReturnedAndWrittenLaterAreTheStreamedFiles) {
+  auto rng = testing::MakeRng();
+  const fs::path dir = testing::MakeTempDir();
+  for (const fs::path sub : {"streamed", "later"}) fs::create_directories(dir / sub);
+  Image photo = RandomImage(rng, 70, 45);
+  Image render(70, 45, 4);
+  for (size_t i = 0; i < render.pixel_count(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      render.data()[4 * i + c] = std::clamp(photo.data()[3 * i + c] + 0.1f * (c - 1), 0.f, 1.f);
+    }
+    render.data()[4 * i + 3] = i % 11 == 5 ? 0.f : 1.f;
+  }
+  CompareOptions options;
+  options.metrics = metrics::AllMetrics();
+  CompareWorkspace workspace;
+  const ImageResult streamed =
+      ComparePhotoAndRender(options, "v", "p.png", "r.png", photo, render, nullptr, nullptr,
+                            dir / "streamed", &workspace);
+  std::vector<Image> errors;
+  const ImageResult later =
+      ComparePhotoAndRender(options, "v", "p.png", "r.png", photo, render, nullptr, nullptr,
+                            dir / "later", &workspace, &errors);
+  EXPECT_TRUE(FolderEntries(dir / "later").empty());
+  EXPECT_EQ(later.name, streamed.name);
+  EXPECT_EQ(later.completeness.valid_both, streamed.completeness.valid_both);
+  ASSERT_EQ(later.metrics.size(), streamed.metrics.size());
+  for (size_t i = 0; i < later.metrics.size(); ++i) {
+    const double a = later.metrics[i].mean, b = streamed.metrics[i].mean;
+    EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << i;
+  }
+  std::vector<uint8_t> rgba;
+  WriteErrorImages(errors, options.metrics, dir / "later", "v", &rgba);
+  const std::vector<std::string> files = FolderEntries(dir / "streamed");
+  EXPECT_EQ(files.size(), 2 * options.metrics.size());
+  EXPECT_EQ(FolderEntries(dir / "later"), files);
+  for (const std::string& file : files) {
+    EXPECT_EQ(ReadFileToString(dir / "later" / file), ReadFileToString(dir / "streamed" / file))
+        << file;
+  }
+  EXPECT_THROW(WriteErrorImages(errors, {Metric::kPsnr}, dir / "later", "v", &rgba), Error);
+  fs::remove_all(dir);
 }
 
 // issue 14: compare --out never destroys a folder it did not make, has one writer, and a

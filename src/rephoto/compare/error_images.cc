@@ -1,6 +1,7 @@
 #include "rephoto/compare/error_images.h"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <cstring>
 #include <string>
 
+#include "rephoto/compare/compare.h"
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
@@ -189,6 +191,25 @@ void WriteErrorPng(const ErrorExrWriter& exr, int width, int height, float low, 
     ColourErrorValues(values.data(), values.size(), low, high, out);
   });
   io::WritePng8(path, *rgba, width, height, 4);
+}
+
+void WriteErrorImages(const std::vector<Image>& errors, const std::vector<metrics::Metric>& metrics,
+                      const fs::path& folder, const std::string& name, std::vector<uint8_t>* rgba) {
+  REPHOTO_CHECK(errors.size() == metrics.size(), "{}: {} error images for {} metrics",
+                (folder / name).string(), errors.size(), metrics.size());
+  for (size_t i = 0; i < errors.size(); ++i) {
+    const std::string base = fmt::format("{}.{}", name, metrics::MetricName(metrics[i]));
+    const Image& error = errors[i];
+    // Bands of rows through ErrorExrWriter: no whole-file buffer (io::WriteExr's), the same bytes.
+    ErrorExrWriter exr(folder / (base + ".exr"), error.width(), error.height());
+    for (int y0 = 0; y0 < error.height(); y0 += 64) {
+      exr.WriteRows(y0, std::min(error.height(), y0 + 64), error.row(y0));
+    }
+    const auto [low, high] = ErrorColourRange(metrics[i]);
+    ColourErrorImage(error, low, high, rgba);
+    io::WritePng8(folder / (base + ".png"), *rgba, error.width(), error.height(), 4);
+    exr.Commit();
+  }
 }
 
 }  // namespace rephoto::compare

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rephoto/core/image.h"
+#include "rephoto/metrics/metrics.h"
 
 namespace rephoto::compare {
 
@@ -50,5 +51,14 @@ void ColourErrorValues(const float* values, size_t count, float low, float high,
 // (width * height * 4 bytes, reused between calls).
 void WriteErrorPng(const ErrorExrWriter& exr, int width, int height, float low, float high,
                    const std::filesystem::path& path, std::vector<uint8_t>* rgba);
+
+// Writes errors[i] (width x height x 1, NaN = not evaluated) of metrics[i] as
+// <folder>/<name>.<metric>.exr and its jet .png over ErrorColourRange (compare.h): the same
+// bytes ComparePhotoAndRender writes while it compares, each file atomically. `name` may
+// contain '/' (the subfolders must exist). `rgba` is scratch reused between calls. Throws Error
+// naming the file that cannot be written.
+void WriteErrorImages(const std::vector<Image>& errors, const std::vector<metrics::Metric>& metrics,
+                      const std::filesystem::path& folder, const std::string& name,
+                      std::vector<uint8_t>* rgba);
 
 }  // namespace rephoto::compare

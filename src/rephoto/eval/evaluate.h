@@ -289,13 +289,18 @@ struct EvaluateTimings {
   double external = 0;  // sum over commands (may overlap rephoto's own work)
   double split = 0, prepare = 0, colorize = 0, render = 0, compare = 0, aggregate = 0, project = 0,
          report = 0;
+  // The view stage is a pipeline (eval/rephoto_views.h): render (render and write the
+  // rendering), photos (decode, downscale, masks), compare (the metrics) and write (error
+  // images and view records) are summed over views and overlap; views is the stage's wall time.
+  double photos = 0, write = 0, views = 0;
   // CPU seconds (user + system, all threads) of this invocation: the commands' (their whole
   // process trees, from wait4) and rephoto's own process. Unlike wall-clock sums these do not
   // depend on what overlapped what, nor much on other load on the machine.
   double external_cpu = 0, rephoto_cpu = 0;
   double rephoto_cpu_share() const { return RephotoShare(rephoto_cpu, external_cpu); }
   double rephoto() const {
-    return split + prepare + colorize + render + compare + aggregate + project + report;
+    return split + prepare + colorize + render + photos + compare + write + aggregate + project +
+           report;
   }
 };
 
@@ -330,7 +335,7 @@ struct EvaluateTask {
 };
 
 struct EvaluatePlan {
-  std::filesystem::path run;  // absolute
+  std::filesystem::path run;        // absolute
   std::vector<EvaluateTask> tasks;  // fold tasks, then view tasks, then "aggregate"
   size_t folds = 0, views = 0;
 };

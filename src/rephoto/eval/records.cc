@@ -195,7 +195,10 @@ Json TimingsJson(const RunState& s) {
             {"prepare", t.prepare},
             {"colorize", t.colorize},
             {"render", t.render},
+            {"photos", t.photos},
             {"compare", t.compare},
+            {"write", t.write},
+            {"views", t.views},
             {"aggregate", t.aggregate},
             {"project", t.project},
             {"report", t.report}}},
@@ -203,7 +206,10 @@ Json TimingsJson(const RunState& s) {
            "seconds of this invocation; external = sum over commands, which run in "
            "background threads and may overlap rephoto's own work (wall-clock sums "
            "then count the overlap twice); cpu = user + system CPU seconds of the "
-           "commands' process trees and of rephoto's own process"}};
+           "commands' process trees and of rephoto's own process; the views' render, photos, "
+           "compare and "
+           "write run in a pipeline (one view is compared while the next is rendered and the "
+           "previous one written), so their sum can exceed views, the view stage's wall time"}};
 }
 
 Json OutputsJson(const RunState& s) {
@@ -214,11 +220,10 @@ Json OutputsJson(const RunState& s) {
     if (it->path().extension() == ".ply") projected.push_back(s.Relative(it->path()));
   }
   std::sort(projected.begin(), projected.end());
-  return {
-      {"projected", projected},
-      {"projection_error", s.projection_message.empty() ? Json() : Json(s.projection_message)},
-      {"report", fs::exists(s.run / "report.html", ec) ? Json("report.html") : Json()},
-      {"report_error", s.report_message.empty() ? Json() : Json(s.report_message)}};
+  return {{"projected", projected},
+          {"projection_error", s.projection_message.empty() ? Json() : Json(s.projection_message)},
+          {"report", fs::exists(s.run / "report.html", ec) ? Json("report.html") : Json()},
+          {"report_error", s.report_message.empty() ? Json() : Json(s.report_message)}};
 }
 
 }  // namespace
@@ -239,14 +244,10 @@ void WriteRunJson(const RunState& s, const EvaluateResult* result, const std::st
   j["split"] = SplitJson(s);
   j["timings"] = TimingsJson(s);
   const EvaluateCounters& c = s.counters;
-  j["counters"] = {{"commands_run", c.commands_run},
-                   {"folds_reused", c.folds_reused},
-                   {"models_colorized", c.models_colorized},
-                   {"views_rendered", c.views_rendered},
-                   {"views_compared", c.views_compared},
-                   {"views_reused", c.views_reused},
-                   {"photos_downscaled", c.photos_downscaled},
-                   {"projections", c.projections}};
+  j["counters"] = {{"commands_run", c.commands_run},           {"folds_reused", c.folds_reused},
+                   {"models_colorized", c.models_colorized},   {"views_rendered", c.views_rendered},
+                   {"views_compared", c.views_compared},       {"views_reused", c.views_reused},
+                   {"photos_downscaled", c.photos_downscaled}, {"projections", c.projections}};
   Json fold_status = Json::array();
   if (result != nullptr) {
     for (const FoldResult& fr : result->folds) {
@@ -277,8 +278,8 @@ Json ViewTaskJson(const RunState& s, const FoldState& fold, size_t i,
   if (s.o.error_images) {
     Json errors = Json::array();
     for (metrics::Metric m : s.o.metrics) {
-      errors.push_back(s.Relative(fold.dir / "errors" /
-                                  (test.stem + "." + std::string(metrics::MetricName(m)) + ".exr")));
+      errors.push_back(s.Relative(
+          fold.dir / "errors" / (test.stem + "." + std::string(metrics::MetricName(m)) + ".exr")));
     }
     outputs["errors"] = errors;
   }

@@ -1,7 +1,16 @@
 #include "rephoto/eval/rephoto_views.h"
 
+#include <tbb/global_control.h>
+
+#include <future>
+#include <memory>
+#include <mutex>
+
+#include "rephoto/compare/error_images.h"
 #include "rephoto/compare/resample.h"
+#include "rephoto/core/background_worker.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/core/process.h"
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/keys.h"
@@ -28,8 +37,8 @@ void RemoveStaleErrorImages(const fs::path& errors_dir, const std::string& stem)
 
 // The photo at the evaluation resolution: the original, or its downscaled copy, cached once as
 // 16-bit PNG (keeps the filtered values to 1/65535) and compared as read back.
-const Image& EvalPhoto(RunState& s, ViewWorkspace& ws, const TestView& test, fs::path* used_path) {
-  Image* scratch = &ws.eval_photo;
+const Image& EvalPhoto(RunState& s, PreparedView& view, const TestView& test, fs::path* used_path) {
+  Image* scratch = &view.eval_photo;
   const camera::Camera& full = s.scene.CameraOf(s.scene.views[test.view_index]);
   if (full.width == test.camera.width && full.height == test.camera.height) {
     io::ReadImage(test.photo, scratch);
@@ -55,7 +64,7 @@ const Image& EvalPhoto(RunState& s, ViewWorkspace& ws, const TestView& test, fs:
       // recompute below
     }
   }
-  Image& photo = ws.full_photo;
+  Image& photo = view.full_photo;
   io::ReadImage(test.photo, &photo);
   REPHOTO_CHECK(photo.width() == full.width && photo.height() == full.height,
                 "{}: photo is {}x{} but its camera is {}x{}", test.photo.string(), photo.width(),
@@ -63,7 +72,10 @@ const Image& EvalPhoto(RunState& s, ViewWorkspace& ws, const TestView& test, fs:
   compare::ResizeImage(photo, test.camera.width, test.camera.height, scratch);
   io::WritePngAndQuantize(cached, scratch, io::PngDepth::k16, io::PngCompression::kNone);
   WriteTextFileAtomically(key_file, key);
-  ++s.counters.photos_downscaled;
+  {
+    std::lock_guard<std::mutex> lock(s.timings_mutex);
+    ++s.counters.photos_downscaled;
+  }
   *used_path = cached;
   return *scratch;
 }
@@ -102,58 +114,115 @@ compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
   return c;
 }
 
-// The rendering of the view into ws.render: reused from disk, rendered, or the external one.
-fs::path ObtainRendering(RunState& s, ViewWorkspace& ws, FoldState& fold, const TestView& test,
+// The rendering of the view into view.render: reused from disk, rendered, or the external one.
+fs::path ObtainRendering(RunState& s, PreparedView& view, FoldState& fold, const TestView& test,
                          render::ViewRenderer* renderer, const ViewOutcome& outcome) {
   const fs::path renders_dir = fold.dir / "renders";
   if (outcome.reuse_render) {
     // Only compare settings changed: the rendering on disk is the one this view needs.
-    io::ReadImage(renders_dir / (test.stem + ".png"), &ws.render);
+    io::ReadImage(renders_dir / (test.stem + ".png"), &view.render);
     return renders_dir / (test.stem + ".png");
   }
   if (renderer != nullptr) {
-    renderer->Render(test.camera, test.pose, &ws.rephoto);
-    render::WriteRephoto(renders_dir, test.stem, &ws.rephoto);  // compared as the PNG written
-    std::swap(ws.render, ws.rephoto.color);  // the next view renders into the previous buffer
+    renderer->Render(test.camera, test.pose, &view.rephoto);
+    render::WriteRephoto(renders_dir, test.stem, &view.rephoto);  // compared as the PNG written
+    std::swap(view.render, view.rephoto.color);  // the next view renders into the previous buffer
+    std::lock_guard<std::mutex> lock(s.timings_mutex);
     ++s.counters.views_rendered;
     return renders_dir / (test.stem + ".png");
   }
   const fs::path path = FindImageByStem(fold.out_dir, test.stem);
   REPHOTO_CHECK(!path.empty(), "{}: no rendering named '{}'", fold.out_dir.string(), test.stem);
-  io::ReadImage(path, &ws.render);
+  io::ReadImage(path, &view.render);
   return path;
 }
 
-void EvaluateView(RunState& s, ViewWorkspace& ws, FoldState& fold, const TestView& test,
-                  render::ViewRenderer* renderer, ViewOutcome* outcome) {
-  auto start = Clock::now();
-  const fs::path render_path = ObtainRendering(s, ws, fold, test, renderer, *outcome);
-  outcome->render_seconds = Seconds(start);
-  s.timings.render += outcome->render_seconds;
+void AddSeconds(RunState& s, double EvaluateTimings::*field, double seconds) {
+  std::lock_guard<std::mutex> lock(s.timings_mutex);
+  s.timings.*field += seconds;
+}
 
-  start = Clock::now();
+// The preparer's step (any thread): the rendering, the photo at the evaluation resolution and
+// the masks of view `test` into `view`. An Error is kept in view.failure; others propagate.
+void PrepareView(RunState& s, PreparedView& view, FoldState& fold, const TestView& test,
+                 render::ViewRenderer* renderer, ViewOutcome& outcome) {
+  view.failure.clear();
+  try {
+    auto start = Clock::now();
+    view.render_path = ObtainRendering(s, view, fold, test, renderer, outcome);
+    outcome.render_seconds = Seconds(start);
+    AddSeconds(s, &EvaluateTimings::render, outcome.render_seconds);
+    start = Clock::now();
+    EvalPhoto(s, view, test, &view.photo_path);
+    view.mask = EvalMask(test);
+    view.render_mask.reset();
+    if (fold.gaussians && (renderer != nullptr || outcome.reuse_render)) {
+      view.render_mask = AlphaMask(view.render, s.o.min_alpha);
+    }
+    outcome.compare_seconds = Seconds(start);
+    AddSeconds(s, &EvaluateTimings::photos, outcome.compare_seconds);
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    view.failure = e.what();
+  }
+}
+
+// The caller's step: compares the prepared view. Error images go to `error_images` when given
+// (the writer writes them), else they are written while compared.
+void CompareView(RunState& s, ViewWorkspace& ws, const PreparedView& view, FoldState& fold,
+                 const TestView& test, std::vector<Image>* error_images, ViewOutcome& outcome) {
+  const auto start = Clock::now();
   const fs::path errors_dir = fold.dir / "errors";
-  fs::path photo_path;
-  const Image& photo = EvalPhoto(s, ws, test, &photo_path);
-  const std::optional<Mask> mask = EvalMask(test);
-  std::error_code ec;
-  if (s.o.error_images) {
+  if (s.o.error_images && error_images == nullptr) {
     RemoveStaleErrorImages(errors_dir, test.stem);
+    std::error_code ec;
     fs::create_directories((errors_dir / test.stem).parent_path(), ec);
   }
-  std::optional<Mask> render_mask;
-  if (fold.gaussians && (renderer != nullptr || outcome->reuse_render)) {
-    render_mask = AlphaMask(ws.render, s.o.min_alpha);
-  }
-  outcome->image = compare::ComparePhotoAndRender(
-      CompareSettings(s.o), test.stem, photo_path, fs::path(s.Relative(render_path)), photo,
-      ws.render, mask ? &*mask : nullptr, render_mask ? &*render_mask : nullptr, errors_dir,
-      &ws.compare);
-  outcome->compare_seconds = Seconds(start);
-  s.timings.compare += outcome->compare_seconds;
+  outcome.image = compare::ComparePhotoAndRender(
+      CompareSettings(s.o), test.stem, view.photo_path, fs::path(s.Relative(view.render_path)),
+      view.eval_photo, view.render, view.mask ? &*view.mask : nullptr,
+      view.render_mask ? &*view.render_mask : nullptr, errors_dir, &ws.compare, error_images);
+  const double seconds = Seconds(start);
+  outcome.compare_seconds += seconds;
+  std::lock_guard<std::mutex> lock(s.timings_mutex);
+  s.timings.compare += seconds;
   ++s.counters.views_compared;
-  outcome->ok = true;
-  WriteViewRecord(s, fold, *outcome);
+}
+
+// The writer's step: the error images handed over (if any), then the view record, last.
+void WriteView(RunState& s, ViewWorkspace& ws, FoldState& fold, const TestView& test,
+               const std::vector<Image>* error_images, ViewOutcome& outcome) {
+  const auto start = Clock::now();
+  if (error_images != nullptr) {
+    const fs::path errors_dir = fold.dir / "errors";
+    RemoveStaleErrorImages(errors_dir, test.stem);
+    std::error_code ec;
+    fs::create_directories((errors_dir / test.stem).parent_path(), ec);
+    compare::WriteErrorImages(*error_images, s.o.metrics, errors_dir, test.stem, &ws.rgba);
+  }
+  outcome.ok = true;
+  WriteViewRecord(s, fold, outcome);
+  AddSeconds(s, &EvaluateTimings::write, Seconds(start));
+}
+
+void FailView(const FoldState& fold, const TestView& test, const std::string& why,
+              ViewOutcome& outcome) {
+  outcome.ok = false;
+  outcome.message = fmt::format("{} {}: {}", fold.name, test.stem, why);
+  LogWarning(outcome.message);
+}
+
+// Whether two sets of in-memory error images of the fold's views fit in a quarter of
+// --max-memory (else they are streamed while compared).
+bool ErrorImagesFitInMemory(const RunState& s, const FoldState& fold,
+                            const std::vector<size_t>& todo) {
+  uint64_t pixels = 0;
+  for (size_t i : todo) {
+    const camera::Camera& camera = fold.tests[i].camera;
+    pixels = std::max<uint64_t>(pixels, static_cast<uint64_t>(camera.width) * camera.height);
+  }
+  return 2 * s.o.metrics.size() * pixels * sizeof(float) <= MaxMemoryBytes() / 4;
 }
 
 }  // namespace
@@ -199,25 +268,80 @@ std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, 
   return todo;
 }
 
-void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold,
-                   const std::vector<size_t>& todo, render::ViewRenderer* renderer,
-                   Progress* progress) {
-  for (size_t i : todo) {
-    if (InterruptRequested()) break;
-    const TestView& test = fold.tests[i];
-    ViewOutcome& outcome = fold.views[i];
+void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::vector<size_t>& todo,
+                   render::ViewRenderer* renderer, Progress* progress) {
+  if (todo.empty()) return;
+  const auto start = Clock::now();
+  const bool pipelined = todo.size() > 1 && tbb::global_control::active_value(
+                                                tbb::global_control::max_allowed_parallelism) > 1;
+  const bool errors_later = pipelined && s.o.error_images && ErrorImagesFitInMemory(s, fold, todo);
+  const auto prepare = [&](size_t k) {
+    PrepareView(s, ws.views[k % 2], fold, fold.tests[todo[k]], renderer, fold.views[todo[k]]);
+  };
+  const auto write = [&](size_t k) {
+    const TestView& test = fold.tests[todo[k]];
+    ViewOutcome& outcome = fold.views[todo[k]];
     try {
-      EvaluateView(s, ws, fold, test, renderer, &outcome);
-      Advance(progress, fmt::format("{} {}", fold.name, test.stem));
-    } catch (const UsageError&) {
-      throw;
+      WriteView(s, ws, fold, test, errors_later ? &ws.error_images[k % 2] : nullptr, outcome);
     } catch (const Error& e) {
-      outcome.ok = false;
-      outcome.message = fmt::format("{} {}: {}", fold.name, test.stem, e.what());
-      LogWarning(outcome.message);
+      FailView(fold, test, e.what(), outcome);
+    }
+  };
+  // Declared after everything their jobs use: on an exception they finish those jobs first.
+  std::unique_ptr<BackgroundWorker> preparer, writer;
+  std::future<void> prepared, written;
+  size_t written_index = 0;
+  const auto finish_write = [&] {  // waits for the write of view written_index, shows it done
+    if (!written.valid()) return;
+    written.get();
+    const ViewOutcome& outcome = fold.views[todo[written_index]];
+    Advance(progress,
+            fmt::format("{} {}{}", fold.name, outcome.stem, outcome.ok ? "" : " (failed)"));
+  };
+  if (pipelined) {
+    preparer = std::make_unique<BackgroundWorker>();
+    writer = std::make_unique<BackgroundWorker>();
+    prepared = preparer->Submit([&prepare] { prepare(0); });
+  }
+  for (size_t k = 0; k < todo.size() && !InterruptRequested(); ++k) {
+    if (pipelined) {
+      prepared.get();  // UsageError or bad_alloc of the preparer: rethrown here
+      if (k + 1 < todo.size()) prepared = preparer->Submit([&prepare, k] { prepare(k + 1); });
+    } else {
+      prepare(k);
+    }
+    const TestView& test = fold.tests[todo[k]];
+    ViewOutcome& outcome = fold.views[todo[k]];
+    const PreparedView& view = ws.views[k % 2];
+    bool compared = false;
+    if (!view.failure.empty()) {
+      FailView(fold, test, view.failure, outcome);
+    } else {
+      try {
+        CompareView(s, ws, view, fold, test, errors_later ? &ws.error_images[k % 2] : nullptr,
+                    outcome);
+        compared = true;
+      } catch (const UsageError&) {
+        throw;
+      } catch (const Error& e) {
+        FailView(fold, test, e.what(), outcome);
+      }
+    }
+    finish_write();  // view k-1's: its error images are the other set
+    if (!compared) {
       Advance(progress, fmt::format("{} {} (failed)", fold.name, test.stem));
+    } else if (pipelined) {
+      written_index = k;
+      written = writer->Submit([&write, k] { write(k); });
+    } else {
+      write(k);
+      Advance(progress,
+              fmt::format("{} {}{}", fold.name, test.stem, outcome.ok ? "" : " (failed)"));
     }
   }
+  if (prepared.valid()) prepared.wait();  // interrupted: the prepared view stays unrecorded
+  finish_write();
+  AddSeconds(s, &EvaluateTimings::views, Seconds(start));
 }
 
 }  // namespace rephoto::eval

@@ -13,11 +13,28 @@
 //                compare::ComparePhotoAndRender; writes renders/<stem>.png + .depth.exr,
 //                errors/<stem>.<metric>.exr|png and the view record last. A view that fails is
 //                recorded in its outcome (message) and the others go on; UsageError propagates.
-//                Stops between views when an interrupt was requested.
+//                Stops between views when an interrupt was requested (the views already
+//                compared are written first).
+//
+// The views go through a pipeline of three threads (when more than one view needs work and
+// more than one thread is allowed, core/parallel.h ThreadLimit):
+//   preparer  renders view k+1 (and writes its rendering), decodes its photo and mask;
+//   caller    compares view k (the metrics, multi-threaded);
+//   writer    writes view k-1's error images and then its record.
+// Rendering and the metrics use all threads each, so the overlap mostly fills the time either
+// spends in its serial parts (PNG/EXR encoding, decoding, the kernel's copies of written files).
+// Error images are handed to the writer in memory (two sets of metrics x width x height floats)
+// when those fit in a quarter of --max-memory; else each is streamed to disk while compared, as
+// `rephoto compare` does. Values and files are those of the one-view-at-a-time order, byte for
+// byte; only the order in which views complete can differ. run.json's timings give the summed
+// seconds of each step (render, photos, compare, write) beside the wall time of the view
+// stage (views), so the overlap shows.
 //
 // Thread safety: one thread per fold and workspace; rendering and comparing are multi-threaded.
 #pragma once
 
+#include <array>
+#include <optional>
 #include <vector>
 
 #include "rephoto/compare/compare.h"
@@ -29,23 +46,34 @@
 
 namespace rephoto::eval {
 
-// Buffers reused from view to view (same sizes: no allocation, no page faults) and the models
-// kept from fold to fold.
-struct ViewWorkspace {
-  ModelCache models;
-  compare::CompareWorkspace compare;
+// One view between the preparer and the comparison: its rendering, photo and masks.
+struct PreparedView {
+  render::Rephoto rephoto;  // the renderer's buffers
+  Image render;             // the rendering compared (as written or read back)
   // Full-size photos decoded before downscaling: one buffer reused for all of them (a fresh
   // 6-24 MP float image costs more in zeroing and page faults than in decoding).
   Image full_photo;
-  render::Rephoto rephoto;
-  Image render, eval_photo;
+  Image eval_photo;  // the photo compared
+  std::filesystem::path render_path, photo_path;
+  std::optional<Mask> mask, render_mask;
+  std::string failure;  // why the view could not be prepared (an Error's message)
+};
+
+// Buffers reused from view to view (same sizes: no allocation, no page faults) and the models
+// kept from fold to fold. Two of each pipeline buffer: one view is compared while the next is
+// prepared and the previous one's error images are written.
+struct ViewWorkspace {
+  ModelCache models;
+  compare::CompareWorkspace compare;
+  std::array<PreparedView, 2> views;
+  std::array<std::vector<Image>, 2> error_images;
+  std::vector<uint8_t> rgba;  // the writer's PNG scratch
 };
 
 std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, size_t first = 0,
                               size_t count = 0);
 
-void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold,
-                   const std::vector<size_t>& todo, render::ViewRenderer* renderer,
-                   Progress* progress);
+void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::vector<size_t>& todo,
+                   render::ViewRenderer* renderer, Progress* progress);
 
 }  // namespace rephoto::eval
