@@ -25,6 +25,10 @@ CommandRunner SetupDemo(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--seed", options->scene.seed, "Seed of the procedural scene")
       ->capture_default_str();
+  app.add_option("--suggestions", options->suggestions,
+                 "Views the acquisition step suggests for the photos of one side (0: skip it)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   return [options] {
     const demo::DemoResult result = demo::RunDemo(*options);
     fmt::print(
@@ -40,6 +44,14 @@ CommandRunner SetupDemo(CLI::App& app) {
                  r.Median(metrics::Metric::kCbCr), r.Median(metrics::Metric::kDssim),
                  r.description);
     }
+    if (result.suggestions) {
+      const demo::DemoSuggestions& next = *result.suggestions;
+      fmt::print(
+          "Where to photograph next: with only the {} photos from one side, {:.1f} % of the "
+          "surface is seen by no photo; the {} suggested views see {:.1f} % of it (in {})\n",
+          next.photos_so_far, 100 * next.unseen_fraction, options->suggestions,
+          100 * next.covered_fraction, next.folder.string());
+    }
     fmt::print(
         "Done in {:.0f} s. Open {} in a browser; tables in ranking.csv and runs/<name>/, "
         "error on the models in runs/<name>/projected/1-ncc.ply\n",
@@ -50,7 +62,7 @@ CommandRunner SetupDemo(CLI::App& app) {
 
 REPHOTO_COMMAND(90, "demo",
                 "Run the built-in example: photograph a procedural scene, evaluate six "
-                "reconstructions of it and rank them",
+                "reconstructions of it, rank them and suggest where to photograph next",
                 SetupDemo);
 
 }  // namespace

@@ -15,10 +15,12 @@
 #include "rephoto/degrade/simplex_noise.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
+#include "rephoto/mesh/mesh.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/render/render.h"
 #include "rephoto/report/report.h"
 #include "rephoto/scene/colmap.h"
+#include "rephoto/suggest/suggest_run.h"
 
 namespace rephoto::demo {
 namespace fs = std::filesystem;
@@ -187,6 +189,44 @@ void AddRanking(const DemoOptions& options, const DemoResult& result, io::CsvWri
   }
 }
 
+// Step 4: the photos of one half of the ring only, and the views `rephoto suggest` proposes to
+// take next (see demo.h).
+DemoSuggestions SuggestNextPhotos(const DemoOptions& options, const mesh::Mesh& truth,
+                                  const scene::Scene& scene) {
+  const std::array<Eigen::Vector3f, 2> box = mesh::BoundingBox(truth);
+  const double middle = 0.5 * (box[0].x() + box[1].x());
+  scene::Scene one_side = scene;
+  one_side.views.clear();
+  for (const scene::View& view : scene.views) {
+    if (view.cam_from_world.Center().x() > middle) one_side.views.push_back(view);
+  }
+  REPHOTO_CHECK(!one_side.views.empty() && one_side.views.size() < scene.views.size(),
+                "demo: the acquisition step needs cameras on both sides of the object ({} of {} "
+                "on one side)",
+                one_side.views.size(), scene.views.size());
+  DemoSuggestions outcome;
+  outcome.folder = options.out / "next_photos";
+  outcome.photos_so_far = one_side.views.size();
+  const fs::path so_far = outcome.folder / "photos_so_far" / "sparse";
+  fs::create_directories(so_far);
+  scene::WriteColmap(one_side, so_far, scene::ColmapFormat::kText);
+  suggest::SuggestRunOptions run;
+  run.out = outcome.folder;
+  run.scene_label = so_far.string();
+  run.model_label = (options.out / "models" / "ground_truth.ply").string();
+  run.suggest.count = options.suggestions;
+  LogInfo(fmt::format("demo: suggesting {} views to add to the {} photos from one side",
+                      options.suggestions, one_side.views.size()));
+  const render::RenderModel model(truth, {}, run.model_label);
+  const geometry::SuggestResult result = suggest::RunSuggest(one_side, model, run);
+  LogInfo("demo: " + suggest::SuggestSummary(result, run));
+  outcome.unseen_fraction =
+      result.total_area > 0 ? result.unobserved_area / result.total_area : 0.0;
+  outcome.covered_fraction =
+      result.unobserved_area > 0 ? result.unobserved_area_covered / result.unobserved_area : 0.0;
+  return outcome;
+}
+
 void WriteDemoReport(const DemoOptions& options, const DemoResult& result) {
   std::vector<report::CollectionEntry> entries;
   for (const auto& r : result.ranking) {
@@ -194,6 +234,16 @@ void WriteDemoReport(const DemoOptions& options, const DemoResult& result) {
   }
   report::CollectionOptions report_options;
   report_options.title = "rephoto demo: six reconstructions of the procedural scene";
+  if (result.suggestions) {
+    report_options.suggestions = result.suggestions->folder;
+    report_options.suggestions_note = fmt::format(
+        "Had only the {} photos from one side of the ring been taken, {:.1f} % of the model's "
+        "surface would be seen by no photo. rephoto suggest proposes these views to take next: "
+        "together they see {:.1f} % of that surface. (`rephoto suggest --scene "
+        "next_photos/photos_so_far/sparse --model models/ground_truth.ply --out next_photos`)",
+        result.suggestions->photos_so_far, 100 * result.suggestions->unseen_fraction,
+        100 * result.suggestions->covered_fraction);
+  }
   report::WriteCollectionReport(entries, options.out / "report.html", report_options);
 }
 
@@ -229,6 +279,7 @@ DemoResult RunDemo(const DemoOptions& options) {
   std::stable_sort(result.ranking.begin(), result.ranking.end(), [](const auto& a, const auto& b) {
     return a.Median(metrics::Metric::kOneMinusNcc) < b.Median(metrics::Metric::kOneMinusNcc);
   });
+  if (options.suggestions > 0) result.suggestions = SuggestNextPhotos(options, truth, scene);
 
   io::CsvWriter csv;
   nlohmann::ordered_json json;
@@ -240,6 +291,13 @@ DemoResult RunDemo(const DemoOptions& options) {
   json["scheme"] = options.scheme;
   json["ranked_by"] = "median across folds of the fold means of 1-ncc";
   AddRanking(options, result, csv, json);
+  if (result.suggestions) {
+    json["next_photos"] = {{"folder", result.suggestions->folder.string()},
+                           {"photos_so_far", result.suggestions->photos_so_far},
+                           {"suggested", options.suggestions},
+                           {"unseen_fraction", result.suggestions->unseen_fraction},
+                           {"covered_fraction", result.suggestions->covered_fraction}};
+  }
   if (options.report) WriteDemoReport(options, result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   json["seconds"] = result.seconds;

@@ -13,6 +13,11 @@
 //    once and the folds give the boxplots, error projected onto the model, a report per run),
 //    then ranks the reconstructions by their median 1-NCC across folds (completeness next to
 //    it) and writes one report that compares them (report/report.h).
+// 4. Where to photograph next (paper Sections 5.2 and 6.2): as if only the photos from one
+//    half of the ring had been taken (camera centres with x above the model's bounding-box
+//    centre), `rephoto suggest` (suggest/suggest_run.h) proposes `suggestions` new views of the
+//    ground-truth model, standing in for a reconstruction, that see the surface those photos
+//    miss; the comparison report shows them ("Where to photograph next").
 //
 // Output folder layout (all files written atomically):
 //   scene/images/view_XXX.png     the photos
@@ -23,8 +28,12 @@
 //   models/<reconstruction>.ply   the reconstructions
 //   runs/<reconstruction>/        `rephoto evaluate` run directories (per_image.csv,
 //                                 per_fold.csv, summary.json, projected/1-ncc.ply, report.html)
-//   ranking.csv, demo.json        the reconstructions ranked by median 1-NCC
-//   report.html                   the comparison of all reconstructions
+//   next_photos/photos_so_far/sparse/  the one-sided photos' cameras (COLMAP text)
+//   next_photos/                  `rephoto suggest`'s outputs for them: sparse/,
+//                                 transforms.json, suggestions.json, renders/, report.html
+//   ranking.csv, demo.json        the reconstructions ranked by median 1-NCC (demo.json also
+//                                 the acquisition step's coverage: "next_photos")
+//   report.html                   the comparison of all reconstructions and the suggestions
 // Rerunning into the same folder reuses every evaluation whose inputs did not change (the
 // scene and photos are deterministic for the seed).
 //
@@ -33,6 +42,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,7 +60,16 @@ struct DemoOptions {
   double max_exposure_change = 0.08;
   std::string scheme = "kfold:4";
   std::vector<metrics::Metric> metrics = metrics::AllMetrics();
-  bool report = true;  // report.html per run and for the comparison
+  bool report = true;   // report.html per run and for the comparison
+  int suggestions = 3;  // views the acquisition step suggests (0: no acquisition step)
+};
+
+// The acquisition step's outcome.
+struct DemoSuggestions {
+  size_t photos_so_far = 0;      // the one-sided photos
+  double unseen_fraction = 0;    // of the model's surface, seen by none of them
+  double covered_fraction = 0;   // of that unseen surface, seen by the suggestions together
+  std::filesystem::path folder;  // next_photos/
 };
 
 struct DemoReconstruction {
@@ -65,7 +84,8 @@ struct DemoReconstruction {
 };
 
 struct DemoResult {
-  std::vector<DemoReconstruction> ranking;  // by median 1-NCC across folds, best first
+  std::vector<DemoReconstruction> ranking;     // by median 1-NCC across folds, best first
+  std::optional<DemoSuggestions> suggestions;  // when DemoOptions::suggestions > 0
   double seconds = 0;
 };
 

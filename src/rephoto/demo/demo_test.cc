@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "rephoto/compare/compare.h"
+#include "rephoto/core/file.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/render/render.h"
 #include "rephoto/testing/testing.h"
@@ -39,6 +40,31 @@ TEST(Demo, SmallDemoRanksGroundTruthFirstAndWritesItsOutputs) {
   EXPECT_TRUE(std::filesystem::exists(options.out / "ranking.csv"));
   EXPECT_TRUE(std::filesystem::exists(options.out / "demo.json"));
   EXPECT_TRUE(std::filesystem::exists(options.out / "scene" / "sparse" / "cameras.txt"));
+  // The acquisition step: the photos of one side (2 of the 4 on the ring) and 3 suggested
+  // views, shown in the comparison report with their rephotos.
+  ASSERT_TRUE(result.suggestions.has_value());
+  EXPECT_EQ(result.suggestions->photos_so_far, 2u);
+  EXPECT_GT(result.suggestions->unseen_fraction, 0.05);
+  EXPECT_GT(result.suggestions->covered_fraction, 0.7);
+  const std::filesystem::path next = options.out / "next_photos";
+  for (const char* file :
+       {"photos_so_far/sparse/images.txt", "sparse/images.txt", "transforms.json",
+        "suggestions.json", "report.html", "renders/suggest_00.png", "renders/suggest_02.png"}) {
+    EXPECT_TRUE(std::filesystem::is_regular_file(next / file)) << file;
+  }
+  const std::string html = ReadFileToString(options.out / "report.html");
+  EXPECT_NE(html.find("id=\"next-photos\""), std::string::npos);
+  // Evaluate runs name photos by their scene names; the reports find them all the same.
+  EXPECT_EQ(html.find("not available: no photo"), std::string::npos);
+  EXPECT_EQ(ReadFileToString(result.ranking.front().run_dir / "report.html")
+                .find("not available: no photo"),
+            std::string::npos);
+  size_t rows = 0;
+  for (size_t at = html.find("<tr class=\"suggestion\""); at != std::string::npos;
+       at = html.find("<tr class=\"suggestion\"", at + 1)) {
+    ++rows;
+  }
+  EXPECT_EQ(rows, 3u);
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include "rephoto/report/geometry_section.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_page.h"
+#include "rephoto/report/suggest_report.h"
 #include "rephoto/run/run_data.h"
 
 namespace rephoto::report {
@@ -456,7 +457,16 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     html += GeometrySectionHtml(geometry_runs, options.geometry_reference.string(),
                                 options.geometry_options, options.primary_metric);
   }
-  html += EntriesHtml(c, options) + PageEnd();
+  html += EntriesHtml(c, options);
+  if (!options.suggestions.empty()) {
+    html += "<section id=\"next-photos\"><h2>Where to photograph next</h2>\n";
+    if (!options.suggestions_note.empty()) {
+      html += "<p>" + HtmlEscape(options.suggestions_note) + "</p>\n";
+    }
+    html +=
+        SuggestionsSectionHtml(options.suggestions, options.thumbnail_width, 3) + "</section>\n";
+  }
+  html += PageEnd();
   WriteTextFileAtomically(out_html, html);
 }
 

@@ -111,6 +111,12 @@ struct CollectionOptions {
   // Runs without a model (compare runs, image-based rendering) show no values and the reason.
   std::filesystem::path geometry_reference;
   geometry::GeometryOptions geometry_options;
+  // Acquisition guidance (paper Sections 5.2 and 6.2): a `rephoto suggest` output folder
+  // (suggestions.json and renders/); a section "Where to photograph next" shows its suggested
+  // views with their rephotos (suggest_report.h). `suggestions_note` is a sentence before them
+  // (what the photos so far were). Empty = no section.
+  std::filesystem::path suggestions;
+  std::string suggestions_note;
 };
 
 // Several runs (the demo's reconstructions; a sweep's settings) -> one HTML: ranking table,

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -39,7 +40,7 @@ std::string Percent(double part, double whole) {
 
 }  // namespace
 
-void WriteSuggestionsReport(const fs::path& dir, const fs::path& out_html, int thumbnail_width) {
+std::string SuggestionsSectionHtml(const fs::path& dir, int thumbnail_width, int heading_level) {
   const fs::path file = dir / "suggestions.json";
   Json json;
   try {
@@ -52,28 +53,28 @@ void WriteSuggestionsReport(const fs::path& dir, const fs::path& out_html, int t
   const double total = Number(json, "total_area");
   const double unobserved = Number(json, "unobserved_area");
   const double covered = Number(json, "unobserved_area_covered");
-  const std::string title = "rephoto suggest: the next photos to take";
-  std::string html = internal::PageStart(title);
-  html += fmt::format("<header><h1>{}</h1><p class=\"meta\">", HtmlEscape(title));
+  const std::string h = fmt::format("h{}", std::clamp(heading_level, 1, 6));
+  std::string html = "<p class=\"meta\">";
   for (const char* key : {"scene", "model", "run"}) {
     const Json v = json.value(key, Json());
     if (v.is_string()) {
       html += fmt::format("<span>{} {}</span>", key, HtmlEscape(v.get<std::string>()));
     }
   }
-  html += "</p></header>\n";
+  html += "</p>\n";
   html += fmt::format(
-      "<section id=\"suggest-summary\"><h2>Coverage</h2><p>{} of the model's surface is seen by "
-      "no photo; the {} suggested views see <strong>{}</strong> of it together.</p><p "
+      "<section id=\"suggest-summary\"><{0}>Coverage</{0}><p>{1} of the model's surface is seen "
+      "by no photo; the {2} suggested views see <strong>{3}</strong> of it together.</p><p "
       "class=\"muted\">Each suggestion is a pose at the photos' distance from the model, "
       "chosen greedily to see the most unseen or high-error surface not seen by the earlier "
       "suggestions. The rephoto shows what to photograph.</p></section>\n",
-      Percent(unobserved, total), json["suggestions"].size(), Percent(covered, unobserved));
-  html +=
-      "<section id=\"suggestions\"><h2>Suggested views</h2>\n<table id=\"suggestions-table\">"
-      "<thead><tr><th class=\"text\">view</th><th class=\"text\">rephoto</th><th "
-      "class=\"text\">pose</th><th>unseen surface covered</th><th>vertices seen</th><th>mean "
-      "error</th></tr></thead><tbody>\n";
+      h, Percent(unobserved, total), json["suggestions"].size(), Percent(covered, unobserved));
+  html += fmt::format(
+      "<section id=\"suggestions\"><{0}>Suggested views</{0}>\n<table "
+      "id=\"suggestions-table\"><thead><tr><th class=\"text\">view</th><th "
+      "class=\"text\">rephoto</th><th class=\"text\">pose</th><th>unseen surface "
+      "covered</th><th>vertices seen</th><th>mean error</th></tr></thead><tbody>\n",
+      h);
   for (const Json& s : json["suggestions"]) {
     REPHOTO_CHECK(s.is_object() && s.value("name", Json()).is_string(),
                   "{}: a suggestion without a name", file.string());
@@ -103,7 +104,15 @@ void WriteSuggestionsReport(const fs::path& dir, const fs::path& out_html, int t
             : "\u2013",
         DisplayNumber(mean_error));
   }
-  html += "</tbody></table></section>\n" + internal::PageEnd();
+  html += "</tbody></table></section>\n";
+  return html;
+}
+
+void WriteSuggestionsReport(const fs::path& dir, const fs::path& out_html, int thumbnail_width) {
+  const std::string title = "rephoto suggest: the next photos to take";
+  const std::string html = internal::PageStart(title) +
+                           fmt::format("<header><h1>{}</h1></header>\n", HtmlEscape(title)) +
+                           SuggestionsSectionHtml(dir, thumbnail_width, 2) + internal::PageEnd();
   WriteTextFileAtomically(out_html, html);
 }
 

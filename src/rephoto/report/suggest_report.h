@@ -15,11 +15,18 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 
 namespace rephoto::report {
 
 // DIR/suggestions.json + DIR/renders/ -> `out_html` (usually DIR/report.html).
 void WriteSuggestionsReport(const std::filesystem::path& dir, const std::filesystem::path& out_html,
                             int thumbnail_width = 480);
+
+// The body of that page (the inputs' names, the coverage and the table of suggested views) for
+// another page to embed (the demo's comparison report: CollectionOptions::suggestions), with
+// headings <h`heading_level`>.
+std::string SuggestionsSectionHtml(const std::filesystem::path& dir, int thumbnail_width,
+                                   int heading_level);
 
 }  // namespace rephoto::report

@@ -138,6 +138,19 @@ fs::path RunData::RenderPath(const ImageRow& image) const {
 }
 
 fs::path RunData::PhotoPath(const ImageRow& image) const {
+  if (layout == RunLayout::kEvaluate && run.is_object() && run.contains("inputs") &&
+      run["inputs"].is_object() && run["inputs"].contains("photos") &&
+      run["inputs"]["photos"].is_array()) {
+    for (const auto& photo : run["inputs"]["photos"]) {
+      if (!photo.is_object() || photo.value("name", nlohmann::ordered_json()) != image.photo)
+        continue;
+      const nlohmann::ordered_json path = photo.value("path", nlohmann::ordered_json());
+      std::error_code ec;
+      if (path.is_string() && fs::is_regular_file(path.get<std::string>(), ec)) {
+        return path.get<std::string>();
+      }
+    }
+  }
   return Resolve(image.photo, {ImageDir(image), dir, dir.parent_path()});
 }
 

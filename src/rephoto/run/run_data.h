@@ -84,6 +84,8 @@ struct RunData {
   // image's folder, RUN, RUN's parent (`rephoto compare --photos photos --out run` run from
   // that folder) or the current directory (the first that exists); empty if none.
   std::filesystem::path RenderPath(const ImageRow& image) const;
+  // The photo likewise; evaluate runs name each photo by its scene name (view_000.png): that
+  // name's file is the one run.json's inputs.photos lists for it (where evaluate read it).
   std::filesystem::path PhotoPath(const ImageRow& image) const;
 };
 
