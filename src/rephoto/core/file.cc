@@ -53,4 +53,16 @@ std::string ReadFileToString(const fs::path& path) {
   return content.str();
 }
 
+void LinkOrCopyFileAtomically(const std::filesystem::path& from, const std::filesystem::path& to) {
+  WriteFileAtomically(to, [&](const std::filesystem::path& temporary) {
+    std::error_code ec;
+    std::filesystem::create_hard_link(from, temporary, ec);
+    if (!ec) return;
+    std::filesystem::copy_file(from, temporary, std::filesystem::copy_options::overwrite_existing,
+                               ec);
+    REPHOTO_CHECK(!ec, "{}: cannot link or copy it to {}: {}", from.string(), to.string(),
+                  ec.message());
+  });
+}
+
 }  // namespace rephoto

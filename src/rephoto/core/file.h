@@ -24,6 +24,11 @@ void WriteFileAtomically(const std::filesystem::path& path,
 // Writes `content` to `path` atomically (see above).
 void WriteTextFileAtomically(const std::filesystem::path& path, std::string_view content);
 
+// Makes `to` a hard link to `from` (a copy when they are on different file systems or links
+// are refused), atomically as above: `to` is replaced only when complete. Throws Error naming
+// both files when neither works.
+void LinkOrCopyFileAtomically(const std::filesystem::path& from, const std::filesystem::path& to);
+
 // Reads the whole file; throws Error naming the file when it cannot be opened or read.
 std::string ReadFileToString(const std::filesystem::path& path);
 

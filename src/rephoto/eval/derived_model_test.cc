@@ -57,6 +57,32 @@ TEST(DerivedModelTest, ColorizeUsesEachFoldsTrainingPhotos) {
   EXPECT_EQ(again.counters.views_rendered, 0u);
 }
 
+// A fixed model with defects is degraded once and shared by the folds (the same seed): every
+// fold still has the model.ply its fold.json names, with the same bytes, and a rerun keeps it.
+TEST(DerivedModelTest, DegradedFixedModelIsEveryFoldsModelPly) {
+  const fs::path run = testing::MakeTempDir() / "run";
+  EvaluateOptions o = BaseOptions(run);
+  o.model = Files().truth;
+  o.scheme = "kfold:3";
+  o.error_images = false;
+  o.report = false;
+  o.degrade.geometry_noise = 0.01f;
+  ASSERT_EQ(RunEvaluate(o).exit_code, ExitCode::kOk);
+  const std::string first = ReadFileToString(run / "folds/fold_00/model.ply");
+  EXPECT_GT(first.size(), 1000u);
+  EXPECT_NE(first, ReadFileToString(Files().truth));  // degraded
+  for (const char* fold : {"fold_00", "fold_01", "fold_02"}) {
+    const fs::path dir = run / "folds" / fold;
+    const nlohmann::json j = ReadJson(dir / "fold.json");
+    ASSERT_TRUE(j["colorized_model"].is_string()) << fold;
+    EXPECT_EQ(ReadFileToString(dir / j["colorized_model"].get<std::string>()), first) << fold;
+    EXPECT_EQ(ReadFileToString(dir / "model.key"), j["colorize_key"].get<std::string>()) << fold;
+  }
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.views_rendered, 0u);
+  EXPECT_EQ(ReadFileToString(run / "folds/fold_02/model.ply"), first);
+}
+
 // Issue 22: --texture textures each fold's mesh from that fold's training photos only; the
 // rendered model is the textured OBJ as stored, and a rerun reuses it.
 TEST(DerivedModelTest, TextureUsesEachFoldsTrainingPhotos) {

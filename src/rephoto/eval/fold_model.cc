@@ -196,11 +196,42 @@ void ResolveFoldModel(RunState& s, ModelCache& cache, FoldState& fold,
   fold.base_key = BaseKey(s, fold);
 }
 
+namespace {
+
+// A fold whose degraded model is the one in memory (the same fixed model and defects as an
+// earlier fold) gets that fold's files as its own, hard-linked (or copied), so that its
+// model.ply (and the textures it names) exist as its fold.json says.
+void ShareDegradedModel(const RunState& s, const ModelCache& cache, const FoldState& fold) {
+  if (!HasDefects(s.o.degrade)) return;
+  const fs::path mine = DerivedModelPath(s, fold);
+  const fs::path key_file = fold.dir / "model.key";
+  std::error_code ec;
+  if (cache.model_path.empty() || cache.model_path == mine) return;
+  if (fs::is_regular_file(mine, ec) && fs::is_regular_file(key_file, ec) &&
+      ReadFileToString(key_file) == fold.colorize_key) {
+    return;
+  }
+  fs::remove(key_file, ec);
+  const fs::path textures = cache.model_path.parent_path() / "textures";
+  for (fs::directory_iterator it(textures, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->is_regular_file(ec)) {
+      LinkOrCopyFileAtomically(it->path(), fold.dir / "textures" / it->path().filename());
+    }
+  }
+  LinkOrCopyFileAtomically(cache.model_path, mine);
+  WriteTextFileAtomically(key_file, fold.colorize_key);
+}
+
+}  // namespace
+
 std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache& cache,
                                                          FoldState& fold,
                                                          std::optional<mesh::Mesh>* mesh) {
   if (fold.model_path.empty()) return nullptr;  // image-based rendering from depth maps alone
-  if (cache.model && cache.model_key == fold.model_key) return cache.model;
+  if (cache.model && cache.model_key == fold.model_key) {
+    ShareDegradedModel(s, cache, fold);
+    return cache.model;
+  }
   cache.model.reset();
   const fs::path coloured = DerivedModelPath(s, fold);
   const fs::path coloured_key = fold.dir / "model.key";
