@@ -2,6 +2,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -13,6 +14,26 @@
 
 namespace rephoto::geometry {
 namespace {
+
+// The scene's up direction: the direction most nearly orthogonal to every camera's x axis
+// (photographers hold cameras without roll, so x axes are horizontal: COLMAP's model
+// orientation aligner uses the same rule), signed like the mean of the cameras' -y axes. The
+// mean -y axis alone tilts toward where the cameras look when they all stand on one side and
+// look down. A small pull toward that mean breaks the tie when all x axes are parallel.
+Eigen::Vector3d SceneUp(const scene::Scene& scene) {
+  Eigen::Matrix3d x_axes = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
+  for (const scene::View& view : scene.views) {
+    const Eigen::Vector3d x = view.cam_from_world.rotation.row(0).transpose();
+    x_axes += x * x.transpose();
+    mean_up -= view.cam_from_world.rotation.row(1).transpose();
+  }
+  mean_up = mean_up.norm() > 1e-9 ? mean_up.normalized() : Eigen::Vector3d::UnitZ();
+  x_axes -= 1e-3 * static_cast<double>(scene.views.size()) * mean_up * mean_up.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(x_axes);
+  Eigen::Vector3d up = solver.eigenvectors().col(0);  // smallest eigenvalue first
+  return up.dot(mean_up) < 0 ? Eigen::Vector3d(-up) : up;
+}
 
 constexpr double kFacingCosine = 0.05;
 constexpr float kOcclusionEpsilon = 1e-3f;
@@ -145,12 +166,8 @@ SuggestResult SuggestViews(const render::RenderModel& model, const scene::Scene&
   // Candidate poses.
   const auto box = mesh::BoundingBox(mesh);
   result.target = (0.5 * (box[0] + box[1])).cast<double>();
-  Eigen::Vector3d up = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d up = SceneUp(scene);
   std::vector<double> distances, elevations;
-  for (const scene::View& view : scene.views) {
-    up -= view.cam_from_world.rotation.row(1).transpose();
-  }
-  up = up.norm() > 1e-9 ? up.normalized() : Eigen::Vector3d::UnitZ();
   for (const scene::View& view : scene.views) {
     const Eigen::Vector3d offset = view.cam_from_world.Center() - result.target;
     distances.push_back(offset.norm());
@@ -161,7 +178,13 @@ SuggestResult SuggestViews(const render::RenderModel& model, const scene::Scene&
   REPHOTO_CHECK(result.distance > 0, "the scene's cameras sit at the model's centre");
   const double margin = options.elevation_margin_degrees * std::numbers::pi / 180;
   const double min_elevation = *std::min_element(elevations.begin(), elevations.end()) - margin;
-  const double max_elevation = *std::max_element(elevations.begin(), elevations.end()) + margin;
+  const double lowest_photo = *std::max_element(elevations.begin(), elevations.end());
+  double max_elevation = lowest_photo + margin;
+  // Photos all taken from above the model's centre stand on something (the ground): no
+  // suggestion from below that centre's horizon, where a photographer cannot stand.
+  if (lowest_photo < std::numbers::pi / 2) {
+    max_elevation = std::min(max_elevation, std::numbers::pi / 2);
+  }
   // A Fibonacci sphere around `up`.
   const Eigen::Vector3d e1 =
       (std::abs(up.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY())

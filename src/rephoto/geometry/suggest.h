@@ -15,8 +15,11 @@
 // area * need.
 // Candidates: `candidate_count` directions on a Fibonacci sphere around the centre of the
 // model's bounding box, at the median distance of the scene's cameras from that centre, whose
-// elevation (angle to the scene's up direction, the mean of the cameras' -y axes) lies within
-// `elevation_margin_degrees` of the range of the photos' elevations; each looks at the centre
+// elevation (angle to the scene's up direction: the direction most nearly
+// orthogonal to the cameras' x axes, signed like their mean -y axis) lies within
+// `elevation_margin_degrees` of the range of the photos' elevations, and not below the centre's
+// horizon when every photo was taken from above it (the photographer stands on the ground the
+// photos show, and cannot stand under it); each looks at the centre
 // with the photos' mean up direction (no roll). A candidate's score is the sum of the weights of
 // the vertices it sees. Greedy choice: the best candidate is taken, the weights of the vertices
 // it sees become 0, and so on K times, so the suggestions cover different parts.

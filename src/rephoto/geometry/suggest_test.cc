@@ -164,6 +164,11 @@ TEST(SuggestTest, DemoSceneFromOneSide) {
   EXPECT_GT(result.unobserved_area, 0.05 * result.total_area);
   EXPECT_GT(covered, 0.7);
   EXPECT_LT(result.suggestions[0].cam_from_world.Center().x(), target.x());
+  // The photos look down from one side: no suggestion from under the horizon of the model's
+  // centre (the world's z is up; the photos' mean -y axis alone would tilt toward -x).
+  for (const Suggestion& s : result.suggestions) {
+    EXPECT_GE(s.cam_from_world.Center().z(), target.z() - 1e-6);
+  }
 }
 
 }  // namespace
