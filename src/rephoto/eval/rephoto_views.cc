@@ -213,17 +213,19 @@ void FailView(const FoldState& fold, const TestView& test, const std::string& wh
   LogWarning(outcome.message);
 }
 
-// Whether two sets of in-memory error images of the fold's views fit in a quarter of
-// --max-memory (else they are streamed while compared).
-bool ErrorImagesFitInMemory(const RunState& s, const FoldState& fold,
-                            const std::vector<size_t>& todo) {
+// The largest view of `todo` in pixels.
+uint64_t LargestView(const FoldState& fold, const std::vector<size_t>& todo) {
   uint64_t pixels = 0;
   for (size_t i : todo) {
     const camera::Camera& camera = fold.tests[i].camera;
     pixels = std::max<uint64_t>(pixels, static_cast<uint64_t>(camera.width) * camera.height);
   }
-  return 2 * s.o.metrics.size() * pixels * sizeof(float) <= MaxMemoryBytes() / 4;
+  return pixels;
 }
+
+// Bytes per pixel of one more view in flight: the renderer's buffers, the rendering, the
+// photo at full and evaluation size, masks (about 64).
+constexpr uint64_t kPreparedViewBytesPerPixel = 64;
 
 }  // namespace
 
@@ -272,9 +274,15 @@ void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::v
                    render::ViewRenderer* renderer, Progress* progress) {
   if (todo.empty()) return;
   const auto start = Clock::now();
-  const bool pipelined = todo.size() > 1 && tbb::global_control::active_value(
-                                                tbb::global_control::max_allowed_parallelism) > 1;
-  const bool errors_later = pipelined && s.o.error_images && ErrorImagesFitInMemory(s, fold, todo);
+  // The pipeline holds a second view, and two views' error images, when each fits in a quarter
+  // of --max-memory; else views go one at a time and error images are streamed.
+  const uint64_t pixels = LargestView(fold, todo);
+  const bool pipelined =
+      todo.size() > 1 &&
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 &&
+      kPreparedViewBytesPerPixel * pixels <= MaxMemoryBytes() / 4;
+  const bool errors_later = pipelined && s.o.error_images &&
+                            2 * s.o.metrics.size() * pixels * sizeof(float) <= MaxMemoryBytes() / 4;
   const auto prepare = [&](size_t k) {
     PrepareView(s, ws.views[k % 2], fold, fold.tests[todo[k]], renderer, fold.views[todo[k]]);
   };

@@ -16,8 +16,9 @@
 //                Stops between views when an interrupt was requested (the views already
 //                compared are written first).
 //
-// The views go through a pipeline of three threads (when more than one view needs work and
-// more than one thread is allowed, core/parallel.h ThreadLimit):
+// The views go through a pipeline of three threads (when more than one view needs work, more
+// than one thread is allowed (core/parallel.h ThreadLimit) and a second view in flight, about 64
+// bytes per pixel, fits in a quarter of --max-memory):
 //   preparer  renders view k+1 (and writes its rendering), decodes its photo and mask;
 //   caller    compares view k (the metrics, multi-threaded);
 //   writer    writes view k-1's error images and then its record.
