@@ -1,0 +1,234 @@
+#include <algorithm>
+
+#include "rephoto/metrics/kernels.h"
+
+// The fused SSIM filters (kernels.h): the four products of an input row are formed once, then
+// filtered vertically for a block of output rows at a time (each loaded row feeds every output
+// row of the block whose window holds it, so loads per output row drop from 2r+1 to
+// (2r+B)/B), then horizontally. Four quantities instead of five: the SSIM formula needs only
+// sigma_x^2 + sigma_y^2, so x^2 + y^2 is filtered as one quantity.
+//
+// Compiled with -ffp-contract=fast (CMakeLists.txt), like ssim_filter.cc. Identical images still
+// give identical moments: the product x^2 + y^2 is fma(a, a, round(b * b)), which for a == b is
+// round(a^2 + round(a^2)) = 2 round(a^2) exactly (the rounding error of round(a^2) is at most a
+// quarter ulp of the doubled value), i.e. exactly twice the product xy = round(a * b); the
+// filters are linear, so every filtered x^2 + y^2 is then exactly twice the filtered xy.
+// As in ssim_filter.cc, each kernel is one template inlined into a 16-wide AVX-512 function and
+// an 8-wide function cloned for AVX2 and the baseline, with the same arithmetic element-wise.
+namespace rephoto::metrics::internal {
+namespace {
+
+typedef float V8f __attribute__((vector_size(32)));
+typedef float V16f __attribute__((vector_size(64)));
+
+#define REPHOTO_LOAD(VF, p)                 \
+  ({                                        \
+    VF v_;                                  \
+    __builtin_memcpy(&v_, (p), sizeof(v_)); \
+    v_;                                     \
+  })
+#define REPHOTO_STORE(p, v)                 \
+  do {                                      \
+    const auto s_ = (v);                    \
+    __builtin_memcpy((p), &s_, sizeof(s_)); \
+  } while (false)
+
+// Start of the vector at i: whole vectors, the last one overlapping its predecessor when n is
+// not a multiple of the width (recomputing values with the same arithmetic). Returns -1 when
+// the vectors are done or n is below one vector (the caller then goes scalar).
+template <int kLanes>
+inline int VectorStart(int i, int n) {
+  if (i >= n) return -1;
+  if (i + kLanes <= n) return i;
+  return n < kLanes ? -1 : n - kLanes;
+}
+
+template <typename VF>
+[[gnu::always_inline]] inline void ProductsBody(const float* p, const float* q, int n, float* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  float* ox = out;
+  float* oy = out + n;
+  float* oss = out + 2 * n;
+  float* oxy = out + 3 * n;
+  const VF half = VF{} + 0.5f;
+  int i = 0;
+  for (; (i = VectorStart<kLanes>(i, n)) >= 0; i += kLanes) {
+    const VF a = REPHOTO_LOAD(VF, p + i) - half, b = REPHOTO_LOAD(VF, q + i) - half;
+    REPHOTO_STORE(ox + i, a);
+    REPHOTO_STORE(oy + i, b);
+    REPHOTO_STORE(oss + i, a * a + b * b);
+    REPHOTO_STORE(oxy + i, a * b);
+  }
+  for (int j = 0; j < (n < kLanes ? n : 0); ++j) {
+    const float a = p[j] - 0.5f, b = q[j] - 0.5f;
+    ox[j] = a;
+    oy[j] = b;
+    oss[j] = a * a + b * b;
+    oxy[j] = a * b;
+  }
+}
+
+// Output rows t in [0, B) of one quantity at element offset `off`: rows[t + r + k], k in
+// [-r, r]. kRadius > 0: the radius is a compile-time constant, every row is loaded once into a
+// register and used by all B outputs; kRadius == 0: runtime radius (B must be 1).
+template <typename VF, int B, int kRadius>
+[[gnu::always_inline]] inline void VerticalQuantity(const float* const* rows, const float* weights,
+                                                    int r, size_t off, float* const* out) {
+  if constexpr (kRadius > 0) {
+    constexpr int kRows = 2 * kRadius + B;
+    VF v[kRows];
+    for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
+    VF acc[B];
+    const VF w0 = VF{} + weights[kRadius];
+    for (int t = 0; t < B; ++t) acc[t] = w0 * v[t + kRadius];
+    for (int k = 1; k <= kRadius; ++k) {
+      const VF wk = VF{} + weights[kRadius + k];
+      for (int t = 0; t < B; ++t) acc[t] += wk * (v[t + kRadius - k] + v[t + kRadius + k]);
+    }
+    for (int t = 0; t < B; ++t) REPHOTO_STORE(out[t] + off, acc[t]);
+  } else {
+    static_assert(B == 1);
+    VF acc = (VF{} + weights[r]) * REPHOTO_LOAD(VF, rows[r] + off);
+    for (int k = 1; k <= r; ++k) {
+      acc += (VF{} + weights[r + k]) *
+             (REPHOTO_LOAD(VF, rows[r - k] + off) + REPHOTO_LOAD(VF, rows[r + k] + off));
+    }
+    REPHOTO_STORE(out[0] + off, acc);
+  }
+}
+
+template <typename VF, int B, int kRadius>
+[[gnu::always_inline]] inline void VerticalBlockBody(const float* const* rows, const float* weights,
+                                                     int r, int n, float* const* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  int i = 0;
+  for (; (i = VectorStart<kLanes>(i, n)) >= 0; i += kLanes) {
+    for (int q = 0; q < kSsimQuantities; ++q) {
+      VerticalQuantity<VF, B, kRadius>(rows, weights, r, static_cast<size_t>(q) * n + i, out);
+    }
+  }
+  if (n >= kLanes) return;
+  for (int t = 0; t < B; ++t) {  // same arithmetic, one value at a time
+    for (int q = 0; q < kSsimQuantities; ++q) {
+      for (int j = 0; j < n; ++j) {
+        const size_t off = static_cast<size_t>(q) * n + j;
+        float acc = weights[r] * rows[t + r][off];
+        for (int k = 1; k <= r; ++k)
+          acc += weights[r + k] * (rows[t + r - k][off] + rows[t + r + k][off]);
+        out[t][off] = acc;
+      }
+    }
+  }
+}
+
+// Blocks of B rows for the radii with a compile-time kernel, else one row at a time.
+template <typename VF, int B>
+[[gnu::always_inline]] inline void VerticalBody(const float* const* rows, const float* weights,
+                                                int r, int n, int count, float* const* out) {
+  int t = 0;
+  if (r == 5) {
+    for (; t + B <= count; t += B) VerticalBlockBody<VF, B, 5>(rows + t, weights, r, n, out + t);
+    for (; t < count; ++t) VerticalBlockBody<VF, 1, 5>(rows + t, weights, r, n, out + t);
+  } else if (r == 3) {
+    for (; t + B <= count; t += B) VerticalBlockBody<VF, B, 3>(rows + t, weights, r, n, out + t);
+    for (; t < count; ++t) VerticalBlockBody<VF, 1, 3>(rows + t, weights, r, n, out + t);
+  } else {
+    for (; t < count; ++t) VerticalBlockBody<VF, 1, 0>(rows + t, weights, r, n, out + t);
+  }
+}
+
+template <typename VF>
+[[gnu::always_inline]] inline void HorizontalBody(const float* in, const float* weights, int r,
+                                                  int n, float* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  const int begin = 3 * r, len = n - 6 * r;
+  for (int o = 0; (o = VectorStart<kLanes>(o, len)) >= 0; o += kLanes) {
+    const int i = begin + o;
+    VF acc = (VF{} + weights[r]) * REPHOTO_LOAD(VF, in + i);
+    for (int k = 1; k <= r; ++k) {
+      acc += (VF{} + weights[r + k]) *
+             (REPHOTO_LOAD(VF, in + i - 3 * k) + REPHOTO_LOAD(VF, in + i + 3 * k));
+    }
+    REPHOTO_STORE(out + i, acc);
+  }
+  for (int j = begin; j < (len < kLanes ? begin + len : begin); ++j) {
+    float acc = weights[r] * in[j];
+    for (int k = 1; k <= r; ++k) acc += weights[r + k] * (in[j - 3 * k] + in[j + 3 * k]);
+    out[j] = acc;
+  }
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define REPHOTO_AVX2_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define REPHOTO_AVX2_CLONES
+#endif
+
+// Rows per vertical block: what the registers hold besides the 2r+1 rows of the window
+// (16 vector registers for AVX2, 32 for AVX-512).
+constexpr int kBlock8 = 2;
+constexpr int kBlock16 = 4;
+
+REPHOTO_AVX2_CLONES
+void Products8(const float* p, const float* q, int n, float* out) {
+  ProductsBody<V8f>(p, q, n, out);
+}
+
+REPHOTO_AVX2_CLONES
+void Vertical8(const float* const* rows, const float* weights, int r, int n, int count,
+               float* const* out) {
+  VerticalBody<V8f, kBlock8>(rows, weights, r, n, count, out);
+}
+
+REPHOTO_AVX2_CLONES
+void Horizontal8(const float* in, const float* weights, int r, int n, float* out) {
+  for (int q = 0; q < kSsimQuantities; ++q) {
+    HorizontalBody<V8f>(in + q * n, weights, r, n, out + q * n);
+  }
+}
+
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+__attribute__((target("arch=x86-64-v4"))) void Products16(const float* p, const float* q, int n,
+                                                          float* out) {
+  ProductsBody<V16f>(p, q, n, out);
+}
+
+__attribute__((target("arch=x86-64-v4"))) void Vertical16(const float* const* rows,
+                                                          const float* weights, int r, int n,
+                                                          int count, float* const* out) {
+  VerticalBody<V16f, kBlock16>(rows, weights, r, n, count, out);
+}
+
+__attribute__((target("arch=x86-64-v4"))) void Horizontal16(const float* in, const float* weights,
+                                                            int r, int n, float* out) {
+  for (int q = 0; q < kSsimQuantities; ++q) {
+    HorizontalBody<V16f>(in + q * n, weights, r, n, out + q * n);
+  }
+}
+#endif
+
+}  // namespace
+
+void SsimProducts(const float* p, const float* q, int n, float* out) {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (HasAvx512()) return Products16(p, q, n, out);
+#endif
+  Products8(p, q, n, out);
+}
+
+void SsimVerticalRows(const float* const* rows, const float* weights, int r, int n, int count,
+                      float* const* out) {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (HasAvx512()) return Vertical16(rows, weights, r, n, count, out);
+#endif
+  Vertical8(rows, weights, r, n, count, out);
+}
+
+void SsimHorizontalFused(const float* in, const float* weights, int r, int n, float* out) {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (HasAvx512()) return Horizontal16(in, weights, r, n, out);
+#endif
+  Horizontal8(in, weights, r, n, out);
+}
+
+}  // namespace rephoto::metrics::internal
