@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <utility>
 
 #include "rephoto/metrics/kernels.h"
 
@@ -70,20 +71,20 @@ template <typename VF>
 
 // Output rows t in [0, B) of one quantity at element offset `off`: rows[t + r + k], k in
 // [-r, r]. kRadius > 0: the radius is a compile-time constant, every row is loaded once into a
-// register and used by all B outputs; kRadius == 0: runtime radius (B must be 1).
+// register and used by all B outputs; kRadius == 0: runtime radius (B must be 1). `w` holds the
+// weights w[k] = weights[r + k] for k in [0, r] as vectors.
 template <typename VF, int B, int kRadius>
-[[gnu::always_inline]] inline void VerticalQuantity(const float* const* rows, const float* weights,
-                                                    int r, size_t off, float* const* out) {
+[[gnu::always_inline]] inline void VerticalQuantity(const float* const* rows, const VF* w,
+                                                    const float* weights, int r, size_t off,
+                                                    float* const* out) {
   if constexpr (kRadius > 0) {
     constexpr int kRows = 2 * kRadius + B;
     VF v[kRows];
     for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
     VF acc[B];
-    const VF w0 = VF{} + weights[kRadius];
-    for (int t = 0; t < B; ++t) acc[t] = w0 * v[t + kRadius];
+    for (int t = 0; t < B; ++t) acc[t] = w[0] * v[t + kRadius];
     for (int k = 1; k <= kRadius; ++k) {
-      const VF wk = VF{} + weights[kRadius + k];
-      for (int t = 0; t < B; ++t) acc[t] += wk * (v[t + kRadius - k] + v[t + kRadius + k]);
+      for (int t = 0; t < B; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
     }
     for (int t = 0; t < B; ++t) REPHOTO_STORE(out[t] + off, acc[t]);
   } else {
@@ -101,10 +102,27 @@ template <typename VF, int B, int kRadius>
 [[gnu::always_inline]] inline void VerticalBlockBody(const float* const* rows, const float* weights,
                                                      int r, int n, float* const* out) {
   constexpr int kLanes = sizeof(VF) / sizeof(float);
+  // Local copies for a constant radius: the stores (memcpy) could otherwise alias the pointers
+  // and weights, which the compiler would then reload for every vector. (A runtime radius uses
+  // the caller's arrays.)
+  constexpr int kRows = kRadius > 0 ? 2 * kRadius + B : 1;
+  const float* rp[kRows];
+  float* op[B];
+  VF w[kRadius + 1];
+  const float* const* row_ptrs = rows;
+  float* const* out_ptrs = out;
+  if constexpr (kRadius > 0) {
+    for (int j = 0; j < kRows; ++j) rp[j] = rows[j];
+    for (int t = 0; t < B; ++t) op[t] = out[t];
+    for (int k = 0; k <= kRadius; ++k) w[k] = VF{} + weights[kRadius + k];
+    row_ptrs = rp;
+    out_ptrs = op;
+  }
   int i = 0;
   for (; (i = VectorStart<kLanes>(i, n)) >= 0; i += kLanes) {
     for (int q = 0; q < kSsimQuantities; ++q) {
-      VerticalQuantity<VF, B, kRadius>(rows, weights, r, static_cast<size_t>(q) * n + i, out);
+      VerticalQuantity<VF, B, kRadius>(row_ptrs, w, weights, r, static_cast<size_t>(q) * n + i,
+                                       out_ptrs);
     }
   }
   if (n >= kLanes) return;
@@ -113,8 +131,9 @@ template <typename VF, int B, int kRadius>
       for (int j = 0; j < n; ++j) {
         const size_t off = static_cast<size_t>(q) * n + j;
         float acc = weights[r] * rows[t + r][off];
-        for (int k = 1; k <= r; ++k)
+        for (int k = 1; k <= r; ++k) {
           acc += weights[r + k] * (rows[t + r - k][off] + rows[t + r + k][off]);
+        }
         out[t][off] = acc;
       }
     }
@@ -137,13 +156,14 @@ template <typename VF, int B>
   }
 }
 
+// Horizontal filter by loads at each tap, for the output elements [a, b) (3r <= a, b <= n - 3r).
 template <typename VF>
-[[gnu::always_inline]] inline void HorizontalBody(const float* in, const float* weights, int r,
-                                                  int n, float* out) {
+[[gnu::always_inline]] inline void HorizontalRange(const float* in, const float* weights, int r,
+                                                   int a, int b, float* out) {
   constexpr int kLanes = sizeof(VF) / sizeof(float);
-  const int begin = 3 * r, len = n - 6 * r;
+  const int len = b - a;
   for (int o = 0; (o = VectorStart<kLanes>(o, len)) >= 0; o += kLanes) {
-    const int i = begin + o;
+    const int i = a + o;
     VF acc = (VF{} + weights[r]) * REPHOTO_LOAD(VF, in + i);
     for (int k = 1; k <= r; ++k) {
       acc += (VF{} + weights[r + k]) *
@@ -151,11 +171,86 @@ template <typename VF>
     }
     REPHOTO_STORE(out + i, acc);
   }
-  for (int j = begin; j < (len < kLanes ? begin + len : begin); ++j) {
+  for (int j = a; j < (len < kLanes ? b : a); ++j) {
     float acc = weights[r] * in[j];
     for (int k = 1; k <= r; ++k) acc += weights[r + k] * (in[j - 3 * k] + in[j + 3 * k]);
     out[j] = acc;
   }
+}
+
+constexpr int FloorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+// *out = the kLanes values at offset O from the first value of block 0, where v[j] holds block
+// j + kLo (blocks of kLanes consecutive values): one register or a shuffle of two.
+template <typename VF, int O, int kLo, size_t... I>
+[[gnu::always_inline]] inline void WindowAt(const VF* v, VF* out, std::index_sequence<I...>) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  constexpr int block = FloorDiv(O, kLanes), shift = O - block * kLanes;
+  if constexpr (shift == 0) {
+    *out = v[block - kLo];
+  } else {
+    *out = __builtin_shufflevector(v[block - kLo], v[block - kLo + 1],
+                                   (shift + static_cast<int>(I))...);
+  }
+}
+
+template <typename VF, int kRadius, int kLo, int... K>
+[[gnu::always_inline]] inline void ShuffledTaps(const VF* v, const VF* w, VF* acc,
+                                                std::integer_sequence<int, K...>) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  const auto lanes = std::make_index_sequence<kLanes>();
+  *acc = w[0] * v[-kLo];
+  (
+      [&] {
+        VF left, right;
+        WindowAt<VF, -3 * (K + 1), kLo>(v, &left, lanes);
+        WindowAt<VF, 3 * (K + 1), kLo>(v, &right, lanes);
+        *acc += w[K + 1] * (left + right);
+      }(),
+      ...);
+}
+
+// The same filter with one load per output vector: the tap windows are shuffled out of the
+// blocks of kLanes values around it, which slide along the row in registers (loads at every
+// tap made the filter load-bound). Same arithmetic as HorizontalRange. Edges by HorizontalRange.
+template <typename VF, int kRadius>
+[[gnu::always_inline]] inline void HorizontalShuffled(const float* in, const float* weights, int n,
+                                                      float* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  constexpr int kSpan = 3 * kRadius;
+  constexpr int kLo = FloorDiv(-kSpan, kLanes);
+  constexpr int kHi = FloorDiv(kSpan, kLanes) + (kSpan % kLanes != 0 ? 1 : 0);
+  constexpr int kBlocks = kHi - kLo + 1;
+  const int begin = kSpan, end = n - kSpan;
+  // Output vectors at i need blocks [i + kLo * kLanes, i + (kHi + 1) * kLanes) inside the row.
+  int i = begin + kLanes;
+  if (end - begin < 2 * kLanes || i + kLo * kLanes < 0) {
+    return HorizontalRange<VF>(in, weights, kRadius, begin, end, out);
+  }
+  HorizontalRange<VF>(in, weights, kRadius, begin, i, out);
+  VF w[kRadius + 1];  // local: the stores could otherwise alias `weights`
+  for (int k = 0; k <= kRadius; ++k) w[k] = VF{} + weights[kRadius + k];
+  VF v[kBlocks];
+  for (int j = 0; j < kBlocks - 1; ++j) v[j] = REPHOTO_LOAD(VF, in + i + (kLo + j) * kLanes);
+  for (; i + kLanes <= end && i + (kHi + 1) * kLanes <= n; i += kLanes) {
+    v[kBlocks - 1] = REPHOTO_LOAD(VF, in + i + kHi * kLanes);
+    VF acc;
+    ShuffledTaps<VF, kRadius, kLo>(v, w, &acc, std::make_integer_sequence<int, kRadius>());
+    REPHOTO_STORE(out + i, acc);
+    for (int j = 0; j + 1 < kBlocks; ++j) v[j] = v[j + 1];
+  }
+  // The rest, its first vector overlapping the last one done here when it is short.
+  if (i < end) {
+    HorizontalRange<VF>(in, weights, kRadius, std::max(begin, std::min(i, end - kLanes)), end, out);
+  }
+}
+
+template <typename VF>
+[[gnu::always_inline]] inline void HorizontalBody(const float* in, const float* weights, int r,
+                                                  int n, float* out) {
+  if (r == 5) return HorizontalShuffled<VF, 5>(in, weights, n, out);
+  if (r == 3) return HorizontalShuffled<VF, 3>(in, weights, n, out);
+  HorizontalRange<VF>(in, weights, r, 3 * r, n - 3 * r, out);
 }
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
