@@ -195,8 +195,9 @@ MeanSums SsimBandFused(const BandInputs& in, const SsimSetup& setup, const Error
   const uint8_t* band_ok;
   if (!BandStart(in, setup.window, ssim, dssim, y0, y1, &c0, &c1, &band_ok)) return sums;
   constexpr int kQ = kSsimQuantities;
-  // Strips narrow enough that the ring of 2r + kRowBlock product rows stays in the L2 cache.
-  constexpr int kStripPixels = 128;
+  // Strips narrow enough that the ring of 2r + kRowBlock product rows stays in the L2 cache
+  // (179 KB at r = 5; 256 measured ~3 % faster than 128, blocks of 8 rows no faster than 4).
+  constexpr int kStripPixels = 256;
   constexpr int kRowBlock = 4;
   const int ring = 2 * r + kRowBlock;
   const size_t plane_set = static_cast<size_t>(kQ) * 3 * (kStripPixels + 2 * r);
