@@ -127,11 +127,15 @@ void SsimVertical(const float* const* p_rows, const float* const* q_rows, const 
 // sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
 void SsimHorizontal(const float* in, const float* weights, int r, int n, float* out);
 
-// The fused SSIM filters (ssim_fused.cc) on interleaved RGB rows of n = 3 * width values,
-// values shifted by -0.5: four quantities x, y, x^2 + y^2 and xy, each a plane of n values.
+// The fused SSIM filters (ssim_fused.cc) on interleaved RGB rows of n = 3 * width values, each
+// image's values shifted by a row of n values (variances and covariances do not change; the
+// shift keeps the squares small, see ssim.cc): four quantities x, y, x^2 + y^2 and xy, each a
+// plane of n values.
 inline constexpr int kSsimQuantities = 4;
-// out[q * n + i] = product q of the shifted p[i] and q[i] (the input row of the vertical filter).
-void SsimProducts(const float* p, const float* q, int n, float* out);
+// out[q * n + i] = product q of p[i] - shift_p[i] and q[i] - shift_q[i] (the input row of the
+// vertical filter).
+void SsimProducts(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
+                  float* out);
 // Vertical filter of `count` output rows at once: out[t][q * n + i] = sum over k in [-r, r] of
 // weights[r + k] * rows[t + r + k][q * n + i], for t in [0, count); rows holds the product rows
 // (SsimProducts) of 2r + count consecutive input rows.

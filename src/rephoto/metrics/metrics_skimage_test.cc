@@ -70,11 +70,13 @@ Mask ReferenceMask(int width, int height) {
   return m;
 }
 
-// Gaussian SSIM/DSSIM (the default; float32 filters against scikit-image's float64) agree to
-// kGaussianTolerance: measured at most 1.7e-7 with the five-quantity kernel and 0.9e-7 with the
-// fused one on these cases. The uniform 7x7 window with sample covariance is further off (up to
-// 6e-7 and 8.3e-7: the float box weights 1/49 do not sum to exactly 1).
-constexpr double kGaussianTolerance = 2e-7;
+// Gaussian SSIM (the default; float32 filters against scikit-image's float64) agrees to
+// kGaussianSsimTolerance and DSSIM = (1 - SSIM) / 2 to half that. Measured on these cases: at
+// most 1.7e-7 (SSIM) with the five-quantity kernel and 2.1e-7 with the fused one (kermit,
+// masked; 1.5e-8 or less on the other cases, where the fused kernel is the closer one). The
+// uniform 7x7 window with sample covariance is further off (up to 6.1e-7 and 5.5e-7: the float
+// box weights 1/49 sum to 1 + 4.5e-8).
+constexpr double kGaussianSsimTolerance = 3e-7;
 constexpr double kUniformTolerance = 2e-6;
 
 void ExpectMatchesReferenceWithKernel(const Image& photo, const Image& rephoto, const json& ref) {
@@ -85,8 +87,8 @@ void ExpectMatchesReferenceWithKernel(const Image& photo, const Image& rephoto, 
   const std::vector<Metric> set = {Metric::kSsim, Metric::kDssim, Metric::kPsnr};
   const auto g = ComputeMetrics(photo, rephoto, {}, set, gaussian);
   const auto u = ComputeMetrics(photo, rephoto, {}, {Metric::kSsim}, uniform);
-  EXPECT_NEAR(g[0].mean, ref["ssim_gaussian"].get<double>(), kGaussianTolerance);
-  EXPECT_NEAR(g[1].mean, ref["dssim_gaussian"].get<double>(), kGaussianTolerance);
+  EXPECT_NEAR(g[0].mean, ref["ssim_gaussian"].get<double>(), kGaussianSsimTolerance);
+  EXPECT_NEAR(g[1].mean, ref["dssim_gaussian"].get<double>(), kGaussianSsimTolerance / 2);
   EXPECT_NEAR(g[2].mean, ref["psnr"].get<double>(), 1e-4);
   EXPECT_NEAR(u[0].mean, ref["ssim_skimage_default"].get<double>(), kUniformTolerance);
 
@@ -95,7 +97,7 @@ void ExpectMatchesReferenceWithKernel(const Image& photo, const Image& rephoto, 
   const auto um = ComputeMetrics(photo, rephoto, valid, {Metric::kSsim}, uniform);
   EXPECT_EQ(gm[0].evaluated, ref["masked_count_gaussian"].get<size_t>());
   EXPECT_EQ(um[0].evaluated, ref["masked_count_skimage_default"].get<size_t>());
-  EXPECT_NEAR(gm[0].mean, ref["masked_ssim_gaussian"].get<double>(), kGaussianTolerance);
+  EXPECT_NEAR(gm[0].mean, ref["masked_ssim_gaussian"].get<double>(), kGaussianSsimTolerance);
   EXPECT_NEAR(um[0].mean, ref["masked_ssim_skimage_default"].get<double>(), kUniformTolerance);
   EXPECT_NEAR(gm[2].mean, ref["masked_psnr"].get<double>(), 1e-4);
 }

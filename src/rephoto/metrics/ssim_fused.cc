@@ -45,23 +45,25 @@ inline int VectorStart(int i, int n) {
 }
 
 template <typename VF>
-[[gnu::always_inline]] inline void ProductsBody(const float* p, const float* q, int n, float* out) {
+[[gnu::always_inline]] inline void ProductsBody(const float* p, const float* q,
+                                                const float* shift_p, const float* shift_q, int n,
+                                                float* out) {
   constexpr int kLanes = sizeof(VF) / sizeof(float);
   float* ox = out;
   float* oy = out + n;
   float* oss = out + 2 * n;
   float* oxy = out + 3 * n;
-  const VF half = VF{} + 0.5f;
   int i = 0;
   for (; (i = VectorStart<kLanes>(i, n)) >= 0; i += kLanes) {
-    const VF a = REPHOTO_LOAD(VF, p + i) - half, b = REPHOTO_LOAD(VF, q + i) - half;
+    const VF a = REPHOTO_LOAD(VF, p + i) - REPHOTO_LOAD(VF, shift_p + i);
+    const VF b = REPHOTO_LOAD(VF, q + i) - REPHOTO_LOAD(VF, shift_q + i);
     REPHOTO_STORE(ox + i, a);
     REPHOTO_STORE(oy + i, b);
     REPHOTO_STORE(oss + i, a * a + b * b);
     REPHOTO_STORE(oxy + i, a * b);
   }
   for (int j = 0; j < (n < kLanes ? n : 0); ++j) {
-    const float a = p[j] - 0.5f, b = q[j] - 0.5f;
+    const float a = p[j] - shift_p[j], b = q[j] - shift_q[j];
     ox[j] = a;
     oy[j] = b;
     oss[j] = a * a + b * b;
@@ -266,8 +268,9 @@ constexpr int kBlock8 = 2;
 constexpr int kBlock16 = 4;
 
 REPHOTO_AVX2_CLONES
-void Products8(const float* p, const float* q, int n, float* out) {
-  ProductsBody<V8f>(p, q, n, out);
+void Products8(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
+               float* out) {
+  ProductsBody<V8f>(p, q, shift_p, shift_q, n, out);
 }
 
 REPHOTO_AVX2_CLONES
@@ -284,9 +287,10 @@ void Horizontal8(const float* in, const float* weights, int r, int n, float* out
 }
 
 #ifdef REPHOTO_HAVE_AVX512_KERNELS
-__attribute__((target("arch=x86-64-v4"))) void Products16(const float* p, const float* q, int n,
-                                                          float* out) {
-  ProductsBody<V16f>(p, q, n, out);
+__attribute__((target("arch=x86-64-v4"))) void Products16(const float* p, const float* q,
+                                                          const float* shift_p,
+                                                          const float* shift_q, int n, float* out) {
+  ProductsBody<V16f>(p, q, shift_p, shift_q, n, out);
 }
 
 __attribute__((target("arch=x86-64-v4"))) void Vertical16(const float* const* rows,
@@ -305,11 +309,12 @@ __attribute__((target("arch=x86-64-v4"))) void Horizontal16(const float* in, con
 
 }  // namespace
 
-void SsimProducts(const float* p, const float* q, int n, float* out) {
+void SsimProducts(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
+                  float* out) {
 #ifdef REPHOTO_HAVE_AVX512_KERNELS
-  if (HasAvx512()) return Products16(p, q, n, out);
+  if (HasAvx512()) return Products16(p, q, shift_p, shift_q, n, out);
 #endif
-  Products8(p, q, n, out);
+  Products8(p, q, shift_p, shift_q, n, out);
 }
 
 void SsimVerticalRows(const float* const* rows, const float* weights, int r, int n, int count,

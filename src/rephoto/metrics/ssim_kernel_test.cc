@@ -5,13 +5,16 @@
 // Agreement with scikit-image is checked in metrics_skimage_test.cc.
 //
 // The two kernels round differently, and float32 moments lose most where a window is nearly
-// flat (sigma^2 ~ 1e-6 next to c2 = 9e-4 and E[x^2] ~ 0.1): there one pixel's SSIM may differ by
-// ~1e-4, and over large flat regions (sky) the mean by ~1e-5. Measured (this machine, AVX-512):
-// random images up to 1.4e-5 per pixel and 2.2e-6 in the mean; Sceaux 00005 against 00006 1.4e-4
-// and 1.2e-6, against its shifted copy 1.5e-4 and 7.4e-6. Against scikit-image in float64
-// (/usr/bin/python3, structural_similarity, gaussian_weights, sigma 1.5, population covariance)
-// the DSSIM means of those two pairs were off by 2.4e-7 and 1.3e-5 (fused) and 8.5e-7 and
-// 9.2e-6 (five-quantity kernel). The bounds below are a few times the measured differences.
+// flat (sigma^2 ~ 1e-6 next to c2 = 9e-4): there one pixel's SSIM may differ by ~1e-4. The fused
+// kernel shifts each strip's values by their mean (ssim.cc), the earlier one by 0.5, so over
+// large flat regions (sky) the earlier one's mean drifts. Measured (AVX-512 and AVX2 builds
+// alike): random images up to 2e-5 per pixel and 3.1e-6 in the mean; Sceaux 00005 against 00006
+// 1.4e-4 and 1.7e-6, against its shifted copy 1.8e-4 and 5.5e-7. scikit-image in float64
+// (/usr/bin/python3 structural_similarity, gaussian_weights, sigma 1.5, population covariance,
+// on the same float32 values) gives DSSIM 0.2004737393 and 0.0419631722 for these two pairs:
+// the fused kernel is off by 2.7e-9 and 1.4e-8, the earlier one by 8.5e-7 and 2.9e-7. The
+// bounds below are a few times the measured differences.
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
