@@ -265,7 +265,9 @@ template <typename VF>
 // Rows per vertical block: what the registers hold besides the 2r+1 rows of the window
 // (16 vector registers for AVX2, 32 for AVX-512).
 constexpr int kBlock8 = 2;
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
 constexpr int kBlock16 = 4;
+#endif
 
 REPHOTO_AVX2_CLONES
 void Products8(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
