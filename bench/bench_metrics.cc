@@ -218,6 +218,21 @@ void BM_DssimFiveQuantitiesKernel(benchmark::State& state) {
 }
 BENCHMARK(BM_DssimFiveQuantitiesKernel)->Apply(BigSize);
 
+// All eight metrics (the whole set) on the 8-bit pair, one thread, with each SSIM kernel.
+template <SsimKernel kKernel>
+void BM_AllMetricsBytesInBandsOneThread(benchmark::State& state) {
+  rephoto::metrics::internal::SetSsimKernel(kKernel);
+  rephoto::ThreadLimit limit(1);
+  RunBytesInBands(state, rephoto::metrics::AllMetrics());
+  rephoto::metrics::internal::SetSsimKernel(SsimKernel::kFused);
+}
+BENCHMARK(BM_AllMetricsBytesInBandsOneThread<SsimKernel::kFused>)
+    ->Name("BM_AllMetricsFusedKernelBytesInBandsOneThread")
+    ->Apply(BigSize);
+BENCHMARK(BM_AllMetricsBytesInBandsOneThread<SsimKernel::kFiveQuantities>)
+    ->Name("BM_AllMetricsFiveQuantitiesKernelBytesInBandsOneThread")
+    ->Apply(BigSize);
+
 }  // namespace
 
 BENCHMARK_MAIN();
