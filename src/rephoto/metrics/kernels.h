@@ -12,7 +12,8 @@
 // Row kernels are compiled three times, for AVX-512 (x86-64-v4), AVX2+FMA (x86-64-v3) and the
 // baseline, and the loader picks one at start-up. Floating-point contraction is off for this
 // library (CMakeLists.txt), so the clones compute bit-identical results (except the SSIM
-// filters, see ssim_filter.cc).
+// filters, see ssim_filter.cc and ssim_fused.cc: the AVX-512 and AVX2 versions agree, the
+// baseline without FMA rounds differently).
 // REPHOTO_METRICS_NO_AVX512 (CMake option of the same name) drops the AVX-512 clone, so that
 // the AVX2 code that CPUs without AVX-512 run can be measured on one that has it.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
@@ -118,7 +119,8 @@ class WindowValidityRows {
 // sigma <= 0.
 std::vector<float> FilterWeights(int radius, double sigma);
 
-// SSIM filters on interleaved RGB rows of n = 3 * width values (ssim_filter.cc).
+// The five-quantity kernel's SSIM filters (SsimKernel::kFiveQuantities) on interleaved RGB rows
+// of n = 3 * width values (ssim_filter.cc).
 // Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy of the values shifted by -0.5 = weighted
 // sum over the 2r+1 rows.
 void SsimVertical(const float* const* p_rows, const float* const* q_rows, const float* weights,
