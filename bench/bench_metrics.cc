@@ -8,6 +8,9 @@
 // rendering) through ComputeMetricsInBands, as `rephoto compare` does for JPEG/PNG files; older
 // builds have no such cases: compare them with the float cases of an older binary run in turns.
 //
+// SSIM kernels: the *FusedKernel and *FiveQuantitiesKernel cases run DSSIM with the fused SSIM
+// kernel (the default) and the earlier one it replaced, in one binary.
+//
 // Kernels: the names of the cases stay the same from build to build, so an older binary's
 // figures compare case by case with a newer one's (run both in turns). Census and the SSIM
 // filters have a 16-wide AVX-512 version and 8-wide AVX2/baseline clones (picked at run time);
@@ -28,6 +31,7 @@
 #include <utility>
 
 #include "rephoto/core/parallel.h"
+#include "rephoto/metrics/kernels.h"
 #include "rephoto/metrics/metrics.h"
 
 namespace {
@@ -179,6 +183,55 @@ BENCHMARK(BM_SetBytesInBandsOneThread)->Apply(BigSize);
 REPHOTO_BYTES_BENCH(Census, Metric::kCensus);
 REPHOTO_BYTES_BENCH(Dssim, Metric::kDssim);
 REPHOTO_BYTES_BENCH(Icid, Metric::kIcid);
+
+// DSSIM with each SSIM kernel named (internal::SsimKernel): FusedKernel is what the cases above
+// run (the default since the fused kernel came in); FiveQuantitiesKernel is the earlier one (x, y,
+// x^2, y^2, xy filtered separately, the window re-read per output row), so before and after
+// stay comparable within one binary. 8-bit pair through ComputeMetricsInBands, one thread, and
+// the float pair through ComputeMetrics on all threads.
+template <rephoto::metrics::internal::SsimKernel kKernel>
+void DssimWithKernel(benchmark::State& state, bool bytes) {
+  rephoto::metrics::internal::SetSsimKernel(kKernel);
+  if (bytes) {
+    rephoto::ThreadLimit limit(1);
+    RunBytesInBands(state, {Metric::kDssim});
+  } else {
+    Run(state, {Metric::kDssim});
+  }
+  rephoto::metrics::internal::SetSsimKernel(rephoto::metrics::internal::SsimKernel::kFused);
+}
+using rephoto::metrics::internal::SsimKernel;
+void BM_DssimFusedKernelBytesInBandsOneThread(benchmark::State& state) {
+  DssimWithKernel<SsimKernel::kFused>(state, true);
+}
+BENCHMARK(BM_DssimFusedKernelBytesInBandsOneThread)->Apply(BigSize);
+void BM_DssimFiveQuantitiesKernelBytesInBandsOneThread(benchmark::State& state) {
+  DssimWithKernel<SsimKernel::kFiveQuantities>(state, true);
+}
+BENCHMARK(BM_DssimFiveQuantitiesKernelBytesInBandsOneThread)->Apply(BigSize);
+void BM_DssimFusedKernel(benchmark::State& state) {
+  DssimWithKernel<SsimKernel::kFused>(state, false);
+}
+BENCHMARK(BM_DssimFusedKernel)->Apply(BigSize);
+void BM_DssimFiveQuantitiesKernel(benchmark::State& state) {
+  DssimWithKernel<SsimKernel::kFiveQuantities>(state, false);
+}
+BENCHMARK(BM_DssimFiveQuantitiesKernel)->Apply(BigSize);
+
+// All eight metrics (the whole set) on the 8-bit pair, one thread, with each SSIM kernel.
+template <SsimKernel kKernel>
+void BM_AllMetricsBytesInBandsOneThread(benchmark::State& state) {
+  rephoto::metrics::internal::SetSsimKernel(kKernel);
+  rephoto::ThreadLimit limit(1);
+  RunBytesInBands(state, rephoto::metrics::AllMetrics());
+  rephoto::metrics::internal::SetSsimKernel(SsimKernel::kFused);
+}
+BENCHMARK(BM_AllMetricsBytesInBandsOneThread<SsimKernel::kFused>)
+    ->Name("BM_AllMetricsFusedKernelBytesInBandsOneThread")
+    ->Apply(BigSize);
+BENCHMARK(BM_AllMetricsBytesInBandsOneThread<SsimKernel::kFiveQuantities>)
+    ->Name("BM_AllMetricsFiveQuantitiesKernelBytesInBandsOneThread")
+    ->Apply(BigSize);
 
 }  // namespace
 

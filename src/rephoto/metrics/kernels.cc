@@ -143,6 +143,20 @@ std::vector<float> FilterWeights(int radius, double sigma) {
   return out;
 }
 
+// Eight partial sums break the add latency chain; their order is fixed.
+REPHOTO_SIMD_CLONES
+double MaskRange(const float* __restrict values, const uint8_t* __restrict ok, int begin, int end,
+                 float* __restrict out) {
+  for (int x = begin; x < end; ++x) out[x] = ok[x] ? values[x] : kNaN;
+  double acc[8] = {};
+  int x = begin;
+  for (; x + 8 <= end; x += 8) {
+    for (int j = 0; j < 8; ++j) acc[j] += ok[x + j] ? static_cast<double>(values[x + j]) : 0.0;
+  }
+  for (; x < end; ++x) acc[0] += ok[x] ? static_cast<double>(values[x]) : 0.0;
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+
 bool HasAvx512() {
 #ifdef REPHOTO_HAVE_AVX512_KERNELS
   static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&

@@ -12,7 +12,8 @@
 // Row kernels are compiled three times, for AVX-512 (x86-64-v4), AVX2+FMA (x86-64-v3) and the
 // baseline, and the loader picks one at start-up. Floating-point contraction is off for this
 // library (CMakeLists.txt), so the clones compute bit-identical results (except the SSIM
-// filters, see ssim_filter.cc).
+// filters, see ssim_filter.cc and ssim_fused.cc: the AVX-512 and AVX2 versions agree, the
+// baseline without FMA rounds differently).
 // REPHOTO_METRICS_NO_AVX512 (CMake option of the same name) drops the AVX-512 clone, so that
 // the AVX2 code that CPUs without AVX-512 run can be measured on one that has it.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
@@ -118,7 +119,8 @@ class WindowValidityRows {
 // sigma <= 0.
 std::vector<float> FilterWeights(int radius, double sigma);
 
-// SSIM filters on interleaved RGB rows of n = 3 * width values (ssim_filter.cc).
+// The five-quantity kernel's SSIM filters (SsimKernel::kFiveQuantities) on interleaved RGB rows
+// of n = 3 * width values (ssim_filter.cc).
 // Vertical: out[q * n + i] for q = x, y, x^2, y^2, xy of the values shifted by -0.5 = weighted
 // sum over the 2r+1 rows.
 void SsimVertical(const float* const* p_rows, const float* const* q_rows, const float* weights,
@@ -126,6 +128,49 @@ void SsimVertical(const float* const* p_rows, const float* const* q_rows, const 
 // Horizontal, for the 5 planes of n values of SsimVertical's output: out[q * n + i] = weighted
 // sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
 void SsimHorizontal(const float* in, const float* weights, int r, int n, float* out);
+
+// The fused SSIM filters (ssim_fused.cc) on interleaved RGB rows of n = 3 * width values, each
+// image's values shifted by a row of n values (variances and covariances do not change; the
+// shift keeps the squares small, see ssim.cc): four quantities x, y, x^2 + y^2 and xy, each a
+// plane of n values.
+inline constexpr int kSsimQuantities = 4;
+// out[q * n + i] = product q of p[i] - shift_p[i] and q[i] - shift_q[i] (the input row of the
+// vertical filter).
+void SsimProducts(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
+                  float* out);
+// Vertical filter of `count` output rows at once: out[t][q * n + i] = sum over k in [-r, r] of
+// weights[r + k] * rows[t + r + k][q * n + i], for t in [0, count); rows holds the product rows
+// (SsimProducts) of 2r + count consecutive input rows.
+void SsimVerticalRows(const float* const* rows, const float* weights, int r, int n, int count,
+                      float* const* out);
+// Horizontal filter of the 4 planes of n values of SsimVerticalRows' output: out[q * n + i] =
+// weighted sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
+void SsimHorizontalFused(const float* in, const float* weights, int r, int n, float* out);
+
+// The SSIM settings of a call.
+struct SsimSetup {
+  int window = 0;
+  std::vector<float> weights;  // FilterWeights(window / 2, ...)
+  float cov_norm = 1;          // 1 (Gaussian) or N / (N - 1) (uniform, sample covariance)
+};
+
+// The SSIM kernels: kFused (default; ssim_fused.cc) and the earlier kFiveQuantities
+// (ssim_filter.cc: x, y, x^2, y^2 and xy filtered separately, the window's rows re-read for
+// each output row), kept so benchmarks and tests can compare the two. Process-wide; change it
+// only while no metrics are being computed (benchmarks, tests). Reading it is thread-safe.
+enum class SsimKernel { kFused, kFiveQuantities };
+void SetSsimKernel(SsimKernel kernel);
+SsimKernel GetSsimKernel();
+
+// SSIM and DSSIM of the output rows [y0, y1) (ssim.cc) with the kernel GetSsimKernel() names;
+// needs source rows [y0 - r, y1 + r). Sums: slot 0 SSIM, slot 1 DSSIM.
+MeanSums SsimBand(const BandInputs& in, const SsimSetup& setup, const ErrorRows* ssim,
+                  const ErrorRows* dssim, int64_t y0, int64_t y1);
+
+// out[x] = values[x] where ok[x], else NaN, for x in [begin, end); returns the sum of the
+// copied values. `ok` must be 0 where the window leaves the image (WindowValidityRows rows
+// are).
+double MaskRange(const float* values, const uint8_t* ok, int begin, int end, float* out);
 
 // Whether the CPU runs the AVX-512 (x86-64-v4) versions of the kernels that have one
 // (REPHOTO_HAVE_AVX512_KERNELS) besides their AVX2/baseline clones. Thread-safe.

@@ -19,9 +19,8 @@ using internal::CensusValues;
 using internal::FillNaN;
 using internal::kBandRows;
 using internal::kNaN;
+using internal::MaskRange;
 using internal::MeanSums;
-using internal::SsimHorizontal;
-using internal::SsimVertical;
 using internal::WindowValidityRows;
 
 using internal::ErrorRows;
@@ -173,22 +172,6 @@ void BoxErrors(const double* __restrict prefix, int w, int r, double inv_count, 
     const double z = dx + dy - 2.0 * dxy;
     zssd[x] = static_cast<float>((z > 0.0 ? z : 0.0) * inv_count * (1.0 / 3.0));
   }
-}
-
-// out[x] = values[x] where ok[x], else NaN, for x in [begin, end); returns the sum of the
-// copied values. `ok` must be 0 where the window leaves the image (WindowValidityRows rows
-// are). Eight partial sums break the add latency chain; their order is fixed.
-REPHOTO_SIMD_CLONES
-double MaskRange(const float* __restrict values, const uint8_t* __restrict ok, int begin, int end,
-                 float* __restrict out) {
-  for (int x = begin; x < end; ++x) out[x] = ok[x] ? values[x] : kNaN;
-  double acc[8] = {};
-  int x = begin;
-  for (; x + 8 <= end; x += 8) {
-    for (int j = 0; j < 8; ++j) acc[j] += ok[x + j] ? static_cast<double>(values[x + j]) : 0.0;
-  }
-  for (; x < end; ++x) acc[0] += ok[x] ? static_cast<double>(values[x]) : 0.0;
-  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
 
 double MaskRow(const float* values, const uint8_t* ok, int w, float* out) {
@@ -360,138 +343,6 @@ MeanSums PixelBand(const Inputs& in, const ErrorRows* cbcr, const ErrorRows* squ
   return sums;
 }
 
-// ---------------------------------------------------------------------------------------------
-// SSIM / DSSIM: separable weighted window of x, y, x^2, y^2, xy per channel on interleaved
-// rows (filtering is element-wise, so channel interleaving does not matter; horizontal taps
-// step by 3). Values are shifted by -0.5 before squaring, which halves their magnitude and
-// the cancellation in E[x^2] - E[x]^2; the shift cancels in variances and covariances.
-
-REPHOTO_SIMD_CLONES
-void SsimFormula(const float* __restrict moments, int r, int n, float cov_norm,
-                 float* __restrict ssim) {
-  const float* __restrict mx = moments;
-  const float* __restrict my = moments + n;
-  const float* __restrict mxx = moments + 2 * n;
-  const float* __restrict myy = moments + 3 * n;
-  const float* __restrict mxy = moments + 4 * n;
-  const float c1 = 0.01f * 0.01f, c2 = 0.03f * 0.03f;
-  for (int i = 3 * r; i < n - 3 * r; ++i) {
-    const float ux = mx[i] + 0.5f, uy = my[i] + 0.5f;
-    const float vx = cov_norm * (mxx[i] - mx[i] * mx[i]);
-    const float vy = cov_norm * (myy[i] - my[i] * my[i]);
-    const float vxy = cov_norm * (mxy[i] - mx[i] * my[i]);
-    const float a1 = 2 * ux * uy + c1, a2 = 2 * vxy + c2;
-    const float b1 = ux * ux + uy * uy + c1, b2 = vx + vy + c2;
-    ssim[i] = (a1 * a2) / (b1 * b2);
-  }
-}
-
-// ssim[x] = mean of the 3 channel values e[3x..3x+2] ((e0 + e1) + e2) / 3, dssim[x] =
-// (1 - ssim[x]) / 2, for x in [0, n): eight pixels at a time by Deinterleave's shuffles.
-REPHOTO_SIMD_CLONES
-void ChannelMeans(const float* __restrict e, int n, float* __restrict ssim,
-                  float* __restrict dssim) {
-  int x = 0;
-  for (; x + 8 <= n; x += 8) {
-    V8f a, b, c;
-    __builtin_memcpy(&a, e + 3 * x, 32);
-    __builtin_memcpy(&b, e + 3 * x + 8, 32);
-    __builtin_memcpy(&c, e + 3 * x + 16, 32);
-    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
-    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
-    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
-    const V8f e0 = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
-    const V8f e1 = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
-    const V8f e2 = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
-    const V8f v = (e0 + e1 + e2) / 3.0f;
-    const V8f d = (1.0f - v) * 0.5f;
-    __builtin_memcpy(ssim + x, &v, 32);
-    __builtin_memcpy(dssim + x, &d, 32);
-  }
-  for (; x < n; ++x) {
-    const float v = (e[3 * x] + e[3 * x + 1] + e[3 * x + 2]) / 3.0f;
-    ssim[x] = v;
-    dssim[x] = (1.0f - v) * 0.5f;
-  }
-}
-
-// Number of nonzero ok[x], x in [begin, end).
-REPHOTO_SIMD_CLONES
-size_t CountRange(const uint8_t* __restrict ok, int begin, int end) {
-  size_t n = 0;
-  for (int x = begin; x < end; ++x) n += ok[x] != 0;
-  return n;
-}
-
-struct SsimSetup {
-  int window;
-  std::vector<float> weights;
-  float cov_norm;
-};
-
-MeanSums SsimBand(const Inputs& in, const SsimSetup& setup, const ErrorRows* ssim,
-                  const ErrorRows* dssim, int64_t y0, int64_t y1) {
-  const int w = in.width, h = in.height, r = setup.window / 2;
-  MeanSums sums;
-  for (int64_t y = y0; y < y1; ++y) {
-    const int yi = static_cast<int>(y);
-    if (y >= r && y < h - r && w >= setup.window) continue;
-    if (ssim) FillNaN(ssim->row(yi), w);
-    if (dssim) FillNaN(dssim->row(yi), w);
-  }
-  const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
-  if (c0 >= c1 || w < setup.window) return sums;
-  // Window validity of the band's rows, then the band in strips of kStripPixels columns so
-  // that the 2r+1 input rows of a strip stay in cache while the strip moves down the band
-  // (whole rows would stream ~1 MB per output row from memory at 4000 px).
-  const int rows = static_cast<int>(c1 - c0);
-  thread_local std::vector<uint8_t> validity_buffer;
-  uint8_t* band_ok = Scratch(validity_buffer, static_cast<size_t>(rows) * w);
-  {
-    WindowValidityRows validity(in.valid, w, h, r);
-    for (int j = 0; j < rows; ++j) {
-      const uint8_t* ok = validity.Row(static_cast<int>(c0) + j);
-      std::copy(ok, ok + w, band_ok + static_cast<size_t>(j) * w);
-    }
-  }
-  constexpr int kStripPixels = 256;
-  const int max_elements = 3 * (kStripPixels + 2 * r);
-  thread_local std::vector<float> buffer;
-  float* vertical = Scratch(buffer, static_cast<size_t>(11) * max_elements);
-  float* moments = vertical + 5 * max_elements;
-  float* element = moments + 5 * max_elements;
-  thread_local std::vector<float> value_buffer;
-  float* ssim_values = Scratch(value_buffer, 2 * static_cast<size_t>(w));
-  float* dssim_values = ssim_values + w;
-  std::vector<const float*> p_rows(2 * r + 1), q_rows(2 * r + 1);
-  for (int x0 = 0; x0 < w; x0 += kStripPixels) {
-    const int x1 = std::min(w, x0 + kStripPixels);
-    // Elements [e0, e1) feed the horizontal filter of pixels [max(x0, r), min(x1, w - r)).
-    const int e0 = 3 * std::max(0, x0 - r), e1 = 3 * std::min(w, x1 + r), m = e1 - e0;
-    for (int64_t y = c0; y < c1; ++y) {
-      const int yi = static_cast<int>(y);
-      for (int k = 0; k <= 2 * r; ++k) {
-        p_rows[k] = in.photo.row(yi - r + k) + e0;
-        q_rows[k] = in.rephoto.row(yi - r + k) + e0;
-      }
-      SsimVertical(p_rows.data(), q_rows.data(), setup.weights.data(), r, m, vertical);
-      SsimHorizontal(vertical, setup.weights.data(), r, m, moments);
-      SsimFormula(moments, r, m, setup.cov_norm, element);
-      const uint8_t* ok = band_ok + static_cast<size_t>(y - c0) * w;
-      const int xa = std::max(x0, r), xb = std::min(x1, w - r);
-      if (xa < xb) {
-        ChannelMeans(element + 3 * xa - e0, xb - xa, ssim_values + xa, dssim_values + xa);
-      }
-      const size_t evaluated = CountRange(ok, x0, x1);
-      if (ssim) sums.sum[0] += MaskRange(ssim_values, ok, x0, x1, ssim->row(yi));
-      if (dssim) sums.sum[1] += MaskRange(dssim_values, ok, x0, x1, dssim->row(yi));
-      sums.count[0] += evaluated;
-      sums.count[1] += evaluated;
-    }
-  }
-  return sums;
-}
-
 double MeanOf(const MeanSums& sums, int slot) {
   return sums.count[slot] == 0 ? std::numeric_limits<double>::quiet_NaN()
                                : sums.sum[slot] / static_cast<double>(sums.count[slot]);
@@ -598,7 +449,7 @@ struct Engine {
   MetricOptions options;
   bool want[8] = {};
   int halo = 0;  // source rows needed above and below a band
-  SsimSetup ssim;
+  internal::SsimSetup ssim;
   std::vector<double> icid_weights;
 
   bool Wants(Metric m) const { return want[static_cast<int>(m)]; }
@@ -655,7 +506,7 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
     sums.pixel = PixelBand(in, out(Metric::kCbCr), out(Metric::kPsnr), y0, y1);
   }
   if (e.Wants(Metric::kSsim) || e.Wants(Metric::kDssim)) {
-    sums.ssim = SsimBand(in, e.ssim, out(Metric::kSsim), out(Metric::kDssim), y0, y1);
+    sums.ssim = internal::SsimBand(in, e.ssim, out(Metric::kSsim), out(Metric::kDssim), y0, y1);
   }
   if (e.Wants(Metric::kIcid)) {
     sums.icid =

@@ -1,0 +1,337 @@
+#include <algorithm>
+#include <utility>
+
+#include "rephoto/metrics/kernels.h"
+
+// The fused SSIM filters (kernels.h): the four products of an input row are formed once, then
+// filtered vertically for a block of output rows at a time (each loaded row feeds every output
+// row of the block whose window holds it, so loads per output row drop from 2r+1 to
+// (2r+B)/B), then horizontally. Four quantities instead of five: the SSIM formula needs only
+// sigma_x^2 + sigma_y^2, so x^2 + y^2 is filtered as one quantity.
+//
+// Compiled with -ffp-contract=fast (CMakeLists.txt), like ssim_filter.cc. Identical images still
+// give identical moments: the product x^2 + y^2 is fma(a, a, round(b * b)), which for a == b is
+// round(a^2 + round(a^2)) = 2 round(a^2) exactly (the rounding error of round(a^2) is at most a
+// quarter ulp of the doubled value), i.e. exactly twice the product xy = round(a * b); the
+// filters are linear, so every filtered x^2 + y^2 is then exactly twice the filtered xy.
+// As in ssim_filter.cc, each kernel is one template inlined into a 16-wide AVX-512 function and
+// an 8-wide function cloned for AVX2 and the baseline, with the same arithmetic element-wise.
+namespace rephoto::metrics::internal {
+namespace {
+
+typedef float V8f __attribute__((vector_size(32)));
+typedef float V16f __attribute__((vector_size(64)));
+
+#define REPHOTO_LOAD(VF, p)                 \
+  ({                                        \
+    VF v_;                                  \
+    __builtin_memcpy(&v_, (p), sizeof(v_)); \
+    v_;                                     \
+  })
+#define REPHOTO_STORE(p, v)                 \
+  do {                                      \
+    const auto s_ = (v);                    \
+    __builtin_memcpy((p), &s_, sizeof(s_)); \
+  } while (false)
+
+// Start of the vector at i: whole vectors, the last one overlapping its predecessor when n is
+// not a multiple of the width (recomputing values with the same arithmetic). Returns -1 when
+// the vectors are done or n is below one vector (the caller then goes scalar).
+template <int kLanes>
+inline int VectorStart(int i, int n) {
+  if (i >= n) return -1;
+  if (i + kLanes <= n) return i;
+  return n < kLanes ? -1 : n - kLanes;
+}
+
+template <typename VF>
+[[gnu::always_inline]] inline void ProductsBody(const float* p, const float* q,
+                                                const float* shift_p, const float* shift_q, int n,
+                                                float* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  float* ox = out;
+  float* oy = out + n;
+  float* oss = out + 2 * n;
+  float* oxy = out + 3 * n;
+  int i = 0;
+  for (; (i = VectorStart<kLanes>(i, n)) >= 0; i += kLanes) {
+    const VF a = REPHOTO_LOAD(VF, p + i) - REPHOTO_LOAD(VF, shift_p + i);
+    const VF b = REPHOTO_LOAD(VF, q + i) - REPHOTO_LOAD(VF, shift_q + i);
+    REPHOTO_STORE(ox + i, a);
+    REPHOTO_STORE(oy + i, b);
+    REPHOTO_STORE(oss + i, a * a + b * b);
+    REPHOTO_STORE(oxy + i, a * b);
+  }
+  for (int j = 0; j < (n < kLanes ? n : 0); ++j) {
+    const float a = p[j] - shift_p[j], b = q[j] - shift_q[j];
+    ox[j] = a;
+    oy[j] = b;
+    oss[j] = a * a + b * b;
+    oxy[j] = a * b;
+  }
+}
+
+// Output rows t in [0, B) of one quantity at element offset `off`: rows[t + r + k], k in
+// [-r, r]. kRadius > 0: the radius is a compile-time constant, every row is loaded once into a
+// register and used by all B outputs; kRadius == 0: runtime radius (B must be 1). `w` holds the
+// weights w[k] = weights[r + k] for k in [0, r] as vectors.
+template <typename VF, int B, int kRadius>
+[[gnu::always_inline]] inline void VerticalQuantity(const float* const* rows, const VF* w,
+                                                    const float* weights, int r, size_t off,
+                                                    float* const* out) {
+  if constexpr (kRadius > 0) {
+    constexpr int kRows = 2 * kRadius + B;
+    VF v[kRows];
+    for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
+    VF acc[B];
+    for (int t = 0; t < B; ++t) acc[t] = w[0] * v[t + kRadius];
+    for (int k = 1; k <= kRadius; ++k) {
+      for (int t = 0; t < B; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
+    }
+    for (int t = 0; t < B; ++t) REPHOTO_STORE(out[t] + off, acc[t]);
+  } else {
+    static_assert(B == 1);
+    VF acc = (VF{} + weights[r]) * REPHOTO_LOAD(VF, rows[r] + off);
+    for (int k = 1; k <= r; ++k) {
+      acc += (VF{} + weights[r + k]) *
+             (REPHOTO_LOAD(VF, rows[r - k] + off) + REPHOTO_LOAD(VF, rows[r + k] + off));
+    }
+    REPHOTO_STORE(out[0] + off, acc);
+  }
+}
+
+template <typename VF, int B, int kRadius>
+[[gnu::always_inline]] inline void VerticalBlockBody(const float* const* rows, const float* weights,
+                                                     int r, int n, float* const* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  // Local copies for a constant radius: the stores (memcpy) could otherwise alias the pointers
+  // and weights, which the compiler would then reload for every vector. (A runtime radius uses
+  // the caller's arrays.)
+  constexpr int kRows = kRadius > 0 ? 2 * kRadius + B : 1;
+  const float* rp[kRows];
+  float* op[B];
+  VF w[kRadius + 1];
+  const float* const* row_ptrs = rows;
+  float* const* out_ptrs = out;
+  if constexpr (kRadius > 0) {
+    for (int j = 0; j < kRows; ++j) rp[j] = rows[j];
+    for (int t = 0; t < B; ++t) op[t] = out[t];
+    for (int k = 0; k <= kRadius; ++k) w[k] = VF{} + weights[kRadius + k];
+    row_ptrs = rp;
+    out_ptrs = op;
+  }
+  int i = 0;
+  for (; (i = VectorStart<kLanes>(i, n)) >= 0; i += kLanes) {
+    for (int q = 0; q < kSsimQuantities; ++q) {
+      VerticalQuantity<VF, B, kRadius>(row_ptrs, w, weights, r, static_cast<size_t>(q) * n + i,
+                                       out_ptrs);
+    }
+  }
+  if (n >= kLanes) return;
+  for (int t = 0; t < B; ++t) {  // same arithmetic, one value at a time
+    for (int q = 0; q < kSsimQuantities; ++q) {
+      for (int j = 0; j < n; ++j) {
+        const size_t off = static_cast<size_t>(q) * n + j;
+        float acc = weights[r] * rows[t + r][off];
+        for (int k = 1; k <= r; ++k) {
+          acc += weights[r + k] * (rows[t + r - k][off] + rows[t + r + k][off]);
+        }
+        out[t][off] = acc;
+      }
+    }
+  }
+}
+
+// Blocks of B rows for the radii with a compile-time kernel, else one row at a time.
+template <typename VF, int B>
+[[gnu::always_inline]] inline void VerticalBody(const float* const* rows, const float* weights,
+                                                int r, int n, int count, float* const* out) {
+  int t = 0;
+  if (r == 5) {
+    for (; t + B <= count; t += B) VerticalBlockBody<VF, B, 5>(rows + t, weights, r, n, out + t);
+    for (; t < count; ++t) VerticalBlockBody<VF, 1, 5>(rows + t, weights, r, n, out + t);
+  } else if (r == 3) {
+    for (; t + B <= count; t += B) VerticalBlockBody<VF, B, 3>(rows + t, weights, r, n, out + t);
+    for (; t < count; ++t) VerticalBlockBody<VF, 1, 3>(rows + t, weights, r, n, out + t);
+  } else {
+    for (; t < count; ++t) VerticalBlockBody<VF, 1, 0>(rows + t, weights, r, n, out + t);
+  }
+}
+
+// Horizontal filter by loads at each tap, for the output elements [a, b) (3r <= a, b <= n - 3r).
+template <typename VF>
+[[gnu::always_inline]] inline void HorizontalRange(const float* in, const float* weights, int r,
+                                                   int a, int b, float* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  const int len = b - a;
+  for (int o = 0; (o = VectorStart<kLanes>(o, len)) >= 0; o += kLanes) {
+    const int i = a + o;
+    VF acc = (VF{} + weights[r]) * REPHOTO_LOAD(VF, in + i);
+    for (int k = 1; k <= r; ++k) {
+      acc += (VF{} + weights[r + k]) *
+             (REPHOTO_LOAD(VF, in + i - 3 * k) + REPHOTO_LOAD(VF, in + i + 3 * k));
+    }
+    REPHOTO_STORE(out + i, acc);
+  }
+  for (int j = a; j < (len < kLanes ? b : a); ++j) {
+    float acc = weights[r] * in[j];
+    for (int k = 1; k <= r; ++k) acc += weights[r + k] * (in[j - 3 * k] + in[j + 3 * k]);
+    out[j] = acc;
+  }
+}
+
+constexpr int FloorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+// *out = the kLanes values at offset O from the first value of block 0, where v[j] holds block
+// j + kLo (blocks of kLanes consecutive values): one register or a shuffle of two.
+template <typename VF, int O, int kLo, size_t... I>
+[[gnu::always_inline]] inline void WindowAt(const VF* v, VF* out, std::index_sequence<I...>) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  constexpr int block = FloorDiv(O, kLanes), shift = O - block * kLanes;
+  if constexpr (shift == 0) {
+    *out = v[block - kLo];
+  } else {
+    *out = __builtin_shufflevector(v[block - kLo], v[block - kLo + 1],
+                                   (shift + static_cast<int>(I))...);
+  }
+}
+
+template <typename VF, int kRadius, int kLo, int... K>
+[[gnu::always_inline]] inline void ShuffledTaps(const VF* v, const VF* w, VF* acc,
+                                                std::integer_sequence<int, K...>) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  const auto lanes = std::make_index_sequence<kLanes>();
+  *acc = w[0] * v[-kLo];
+  (
+      [&] {
+        VF left, right;
+        WindowAt<VF, -3 * (K + 1), kLo>(v, &left, lanes);
+        WindowAt<VF, 3 * (K + 1), kLo>(v, &right, lanes);
+        *acc += w[K + 1] * (left + right);
+      }(),
+      ...);
+}
+
+// The same filter with one load per output vector: the tap windows are shuffled out of the
+// blocks of kLanes values around it, which slide along the row in registers (loads at every
+// tap made the filter load-bound; loading some taps and shuffling the others measured no faster
+// than shuffling all). Same arithmetic as HorizontalRange. Edges by HorizontalRange.
+template <typename VF, int kRadius>
+[[gnu::always_inline]] inline void HorizontalShuffled(const float* in, const float* weights, int n,
+                                                      float* out) {
+  constexpr int kLanes = sizeof(VF) / sizeof(float);
+  constexpr int kSpan = 3 * kRadius;
+  constexpr int kLo = FloorDiv(-kSpan, kLanes);
+  constexpr int kHi = FloorDiv(kSpan, kLanes) + (kSpan % kLanes != 0 ? 1 : 0);
+  constexpr int kBlocks = kHi - kLo + 1;
+  const int begin = kSpan, end = n - kSpan;
+  // Output vectors at i need blocks [i + kLo * kLanes, i + (kHi + 1) * kLanes) inside the row.
+  int i = begin + kLanes;
+  if (end - begin < 2 * kLanes || i + kLo * kLanes < 0) {
+    return HorizontalRange<VF>(in, weights, kRadius, begin, end, out);
+  }
+  HorizontalRange<VF>(in, weights, kRadius, begin, i, out);
+  VF w[kRadius + 1];  // local: the stores could otherwise alias `weights`
+  for (int k = 0; k <= kRadius; ++k) w[k] = VF{} + weights[kRadius + k];
+  VF v[kBlocks];
+  for (int j = 0; j < kBlocks - 1; ++j) v[j] = REPHOTO_LOAD(VF, in + i + (kLo + j) * kLanes);
+  for (; i + kLanes <= end && i + (kHi + 1) * kLanes <= n; i += kLanes) {
+    v[kBlocks - 1] = REPHOTO_LOAD(VF, in + i + kHi * kLanes);
+    VF acc;
+    ShuffledTaps<VF, kRadius, kLo>(v, w, &acc, std::make_integer_sequence<int, kRadius>());
+    REPHOTO_STORE(out + i, acc);
+    for (int j = 0; j + 1 < kBlocks; ++j) v[j] = v[j + 1];
+  }
+  // The rest, its first vector overlapping the last one done here when it is short.
+  if (i < end) {
+    HorizontalRange<VF>(in, weights, kRadius, std::max(begin, std::min(i, end - kLanes)), end, out);
+  }
+}
+
+template <typename VF>
+[[gnu::always_inline]] inline void HorizontalBody(const float* in, const float* weights, int r,
+                                                  int n, float* out) {
+  if (r == 5) return HorizontalShuffled<VF, 5>(in, weights, n, out);
+  if (r == 3) return HorizontalShuffled<VF, 3>(in, weights, n, out);
+  HorizontalRange<VF>(in, weights, r, 3 * r, n - 3 * r, out);
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define REPHOTO_AVX2_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define REPHOTO_AVX2_CLONES
+#endif
+
+// Rows per vertical block: what the registers hold besides the 2r+1 rows of the window
+// (16 vector registers for AVX2, 32 for AVX-512).
+constexpr int kBlock8 = 2;
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+constexpr int kBlock16 = 4;
+#endif
+
+REPHOTO_AVX2_CLONES
+void Products8(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
+               float* out) {
+  ProductsBody<V8f>(p, q, shift_p, shift_q, n, out);
+}
+
+REPHOTO_AVX2_CLONES
+void Vertical8(const float* const* rows, const float* weights, int r, int n, int count,
+               float* const* out) {
+  VerticalBody<V8f, kBlock8>(rows, weights, r, n, count, out);
+}
+
+REPHOTO_AVX2_CLONES
+void Horizontal8(const float* in, const float* weights, int r, int n, float* out) {
+  for (int q = 0; q < kSsimQuantities; ++q) {
+    HorizontalBody<V8f>(in + q * n, weights, r, n, out + q * n);
+  }
+}
+
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+__attribute__((target("arch=x86-64-v4"))) void Products16(const float* p, const float* q,
+                                                          const float* shift_p,
+                                                          const float* shift_q, int n, float* out) {
+  ProductsBody<V16f>(p, q, shift_p, shift_q, n, out);
+}
+
+__attribute__((target("arch=x86-64-v4"))) void Vertical16(const float* const* rows,
+                                                          const float* weights, int r, int n,
+                                                          int count, float* const* out) {
+  VerticalBody<V16f, kBlock16>(rows, weights, r, n, count, out);
+}
+
+__attribute__((target("arch=x86-64-v4"))) void Horizontal16(const float* in, const float* weights,
+                                                            int r, int n, float* out) {
+  for (int q = 0; q < kSsimQuantities; ++q) {
+    HorizontalBody<V16f>(in + q * n, weights, r, n, out + q * n);
+  }
+}
+#endif
+
+}  // namespace
+
+void SsimProducts(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
+                  float* out) {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (HasAvx512()) return Products16(p, q, shift_p, shift_q, n, out);
+#endif
+  Products8(p, q, shift_p, shift_q, n, out);
+}
+
+void SsimVerticalRows(const float* const* rows, const float* weights, int r, int n, int count,
+                      float* const* out) {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (HasAvx512()) return Vertical16(rows, weights, r, n, count, out);
+#endif
+  Vertical8(rows, weights, r, n, count, out);
+}
+
+void SsimHorizontalFused(const float* in, const float* weights, int r, int n, float* out) {
+#ifdef REPHOTO_HAVE_AVX512_KERNELS
+  if (HasAvx512()) return Horizontal16(in, weights, r, n, out);
+#endif
+  Horizontal8(in, weights, r, n, out);
+}
+
+}  // namespace rephoto::metrics::internal
