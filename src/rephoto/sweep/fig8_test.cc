@@ -11,6 +11,7 @@
 #include <regex>
 #include <sstream>
 
+#include "rephoto/core/file.h"
 #include "rephoto/geometry/geometry.h"
 #include "rephoto/geometry/run_geometry.h"
 #include "rephoto/io/csv.h"
@@ -149,10 +150,10 @@ geometry_samples = 20000
   EXPECT_EQ(again.cache_file.parent_path(), run / "geometry");
   ASSERT_EQ(again.models.size(), 2u);  // one model per fold
   EXPECT_EQ(again.models[0].path, run / "folds" / "fold_00" / "model.ply");
-  // A fixed model degraded the same way in both folds: fold_01 rendered fold_00's model.ply
-  // (same colorize_key, reused in memory; eval writes no second copy), not truth.ply.
-  EXPECT_FALSE(fs::exists(run / "folds" / "fold_01" / "model.ply"));
-  EXPECT_EQ(again.models[1].path, run / "folds" / "fold_00" / "model.ply");
+  // A fixed model degraded the same way in both folds: fold_01 rendered fold_00's model
+  // (same colorize_key, reused in memory), linked into fold_01 as its model.ply, not truth.ply.
+  EXPECT_EQ(again.models[1].path, run / "folds" / "fold_01" / "model.ply");
+  EXPECT_EQ(ReadFileToString(again.models[1].path), ReadFileToString(again.models[0].path));
   EXPECT_DOUBLE_EQ(again.accuracy, accuracy[3]);
   // Other options: another cache file, computed afresh.
   geometry::GeometryOptions other = options.geometry;
