@@ -56,6 +56,21 @@ class CameraRays {
     return std::isfinite(value.x());  // NaN corners mark invalid rays
   }
 
+  // Ray for n positions at once: (xn[i], yn[i]) = Ray(px[i], py[i]), ok[i] = 1 where it returns
+  // true, else 0 (bit-identical to Ray). For pinhole models a branch-free loop that the compiler
+  // vectorizes (the renderer's ray generation).
+  void Rays(int n, const float* px, const float* py, float* xn, float* yn, int* ok) const {
+    if (pinhole_) {
+      for (int i = 0; i < n; ++i) {
+        xn[i] = (px[i] - cx_) * inv_fx_;
+        yn[i] = (py[i] - cy_) * inv_fy_;
+        ok[i] = 1;
+      }
+      return;
+    }
+    for (int i = 0; i < n; ++i) ok[i] = Ray(px[i], py[i], xn + i, yn + i) ? 1 : 0;
+  }
+
  private:
   camera::Camera camera_;
   bool pinhole_ = true;
