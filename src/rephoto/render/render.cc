@@ -12,6 +12,16 @@
 namespace rephoto::render {
 namespace {
 
+// The tile loop is compiled for AVX-512 (x86-64-v4), AVX2 (x86-64-v3) and the baseline; the
+// loader picks one for the CPU. Contraction is off (CMakeLists.txt), so all three compute the
+// same values bit for bit. (Clang does not clone templates; it builds the baseline only.)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define REPHOTO_RENDER_CLONES \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define REPHOTO_RENDER_CLONES
+#endif
+
 // Tiles are 4 pixels wide and L / 4 rows high for packets of L = 8 or 16 rays (RenderTiles).
 constexpr int kTileWidth = 4;
 
@@ -315,71 +325,101 @@ struct TileState {
   }
 };
 
-// Fills the directions of packet `lanes` of the tile at (x0, y0); returns whether any lane has
-// a ray. Branch-free lane loops (vectorized by the compiler).
+// Lane i's sample position (sample_x, sample_y) in the tile at (x0, y0) (SampleGrid::Offset)
+// and whether it is a sample inside the image (live).
 template <bool kJitter, int L, typename RayHit>
-inline bool FillPacket(const View& view, const PacketLanes<L>& lanes, int x0, int y0,
-                       TileState<L, RayHit>* state) {
-  const int width = view.rays.width(), height = view.rays.height();
-  const float kx = static_cast<float>(view.grid.strata_x());
-  const float ky = static_cast<float>(view.grid.strata_y());
-  for (int i = 0; i < L; ++i) {
-    const int px = x0 + lanes.dx[i], py = y0 + lanes.dy[i];
-    state->live[i] = (px < width) & (py < height) & lanes.has_sample[i];
-    float jx = 0.5f, jy = 0.5f;
-    if constexpr (kJitter) SampleGrid::Jitter(px, py, lanes.sample_hash[i], &jx, &jy);
-    // Dividing by a power of two is SampleGrid's multiplying by its reciprocal, exactly.
-    state->sample_x[i] = static_cast<float>(px) + (lanes.cell_x[i] + jx) / kx;
-    state->sample_y[i] = static_cast<float>(py) + (lanes.cell_y[i] + jy) / ky;
-  }
-  view.rays.Rays(L, state->sample_x, state->sample_y, state->xn, state->yn, state->has_ray);
-  const Eigen::Matrix3f& m = view.shader.world_from_cam;
-  const float inf = std::numeric_limits<float>::infinity();
+[[gnu::always_inline]] inline void PlaceSample(const View& view, const PacketLanes<L>& lanes,
+                                               int x0, int y0, int i, TileState<L, RayHit>* state) {
+  const int px = x0 + lanes.dx[i], py = y0 + lanes.dy[i];
+  state->live[i] = (px < view.rays.width()) & (py < view.rays.height()) & lanes.has_sample[i];
+  float jx = 0.5f, jy = 0.5f;
+  if constexpr (kJitter) SampleGrid::Jitter(px, py, lanes.sample_hash[i], &jx, &jy);
+  // Dividing by a power of two is SampleGrid's multiplying by its reciprocal, exactly.
+  state->sample_x[i] =
+      static_cast<float>(px) + (lanes.cell_x[i] + jx) / static_cast<float>(view.grid.strata_x());
+  state->sample_y[i] =
+      static_cast<float>(py) + (lanes.cell_y[i] + jy) / static_cast<float>(view.grid.strata_y());
+}
+
+// Lane i's ray: the world direction of camera ray (xn, yn) (Shader::WorldDirection, channel by
+// channel), unbounded; traced when the sample is live and the camera has a ray there.
+template <int L, typename RayHit>
+[[gnu::always_inline]] inline int AimRay(const Eigen::Matrix3f& m, float xn, float yn, int has_ray,
+                                         int i, TileState<L, RayHit>* state) {
   auto& ray = state->packet.ray;
+  ray.dir_x[i] = (m(0, 0) * xn + m(0, 1) * yn) + m(0, 2);
+  ray.dir_y[i] = (m(1, 0) * xn + m(1, 1) * yn) + m(1, 2);
+  ray.dir_z[i] = (m(2, 0) * xn + m(2, 1) * yn) + m(2, 2);
+  ray.tfar[i] = std::numeric_limits<float>::infinity();
+  state->packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+  const int traced = state->live[i] & has_ray;
+  state->valid[i] = -traced;
+  return traced;
+}
+
+// Fills packet `lanes` of the tile at (x0, y0); returns whether any lane has a ray. Branch-free
+// lane loops (vectorized by the compiler); pinhole rays in the same loop, other cameras' rays
+// from their table in between.
+template <bool kJitter, bool kPinhole, int L, typename RayHit>
+[[gnu::always_inline]] inline bool FillPacket(const View& view, const PacketLanes<L>& lanes, int x0,
+                                              int y0, TileState<L, RayHit>* state) {
+  const Eigen::Matrix3f m = view.shader.world_from_cam;
   int any = 0;
-  for (int i = 0; i < L; ++i) {
-    // Shader::WorldDirection, channel by channel.
-    ray.dir_x[i] = (m(0, 0) * state->xn[i] + m(0, 1) * state->yn[i]) + m(0, 2);
-    ray.dir_y[i] = (m(1, 0) * state->xn[i] + m(1, 1) * state->yn[i]) + m(1, 2);
-    ray.dir_z[i] = (m(2, 0) * state->xn[i] + m(2, 1) * state->yn[i]) + m(2, 2);
-    ray.tfar[i] = inf;
-    state->packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-    const int traced = state->live[i] & state->has_ray[i];
-    state->valid[i] = -traced;
-    any |= traced;
+  if constexpr (kPinhole) {
+    for (int i = 0; i < L; ++i) {
+      PlaceSample<kJitter>(view, lanes, x0, y0, i, state);
+      float xn, yn;
+      view.rays.PinholeRay(state->sample_x[i], state->sample_y[i], &xn, &yn);
+      any |= AimRay(m, xn, yn, 1, i, state);
+    }
+  } else {
+    for (int i = 0; i < L; ++i) PlaceSample<kJitter>(view, lanes, x0, y0, i, state);
+    view.rays.Rays(L, state->sample_x, state->sample_y, state->xn, state->yn, state->has_ray);
+    for (int i = 0; i < L; ++i)
+      any |= AimRay(m, state->xn[i], state->yn[i], state->has_ray[i], i, state);
   }
   return any != 0;
 }
 
 // Writes the tile's pixels: mean colour of the hits, coverage and nearest depth (render.h).
+// The divisions in a lane loop (vectorized), then one 16-byte store per pixel.
 template <int L, typename RayHit>
-inline void StoreTile(const View& view, const TileState<L, RayHit>& state, int x0, int y0) {
+[[gnu::always_inline]] inline void StoreTile(const View& view, const TileState<L, RayHit>& state,
+                                             int x0, int y0) {
   const int width = view.rays.width(), height = view.rays.height();
   const float spp = static_cast<float>(view.spp);
+  alignas(64) float scale[L], coverage[L];
+  for (int k = 0; k < L; ++k) {
+    const float hits = state.sum[k][3];
+    scale[k] = 1.0f / hits;  // inf where nothing was hit (then unused)
+    coverage[k] = hits / spp;
+  }
+  float* color = view.out->color.data();
+  float* depth = view.out->depth.data();
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  const bool whole = x0 + kTileWidth <= width && y0 + L / kTileWidth <= height;
   for (int k = 0; k < L; ++k) {
     const int px = x0 + (k & 3), py = y0 + (k >> 2);
-    if (px >= width || py >= height) continue;
+    if (!whole && (px >= width || py >= height)) continue;
     const size_t index = static_cast<size_t>(py) * width + px;
-    const float hits = state.sum[k][3];
     Float4 rgba = {0.0f, 0.0f, 0.0f, 0.0f};
-    float depth = nan;
-    if (hits > 0) {
-      rgba = state.sum[k] * (1.0f / hits);
-      rgba[3] = hits / spp;
-      depth = state.nearest[k];
+    float z = nan;
+    if (state.sum[k][3] > 0) {
+      rgba = state.sum[k] * scale[k];
+      rgba[3] = coverage[k];
+      z = state.nearest[k];
     }
-    std::memcpy(view.out->color.data() + 4 * index, &rgba, sizeof(rgba));
-    view.out->depth.data()[index] = depth;
+    std::memcpy(color + 4 * index, &rgba, sizeof(rgba));
+    depth[index] = z;
   }
 }
 
 // Renders tile rows [row_begin, row_end) of 4 x (L / 4)-pixel tiles with the packets of
 // `plan`. Each pixel's samples are summed in increasing sample order, so both widths give the
 // same sums from the same hits.
-template <bool kJitter, int L, typename RayHit, typename Shade>
-void RenderTiles(const View& view, const std::vector<PacketLanes<L>>& plan, const Shade& shade,
-                 int64_t row_begin, int64_t row_end) {
+template <bool kJitter, bool kPinhole, int L, typename RayHit, typename Shade>
+REPHOTO_RENDER_CLONES void RenderTiles(const View& view, const std::vector<PacketLanes<L>>& plan,
+                                       const Shade& shade, int64_t row_begin, int64_t row_end) {
   constexpr int kTileHeight = L / kTileWidth;
   const int width = view.rays.width();
   const float inf = std::numeric_limits<float>::infinity();
@@ -397,7 +437,7 @@ void RenderTiles(const View& view, const std::vector<PacketLanes<L>>& plan, cons
         state.nearest[k] = inf;
       }
       for (const PacketLanes<L>& lanes : plan) {
-        if (!FillPacket<kJitter>(view, lanes, x0, y0, &state)) continue;
+        if (!FillPacket<kJitter, kPinhole>(view, lanes, x0, y0, &state)) continue;
         Intersect(state.valid, view.scene, &context.context, &state.packet);
         // Lanes in order: each pixel's samples are summed in increasing sample order. Lanes
         // without a ray keep geomID invalid.
@@ -423,11 +463,16 @@ void RenderView(const View& view, const RenderModel& model) {
   const std::vector<PacketLanes<L>> plan = PlanPackets<L>(view.spp, view.grid);
   const int tile_rows = (view.rays.height() + L / kTileWidth - 1) / (L / kTileWidth);
   auto run = [&](const auto& shade) {
+    const bool jitter = view.grid.jittered(), pinhole = view.rays.is_pinhole();
     ParallelFor(0, tile_rows, 1, [&](int64_t row_begin, int64_t row_end) {
-      if (view.grid.jittered()) {
-        RenderTiles<true, L, RayHit>(view, plan, shade, row_begin, row_end);
+      if (jitter && pinhole) {
+        RenderTiles<true, true, L, RayHit>(view, plan, shade, row_begin, row_end);
+      } else if (jitter) {
+        RenderTiles<true, false, L, RayHit>(view, plan, shade, row_begin, row_end);
+      } else if (pinhole) {
+        RenderTiles<false, true, L, RayHit>(view, plan, shade, row_begin, row_end);
       } else {
-        RenderTiles<false, L, RayHit>(view, plan, shade, row_begin, row_end);
+        RenderTiles<false, false, L, RayHit>(view, plan, shade, row_begin, row_end);
       }
     });
   };
