@@ -331,7 +331,9 @@ template <bool kJitter, int L, typename RayHit>
 [[gnu::always_inline]] inline void PlaceSample(const View& view, const PacketLanes<L>& lanes,
                                                int x0, int y0, int i, TileState<L, RayHit>* state) {
   const int px = x0 + lanes.dx[i], py = y0 + lanes.dy[i];
-  state->live[i] = (px < view.rays.width()) & (py < view.rays.height()) & lanes.has_sample[i];
+  // & of 0/1 ints, not &&: no branches in the lane loop.
+  state->live[i] = static_cast<int>(px < view.rays.width()) &
+                   static_cast<int>(py < view.rays.height()) & lanes.has_sample[i];
   float jx = 0.5f, jy = 0.5f;
   if constexpr (kJitter) SampleGrid::Jitter(px, py, lanes.sample_hash[i], &jx, &jy);
   // Dividing by a power of two is SampleGrid's multiplying by its reciprocal, exactly.
