@@ -15,7 +15,12 @@ namespace {
 // The tile loop is compiled for AVX-512 (x86-64-v4), AVX2 (x86-64-v3) and the baseline; the
 // loader picks one for the CPU. Contraction is off (CMakeLists.txt), so all three compute the
 // same values bit for bit. (Clang does not clone templates; it builds the baseline only.)
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+// REPHOTO_RENDER_NO_AVX512 (CMake option) drops the AVX-512 clone, to measure the AVX2 code on
+// a CPU that has AVX-512.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(REPHOTO_RENDER_NO_AVX512)
+#define REPHOTO_RENDER_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define REPHOTO_RENDER_CLONES \
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
