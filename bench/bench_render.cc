@@ -6,6 +6,10 @@
 // Run: build-*/bench/rephoto_bench_render --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 // Threads: all cores (TBB default); pass --threads=N through REPHOTO_BENCH_THREADS=N.
+// Renderer vs Embree: BM_EmbreeFloor/8 and /16 (rtcIntersect8/16 alone on the same BVH and
+// rays) next to BM_Render; BM_RenderOverFloor/spp renders and traces both floors in turns and
+// reports the ratio of the medians (robust when other programs load the machine):
+//   rephoto_bench_render --benchmark_filter=BM_RenderOverFloor
 // BM_RenderFile renders a mesh of your own at a scene's view, as `rephoto evaluate` does (when
 // REPHOTO_BENCH_MESH=model.ply and REPHOTO_BENCH_SCENE=scene are set; REPHOTO_BENCH_VIEW=N picks
 // the view, default 0, and REPHOTO_BENCH_SHORT_SIDE=S the evaluation resolution, default 768),
@@ -162,38 +166,42 @@ BENCHMARK(BM_RenderPacket)
 
 // The Embree floor of primary visibility: the same BVH (BenchModel's scene), camera and pose
 // as BM_Render at 1 sample per pixel (rays through the same sample positions), but only
-// rtcIntersect8 (4 x 2 pixel tiles) or rtcIntersect16 (4 x 4 tiles, BM_Render's): the ray
-// directions are made once outside the timed loop, no backface filter, no shading, only the
-// depth written. Arg: the packet width. BM_Render/1 over this is rephoto's overhead on top of
-// Embree.
-void BM_EmbreeFloor(benchmark::State& state) {
-  const int lanes = static_cast<int>(state.range(0));
-  const auto& model = BenchModel();
-  const Camera camera = BenchCamera();
-  const Pose pose = BenchPose();
-  const auto rays = model.RaysFor(camera);
-  const Eigen::Matrix3f world_from_cam = pose.rotation.transpose().cast<float>();
-  const Eigen::Vector3f origin = pose.Center().cast<float>();
-  const int width = camera.width, height = camera.height;
-  const rephoto::render::RenderOptions options;  // 1 sample per pixel, as BM_Render/1
-  std::vector<float> dirs(3 * static_cast<size_t>(width) * height);
-  std::vector<uint8_t> has_ray(static_cast<size_t>(width) * height);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const Eigen::Vector2f offset = rephoto::render::SampleOffset(x, y, 0, options);
-      float xn, yn;
-      const size_t i = static_cast<size_t>(y) * width + x;
-      has_ray[i] = rays->Ray(x + offset.x(), y + offset.y(), &xn, &yn);
-      const Eigen::Vector3f d =
-          world_from_cam.col(0) * xn + world_from_cam.col(1) * yn + world_from_cam.col(2);
-      for (int c = 0; c < 3; ++c) dirs[3 * i + c] = d[c];
+// rtcIntersect8 (4 x 2 pixel tiles) or rtcIntersect16 (4 x 4 tiles): the ray directions are
+// made once outside the timed frames, no backface filter, no shading, only the depth written.
+// BM_Render/1 over this is rephoto's overhead on top of Embree.
+class EmbreeFloor {
+ public:
+  explicit EmbreeFloor(int lanes) : lanes_(lanes) {
+    const auto& model = BenchModel();
+    const Camera camera = BenchCamera();
+    const Pose pose = BenchPose();
+    const auto rays = model.RaysFor(camera);
+    const Eigen::Matrix3f world_from_cam = pose.rotation.transpose().cast<float>();
+    origin_ = pose.Center().cast<float>();
+    width_ = camera.width;
+    height_ = camera.height;
+    const rephoto::render::RenderOptions options;  // 1 sample per pixel, as BM_Render/1
+    dirs_.resize(3 * static_cast<size_t>(width_) * height_);
+    has_ray_.resize(static_cast<size_t>(width_) * height_);
+    for (int y = 0; y < height_; ++y) {
+      for (int x = 0; x < width_; ++x) {
+        const Eigen::Vector2f offset = rephoto::render::SampleOffset(x, y, 0, options);
+        float xn, yn;
+        const size_t i = static_cast<size_t>(y) * width_ + x;
+        has_ray_[i] = rays->Ray(x + offset.x(), y + offset.y(), &xn, &yn);
+        const Eigen::Vector3f d =
+            world_from_cam.col(0) * xn + world_from_cam.col(1) * yn + world_from_cam.col(2);
+        for (int c = 0; c < 3; ++c) dirs_[3 * i + c] = d[c];
+      }
     }
+    depth_.resize(static_cast<size_t>(width_) * height_);
+    Frame();  // warm
   }
-  std::vector<float> depth(static_cast<size_t>(width) * height);
-  const int tile_h = lanes / 4;
-  const int tile_rows = (height + tile_h - 1) / tile_h;
-  RTCScene scene = model.scene();
-  auto frame = [&] {
+
+  void Frame() {
+    const int tile_h = lanes_ / 4;
+    const int tile_rows = (height_ + tile_h - 1) / tile_h;
+    RTCScene scene = BenchModel().scene();
     rephoto::ParallelFor(0, tile_rows, 1, [&](int64_t row_begin, int64_t row_end) {
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
@@ -203,20 +211,20 @@ void BM_EmbreeFloor(benchmark::State& state) {
       alignas(64) int valid[16];
       for (int64_t tile_row = row_begin; tile_row < row_end; ++tile_row) {
         const int y0 = static_cast<int>(tile_row) * tile_h;
-        for (int x0 = 0; x0 < width; x0 += 4) {
+        for (int x0 = 0; x0 < width_; x0 += 4) {
           auto fill = [&](auto& packet) {
-            for (int k = 0; k < lanes; ++k) {
+            for (int k = 0; k < lanes_; ++k) {
               const int px = x0 + (k & 3), py = y0 + (k >> 2);
-              const size_t i = static_cast<size_t>(py) * width + px;
-              valid[k] = px < width && py < height && has_ray[i] ? -1 : 0;
+              const size_t i = static_cast<size_t>(py) * width_ + px;
+              valid[k] = px < width_ && py < height_ && has_ray_[i] ? -1 : 0;
               packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
               if (!valid[k]) continue;
-              packet.ray.org_x[k] = origin.x();
-              packet.ray.org_y[k] = origin.y();
-              packet.ray.org_z[k] = origin.z();
-              packet.ray.dir_x[k] = dirs[3 * i];
-              packet.ray.dir_y[k] = dirs[3 * i + 1];
-              packet.ray.dir_z[k] = dirs[3 * i + 2];
+              packet.ray.org_x[k] = origin_.x();
+              packet.ray.org_y[k] = origin_.y();
+              packet.ray.org_z[k] = origin_.z();
+              packet.ray.dir_x[k] = dirs_[3 * i];
+              packet.ray.dir_y[k] = dirs_[3 * i + 1];
+              packet.ray.dir_z[k] = dirs_[3 * i + 2];
               packet.ray.tnear[k] = 0.0f;
               packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
               packet.ray.time[k] = 0.0f;
@@ -226,14 +234,14 @@ void BM_EmbreeFloor(benchmark::State& state) {
             }
           };
           auto store = [&](const auto& packet) {
-            for (int k = 0; k < lanes; ++k) {
+            for (int k = 0; k < lanes_; ++k) {
               if (!valid[k]) continue;
               const int px = x0 + (k & 3), py = y0 + (k >> 2);
-              depth[static_cast<size_t>(py) * width + px] =
+              depth_[static_cast<size_t>(py) * width_ + px] =
                   packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID ? 0.0f : packet.ray.tfar[k];
             }
           };
-          if (lanes == 16) {
+          if (lanes_ == 16) {
             fill(packet16);
             rtcIntersect16(valid, scene, &context, &packet16);
             store(packet16);
@@ -245,19 +253,80 @@ void BM_EmbreeFloor(benchmark::State& state) {
         }
       }
     });
-  };
-  frame();  // warm
+  }
+  const float* depth() const { return depth_.data(); }
+  int64_t rays() const { return static_cast<int64_t>(width_) * height_; }
+
+ private:
+  int lanes_, width_ = 0, height_ = 0;
+  Eigen::Vector3f origin_;
+  std::vector<float> dirs_;
+  std::vector<uint8_t> has_ray_;
+  std::vector<float> depth_;
+};
+
+// Arg: the packet width.
+void BM_EmbreeFloor(benchmark::State& state) {
+  EmbreeFloor floor(static_cast<int>(state.range(0)));
   {
     rephoto::bench::CpuCounter cpu(state, "cpu_ms_per_frame");
     for (auto _ : state) {
-      frame();
-      benchmark::DoNotOptimize(depth.data());
+      floor.Frame();
+      benchmark::DoNotOptimize(floor.depth());
     }
   }
   state.counters["Mrays/s"] = benchmark::Counter(
-      static_cast<double>(width) * height * state.iterations() / 1e6, benchmark::Counter::kIsRate);
+      static_cast<double>(floor.rays() * state.iterations()) / 1e6, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_EmbreeFloor)->Arg(8)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+// rephoto (packet width by CPU, state.range(0) samples per pixel) and both Embree floors in
+// turns within each iteration, so that the load other programs put on the machine meets all
+// three alike. Counters: medians over the iterations of the process CPU milliseconds (all
+// threads) and wall milliseconds per frame, and the ratio of rephoto's CPU time per ray to the
+// faster floor's (`over_floor`; `over_floor_wall` the same for wall time).
+void BM_RenderOverFloor(benchmark::State& state) {
+  static EmbreeFloor floor8(8), floor16(16);
+  const auto& model = BenchModel();
+  const Camera camera = BenchCamera();
+  const auto rays = model.RaysFor(camera);
+  rephoto::render::RenderOptions options;
+  options.samples_per_pixel = static_cast<int>(state.range(0));
+  rephoto::render::Rephoto out;
+  rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out);  // warm buffers
+  std::vector<double> cpu[3], wall[3];
+  auto timed = [&](int which, auto&& frame) {
+    const double cpu_start = rephoto::ProcessCpuSeconds();
+    const auto wall_start = std::chrono::steady_clock::now();
+    frame();
+    wall[which].push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count() * 1e3);
+    cpu[which].push_back((rephoto::ProcessCpuSeconds() - cpu_start) * 1e3);
+  };
+  for (auto _ : state) {
+    timed(0, [&] { rephoto::render::RenderRephoto(model, *rays, BenchPose(), options, &out); });
+    timed(1, [&] { floor8.Frame(); });
+    timed(2, [&] { floor16.Frame(); });
+  }
+  const double spp = options.samples_per_pixel;
+  const double render_cpu = Median(cpu[0]), render_wall = Median(wall[0]);
+  const double floor_cpu = std::min(Median(cpu[1]), Median(cpu[2]));
+  const double floor_wall = std::min(Median(wall[1]), Median(wall[2]));
+  state.counters["render_cpu_ms"] = render_cpu;
+  state.counters["floor8_cpu_ms"] = Median(cpu[1]);
+  state.counters["floor16_cpu_ms"] = Median(cpu[2]);
+  state.counters["render_wall_ms"] = render_wall;
+  state.counters["floor8_wall_ms"] = Median(wall[1]);
+  state.counters["floor16_wall_ms"] = Median(wall[2]);
+  state.counters["over_floor"] = render_cpu / (spp * floor_cpu);
+  state.counters["over_floor_wall"] = render_wall / (spp * floor_wall);
+}
+BENCHMARK(BM_RenderOverFloor)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond)->Iterations(15);
 
 // Your own model and scene: REPHOTO_BENCH_MESH and REPHOTO_BENCH_SCENE (read once). False, with
 // the benchmark skipped, unless they are set (the scene only when `scene` is asked for).
@@ -512,11 +581,6 @@ class GlRenderer {
   std::string renderer_name_;
   std::vector<uint8_t> pixels_;
 };
-
-double Median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  return values[values.size() / 2];
-}
 
 // OpenGL frame time, and in the same run the rephoto frame with the matching sample count
 // (1x: 1 spp, 4x MSAA: 4 spp), interleaved; counters give both medians and their ratio.

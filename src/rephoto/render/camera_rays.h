@@ -38,8 +38,7 @@ class CameraRays {
   // 0 <= py <= height. False when the camera cannot unproject there.
   bool Ray(float px, float py, float* xn, float* yn) const {
     if (pinhole_) {
-      *xn = (px - cx_) * inv_fx_;
-      *yn = (py - cy_) * inv_fy_;
+      PinholeRay(px, py, xn, yn);
       return true;
     }
     const float fx = std::floor(px), fy = std::floor(py);
@@ -54,6 +53,28 @@ class CameraRays {
     *xn = value.x();
     *yn = value.y();
     return std::isfinite(value.x());  // NaN corners mark invalid rays
+  }
+
+  // True for pinhole models, whose rays PinholeRay computes.
+  bool is_pinhole() const { return pinhole_; }
+  // Ray for a pinhole model (is_pinhole()): always valid, the same values as Ray.
+  void PinholeRay(float px, float py, float* xn, float* yn) const {
+    *xn = (px - cx_) * inv_fx_;
+    *yn = (py - cy_) * inv_fy_;
+  }
+
+  // Ray for n positions at once: (xn[i], yn[i]) = Ray(px[i], py[i]), ok[i] = 1 where it returns
+  // true, else 0 (bit-identical to Ray). For pinhole models a branch-free loop that the compiler
+  // vectorizes (the renderer's ray generation).
+  void Rays(int n, const float* px, const float* py, float* xn, float* yn, int* ok) const {
+    if (pinhole_) {
+      for (int i = 0; i < n; ++i) {
+        PinholeRay(px[i], py[i], xn + i, yn + i);
+        ok[i] = 1;
+      }
+      return;
+    }
+    for (int i = 0; i < n; ++i) ok[i] = Ray(px[i], py[i], xn + i, yn + i) ? 1 : 0;
   }
 
  private:

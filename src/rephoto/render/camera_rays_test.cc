@@ -1,6 +1,8 @@
 #include "rephoto/render/camera_rays.h"
 
+#include <cstring>
 #include <random>
+#include <vector>
 
 #include "rephoto/core/error.h"
 #include "rephoto/testing/testing.h"
@@ -33,6 +35,53 @@ TEST(CameraRaysTest, TableMatchesExactUnprojection) {
   EXPECT_TRUE(rays.Matches(camera));
   camera.params[4] = -0.31;
   EXPECT_FALSE(rays.Matches(camera));
+}
+
+// Rays (the renderer's batch form) gives Ray's values bit for bit, for the pinhole formula and
+// the table, including positions where a wide-angle model has no ray.
+TEST(CameraRaysTest, BatchEqualsSingleRays) {
+  camera::Camera pinhole;
+  pinhole.model = camera::CameraModel::kPinhole;
+  pinhole.width = 64;
+  pinhole.height = 48;
+  pinhole.params = {51.3, 52.1, 31.7, 24.2};
+  camera::Camera distorted = pinhole;
+  distorted.model = camera::CameraModel::kOpenCv;
+  distorted.params = {30.0, 31.0, 31.7, 24.2, -0.5, 0.0, 0.0, 0.0};  // no rays at the rim
+  auto rng = testing::MakeRng();
+  std::uniform_real_distribution<float> ux(0, 64), uy(0, 48);
+  for (const camera::Camera& camera : {pinhole, distorted}) {
+    const CameraRays rays(camera);
+    EXPECT_EQ(rays.is_pinhole(), camera.model == camera::CameraModel::kPinhole);
+    constexpr int kCount = 4096;
+    std::vector<float> px(kCount), py(kCount), xn(kCount), yn(kCount);
+    std::vector<int> ok(kCount);
+    for (int i = 0; i < kCount; ++i) {
+      px[i] = ux(rng);
+      py[i] = uy(rng);
+    }
+    rays.Rays(kCount, px.data(), py.data(), xn.data(), yn.data(), ok.data());
+    int valid = 0;
+    for (int i = 0; i < kCount; ++i) {
+      float x, y;
+      const bool has = rays.Ray(px[i], py[i], &x, &y);
+      ASSERT_EQ(ok[i], has ? 1 : 0) << i;
+      if (!has) continue;
+      ++valid;
+      EXPECT_EQ(std::memcmp(&x, &xn[i], sizeof x), 0) << i;
+      EXPECT_EQ(std::memcmp(&y, &yn[i], sizeof y), 0) << i;
+      if (rays.is_pinhole()) {
+        float x1, y1;
+        rays.PinholeRay(px[i], py[i], &x1, &y1);
+        EXPECT_EQ(x1, x);
+        EXPECT_EQ(y1, y);
+      }
+    }
+    EXPECT_GT(valid, kCount / 5);
+    if (!rays.is_pinhole()) {
+      EXPECT_LT(valid, kCount);  // about a quarter have a ray
+    }
+  }
 }
 
 TEST(CameraRaysTest, PinholeIsExactAndBadCamerasAreErrors) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -10,6 +11,21 @@
 
 namespace rephoto::render {
 namespace {
+
+// The tile loop is compiled for AVX-512 (x86-64-v4), AVX2 (x86-64-v3) and the baseline; the
+// loader picks one for the CPU. Contraction is off (CMakeLists.txt), so all three compute the
+// same values bit for bit. (Clang does not clone templates; it builds the baseline only.)
+// REPHOTO_RENDER_NO_AVX512 (CMake option) drops the AVX-512 clone, to measure the AVX2 code on
+// a CPU that has AVX-512.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(REPHOTO_RENDER_NO_AVX512)
+#define REPHOTO_RENDER_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define REPHOTO_RENDER_CLONES \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define REPHOTO_RENDER_CLONES
+#endif
 
 // Tiles are 4 pixels wide and L / 4 rows high for packets of L = 8 or 16 rays (RenderTiles).
 constexpr int kTileWidth = 4;
@@ -153,15 +169,21 @@ class SampleGrid {
     if (n_ <= 1) return Eigen::Vector2f(0.5f, 0.5f);
     const int cx = sample % kx_, cy = sample / kx_;
     float jx = 0.5f, jy = 0.5f;
-    if (jitter_) {
-      const uint32_t h = Hash(static_cast<uint32_t>(x) * 0x9E3779B1u ^
-                              Hash(static_cast<uint32_t>(y) * 0x85EBCA77u ^ sample_hash_[sample]));
-      jx = UnitFloat(h);
-      jy = UnitFloat(Hash(h ^ 0x68E31DA4u));
-    }
+    if (jitter_) Jitter(x, y, sample_hash_[sample], &jx, &jy);
     if (exact_reciprocals_) return Eigen::Vector2f((cx + jx) * inv_kx_, (cy + jy) * inv_ky_);
     return Eigen::Vector2f((cx + jx) / kx_, (cy + jy) / ky_);
   }
+  // The jitter of a sample with hash `sample_hash` (sample_hash(s)) in pixel (x, y), in [0,1)^2.
+  static void Jitter(int x, int y, uint32_t sample_hash, float* jx, float* jy) {
+    const uint32_t h = Hash(static_cast<uint32_t>(x) * 0x9E3779B1u ^
+                            Hash(static_cast<uint32_t>(y) * 0x85EBCA77u ^ sample_hash));
+    *jx = UnitFloat(h);
+    *jy = UnitFloat(Hash(h ^ 0x68E31DA4u));
+  }
+  bool jittered() const { return jitter_ && n_ > 1; }
+  int strata_x() const { return kx_; }  // kx (1 for one sample)
+  int strata_y() const { return ky_; }
+  uint32_t sample_hash(int sample) const { return sample_hash_[sample]; }
 
  private:
   static bool PowerOfTwo(int k) { return k > 0 && (k & (k - 1)) == 0; }
@@ -188,6 +210,75 @@ inline int PacketSample(int p, int lane, int samples_per_packet, int groups) {
   return (p % groups) * samples_per_packet + (lane >> 2);
 }
 
+// What lane i of one packet traces in every tile (PacketPixel, PacketSample), with the parts
+// of SampleGrid::Offset that depend on the sample only: the lane loops of RenderTiles then
+// read consecutive values and no tables.
+template <int L>
+struct PacketLanes {
+  int pixel[L];                // in the tile, row-major (4 wide)
+  int dx[L], dy[L];            // pixel % 4, pixel / 4
+  int has_sample[L];           // 0 for samples >= spp (a partial last group)
+  float cell_x[L], cell_y[L];  // stratum of the sample: (s % kx, s / kx)
+  uint32_t sample_hash[L];     // SampleGrid::sample_hash(s)
+};
+
+// The packets of a tile of 4 x L / 4 pixels with `spp` samples each: with at least L / 4
+// samples per pixel a packet holds L / 4 samples of a 2 x 2 pixel block (a narrow packet meets
+// fewer BVH nodes than L pixels' worth of one sample each), else one sample of all L pixels.
+template <int L>
+std::vector<PacketLanes<L>> PlanPackets(int spp, const SampleGrid& grid) {
+  const int samples_per_packet = spp >= L / 4 ? L / 4 : 1;
+  const int groups = (spp + samples_per_packet - 1) / samples_per_packet;  // per pixel block
+  const int packets = (samples_per_packet == 1 ? 1 : L / 4) * groups;
+  std::vector<PacketLanes<L>> plan(static_cast<size_t>(packets));
+  for (int p = 0; p < packets; ++p) {
+    PacketLanes<L>& lanes = plan[static_cast<size_t>(p)];
+    for (int i = 0; i < L; ++i) {
+      const int pixel = PacketPixel(p, i, samples_per_packet, groups);
+      const int s = PacketSample(p, i, samples_per_packet, groups);
+      lanes.pixel[i] = pixel;
+      lanes.dx[i] = pixel & 3;
+      lanes.dy[i] = pixel >> 2;
+      lanes.has_sample[i] = s < spp ? 1 : 0;
+      const int sample = std::min(s, spp - 1);
+      lanes.cell_x[i] = static_cast<float>(sample % grid.strata_x());
+      lanes.cell_y[i] = static_cast<float>(sample / grid.strata_x());
+      lanes.sample_hash[i] = grid.sample_hash(sample);
+    }
+  }
+  return plan;
+}
+
+// (r, g, b, weight) of a sample, or a pixel's sums of them. A GCC/clang vector (SSE on x86-64,
+// NEON on ARM): each lane is the scalar operation on that channel (no FMA contraction, see
+// CMakeLists.txt), so results are those of per-channel scalar code.
+typedef float Float4 __attribute__((vector_size(16)));
+
+inline Float4 Load3(const Eigen::Vector3f& v) { return Float4{v.x(), v.y(), v.z(), 0.0f}; }
+
+// Shading of vertex-coloured meshes, the common case, inlined into the tile loop:
+// (1 - u - v) * c0 + u * c1 + v * c2 per channel, as Shader::Shade computes it.
+struct VertexColorShade {
+  const mesh::Triangle* faces;
+  const Eigen::Vector3f* colors;
+  Float4 operator()(unsigned prim, float u, float v, float /*sx*/, float /*sy*/) const {
+    const mesh::Triangle& f = faces[prim];
+    const float w = 1 - u - v;
+    Float4 c = (w * Load3(colors[f[0]]) + u * Load3(colors[f[1]])) + v * Load3(colors[f[2]]);
+    c[3] = 1.0f;
+    return c;
+  }
+};
+
+// Every other representation: Shader::Shade.
+struct GenericShade {
+  const Shader* shader;
+  Float4 operator()(unsigned prim, float u, float v, float sx, float sy) const {
+    const Eigen::Vector3f c = shader->Shade(prim, u, v, sx, sy);
+    return Float4{c.x(), c.y(), c.z(), 1.0f};
+  }
+};
+
 inline void Intersect(const int* valid, RTCScene scene, RTCIntersectContext* context,
                       RTCRayHit16* packet) {
   rtcIntersect16(valid, scene, context, packet);
@@ -209,105 +300,193 @@ struct View {
   Rephoto* out;
 };
 
-// Renders tile rows [row_begin, row_end) of 4 x (L / 4)-pixel tiles with L-ray packets
-// (RayHit = RTCRayHit8 or RTCRayHit16). With at least L / 4 samples per pixel a packet holds
-// L / 4 samples of a 2 x 2 pixel block (a narrow packet meets fewer BVH nodes than L pixels'
-// worth of one sample each), else one sample of all L pixels. Each pixel's samples are summed
-// in increasing sample order, so both widths give the same sums from the same hits.
+// One L-ray packet (RayHit = RTCRayHit8 or RTCRayHit16) and what a tile's samples add up to.
+// The fields Embree only reads and that are the same for every ray of a view (origin, tnear,
+// time, mask, id, flags) are written once; per packet only the directions, tfar and geomID.
 template <int L, typename RayHit>
-void RenderTiles(const View& view, int64_t row_begin, int64_t row_end) {
-  constexpr int kTileHeight = L / kTileWidth;
-  const Shader& shader = view.shader;
-  const int width = view.rays.width(), height = view.rays.height(), spp = view.spp;
-  const float inf = std::numeric_limits<float>::infinity();
+struct TileState {
+  alignas(64) RayHit packet;
+  alignas(64) int valid[L];
+  alignas(64) float sample_x[L];
+  alignas(64) float sample_y[L];
+  alignas(64) float xn[L];
+  alignas(64) float yn[L];
+  alignas(64) int live[L];
+  alignas(64) int has_ray[L];
+  alignas(64) Float4 sum[L];  // per pixel of the tile: colour sums and the number of hits
+  alignas(64) float nearest[L];
+
+  explicit TileState(const Eigen::Vector3f& origin) {
+    for (int i = 0; i < L; ++i) {
+      packet.ray.org_x[i] = origin.x();
+      packet.ray.org_y[i] = origin.y();
+      packet.ray.org_z[i] = origin.z();
+      packet.ray.tnear[i] = 0.0f;
+      packet.ray.time[i] = 0.0f;
+      packet.ray.mask[i] = 0xFFFFFFFFu;
+      packet.ray.id[i] = static_cast<unsigned>(i);
+      packet.ray.flags[i] = 0;
+    }
+  }
+};
+
+// Lane i's sample position (sample_x, sample_y) in the tile at (x0, y0) (SampleGrid::Offset)
+// and whether it is a sample inside the image (live).
+template <bool kJitter, int L, typename RayHit>
+[[gnu::always_inline]] inline void PlaceSample(const View& view, const PacketLanes<L>& lanes,
+                                               int x0, int y0, int i, TileState<L, RayHit>* state) {
+  const int px = x0 + lanes.dx[i], py = y0 + lanes.dy[i];
+  // & of 0/1 ints, not &&: no branches in the lane loop.
+  state->live[i] = static_cast<int>(px < view.rays.width()) &
+                   static_cast<int>(py < view.rays.height()) & lanes.has_sample[i];
+  float jx = 0.5f, jy = 0.5f;
+  if constexpr (kJitter) SampleGrid::Jitter(px, py, lanes.sample_hash[i], &jx, &jy);
+  // Dividing by a power of two is SampleGrid's multiplying by its reciprocal, exactly.
+  state->sample_x[i] =
+      static_cast<float>(px) + (lanes.cell_x[i] + jx) / static_cast<float>(view.grid.strata_x());
+  state->sample_y[i] =
+      static_cast<float>(py) + (lanes.cell_y[i] + jy) / static_cast<float>(view.grid.strata_y());
+}
+
+// Lane i's ray: the world direction of camera ray (xn, yn) (Shader::WorldDirection, channel by
+// channel), unbounded; traced when the sample is live and the camera has a ray there.
+template <int L, typename RayHit>
+[[gnu::always_inline]] inline int AimRay(const Eigen::Matrix3f& m, float xn, float yn, int has_ray,
+                                         int i, TileState<L, RayHit>* state) {
+  auto& ray = state->packet.ray;
+  ray.dir_x[i] = (m(0, 0) * xn + m(0, 1) * yn) + m(0, 2);
+  ray.dir_y[i] = (m(1, 0) * xn + m(1, 1) * yn) + m(1, 2);
+  ray.dir_z[i] = (m(2, 0) * xn + m(2, 1) * yn) + m(2, 2);
+  ray.tfar[i] = std::numeric_limits<float>::infinity();
+  state->packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+  const int traced = state->live[i] & has_ray;
+  state->valid[i] = -traced;
+  return traced;
+}
+
+// Fills packet `lanes` of the tile at (x0, y0); returns whether any lane has a ray. Branch-free
+// lane loops (vectorized by the compiler); pinhole rays in the same loop, other cameras' rays
+// from their table in between.
+template <bool kJitter, bool kPinhole, int L, typename RayHit>
+[[gnu::always_inline]] inline bool FillPacket(const View& view, const PacketLanes<L>& lanes, int x0,
+                                              int y0, TileState<L, RayHit>* state) {
+  const Eigen::Matrix3f m = view.shader.world_from_cam;
+  int any = 0;
+  if constexpr (kPinhole) {
+    for (int i = 0; i < L; ++i) {
+      PlaceSample<kJitter>(view, lanes, x0, y0, i, state);
+      float xn, yn;
+      view.rays.PinholeRay(state->sample_x[i], state->sample_y[i], &xn, &yn);
+      any |= AimRay(m, xn, yn, 1, i, state);
+    }
+  } else {
+    for (int i = 0; i < L; ++i) PlaceSample<kJitter>(view, lanes, x0, y0, i, state);
+    view.rays.Rays(L, state->sample_x, state->sample_y, state->xn, state->yn, state->has_ray);
+    for (int i = 0; i < L; ++i)
+      any |= AimRay(m, state->xn[i], state->yn[i], state->has_ray[i], i, state);
+  }
+  return any != 0;
+}
+
+// Writes the tile's pixels: mean colour of the hits, coverage and nearest depth (render.h).
+// The divisions in a lane loop (vectorized), then one 16-byte store per pixel.
+template <int L, typename RayHit>
+[[gnu::always_inline]] inline void StoreTile(const View& view, const TileState<L, RayHit>& state,
+                                             int x0, int y0) {
+  const int width = view.rays.width(), height = view.rays.height();
+  const float spp = static_cast<float>(view.spp);
+  alignas(64) float scale[L], coverage[L];
+  for (int k = 0; k < L; ++k) {
+    const float hits = state.sum[k][3];
+    scale[k] = 1.0f / hits;  // inf where nothing was hit (then unused)
+    coverage[k] = hits / spp;
+  }
+  float* color = view.out->color.data();
+  float* depth = view.out->depth.data();
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  const int samples_per_packet = spp >= L / 4 ? L / 4 : 1;
-  const int groups = (spp + samples_per_packet - 1) / samples_per_packet;  // per pixel block
-  const int packets = (samples_per_packet == 1 ? 1 : L / 4) * groups;
+  const bool whole = x0 + kTileWidth <= width && y0 + L / kTileWidth <= height;
+  for (int k = 0; k < L; ++k) {
+    const int px = x0 + (k & 3), py = y0 + (k >> 2);
+    if (!whole && (px >= width || py >= height)) continue;
+    const size_t index = static_cast<size_t>(py) * width + px;
+    Float4 rgba = {0.0f, 0.0f, 0.0f, 0.0f};
+    float z = nan;
+    if (state.sum[k][3] > 0) {
+      rgba = state.sum[k] * scale[k];
+      rgba[3] = coverage[k];
+      z = state.nearest[k];
+    }
+    std::memcpy(color + 4 * index, &rgba, sizeof(rgba));
+    depth[index] = z;
+  }
+}
+
+// Renders tile rows [row_begin, row_end) of 4 x (L / 4)-pixel tiles with the packets of
+// `plan`. Each pixel's samples are summed in increasing sample order, so both widths give the
+// same sums from the same hits.
+template <bool kJitter, bool kPinhole, int L, typename RayHit, typename Shade>
+REPHOTO_RENDER_CLONES void RenderTiles(const View& view, const std::vector<PacketLanes<L>>& plan,
+                                       const Shade& shade, int64_t row_begin, int64_t row_end) {
+  constexpr int kTileHeight = L / kTileWidth;
+  const int width = view.rays.width();
+  const float inf = std::numeric_limits<float>::infinity();
   RenderContext context;
   rtcInitIntersectContext(&context.context);
   context.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   if (view.cull) context.context.filter = BackfaceFilter;
   context.mesh = &view.mesh;
-  alignas(64) RayHit packet;
-  alignas(64) int valid[L];
-  float sample_x[L], sample_y[L];
-  int lane_pixel[L];
-  float sum_r[L], sum_g[L], sum_b[L], nearest[L];
-  int hits[L];
+  TileState<L, RayHit> state(view.shader.origin);
   for (int64_t tile_row = row_begin; tile_row < row_end; ++tile_row) {
     const int y0 = static_cast<int>(tile_row) * kTileHeight;
     for (int x0 = 0; x0 < width; x0 += kTileWidth) {
-      for (int i = 0; i < L; ++i) {
-        sum_r[i] = sum_g[i] = sum_b[i] = 0;
-        nearest[i] = inf;
-        hits[i] = 0;
+      for (int k = 0; k < L; ++k) {
+        state.sum[k] = Float4{0.0f, 0.0f, 0.0f, 0.0f};
+        state.nearest[k] = inf;
       }
-      for (int p = 0; p < packets; ++p) {
-        int active = 0;
+      for (const PacketLanes<L>& lanes : plan) {
+        if (!FillPacket<kJitter, kPinhole>(view, lanes, x0, y0, &state)) continue;
+        Intersect(state.valid, view.scene, &context.context, &state.packet);
+        // Lanes in order: each pixel's samples are summed in increasing sample order. Lanes
+        // without a ray keep geomID invalid.
         for (int i = 0; i < L; ++i) {
-          const int pixel = PacketPixel(p, i, samples_per_packet, groups);
-          const int s = PacketSample(p, i, samples_per_packet, groups);
-          const int px = x0 + (pixel & 3), py = y0 + (pixel >> 2);
-          lane_pixel[i] = pixel;
-          valid[i] = 0;
-          packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-          if (px >= width || py >= height || s >= spp) continue;
-          const Eigen::Vector2f offset = view.grid.Offset(px, py, s);
-          sample_x[i] = static_cast<float>(px) + offset.x();
-          sample_y[i] = static_cast<float>(py) + offset.y();
-          float xn, yn;
-          if (!view.rays.Ray(sample_x[i], sample_y[i], &xn, &yn)) continue;
-          const Eigen::Vector3f d = shader.WorldDirection(xn, yn);
-          packet.ray.org_x[i] = shader.origin.x();
-          packet.ray.org_y[i] = shader.origin.y();
-          packet.ray.org_z[i] = shader.origin.z();
-          packet.ray.dir_x[i] = d.x();
-          packet.ray.dir_y[i] = d.y();
-          packet.ray.dir_z[i] = d.z();
-          packet.ray.tnear[i] = 0.0f;
-          packet.ray.tfar[i] = inf;
-          packet.ray.time[i] = 0.0f;
-          packet.ray.mask[i] = 0xFFFFFFFFu;
-          packet.ray.id[i] = static_cast<unsigned>(i);
-          packet.ray.flags[i] = 0;
-          valid[i] = -1;
-          ++active;
-        }
-        if (active == 0) continue;
-        Intersect(valid, view.scene, &context.context, &packet);
-        // Lanes in order: each pixel's samples are summed in increasing sample order.
-        for (int i = 0; i < L; ++i) {
-          if (valid[i] == 0 || packet.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
+          if (state.packet.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
           // dir has camera-frame z = 1, so the ray parameter is the camera-frame depth.
-          const float z = packet.ray.tfar[i];
-          const Eigen::Vector3f c = shader.Shade(packet.hit.primID[i], packet.hit.u[i],
-                                                 packet.hit.v[i], sample_x[i], sample_y[i]);
-          const int k = lane_pixel[i];
-          sum_r[k] += c.x();
-          sum_g[k] += c.y();
-          sum_b[k] += c.z();
-          nearest[k] = std::min(nearest[k], z);
-          ++hits[k];
+          const float z = state.packet.ray.tfar[i];
+          const int k = lanes.pixel[i];
+          state.sum[k] += shade(state.packet.hit.primID[i], state.packet.hit.u[i],
+                                state.packet.hit.v[i], state.sample_x[i], state.sample_y[i]);
+          state.nearest[k] = std::min(state.nearest[k], z);
         }
       }
-      for (int i = 0; i < L; ++i) {
-        const int px = x0 + (i & 3), py = y0 + (i >> 2);
-        if (px >= width || py >= height) continue;
-        float* rgba = view.out->color.data() + (static_cast<size_t>(py) * width + px) * 4;
-        if (hits[i] > 0) {
-          const float inv = 1.0f / static_cast<float>(hits[i]);
-          rgba[0] = sum_r[i] * inv;
-          rgba[1] = sum_g[i] * inv;
-          rgba[2] = sum_b[i] * inv;
-          rgba[3] = static_cast<float>(hits[i]) / static_cast<float>(spp);
-          view.out->depth.at(px, py) = nearest[i];
-        } else {
-          rgba[0] = rgba[1] = rgba[2] = rgba[3] = 0.0f;
-          view.out->depth.at(px, py) = nan;
-        }
-      }
+      StoreTile(view, state, x0, y0);
     }
+  }
+}
+
+// All tile rows of a view with L-ray packets, the tile loop specialized for the shading and
+// the sample pattern.
+template <int L, typename RayHit>
+void RenderView(const View& view, const RenderModel& model) {
+  const std::vector<PacketLanes<L>> plan = PlanPackets<L>(view.spp, view.grid);
+  const int tile_rows = (view.rays.height() + L / kTileWidth - 1) / (L / kTileWidth);
+  auto run = [&](const auto& shade) {
+    const bool jitter = view.grid.jittered(), pinhole = view.rays.is_pinhole();
+    ParallelFor(0, tile_rows, 1, [&](int64_t row_begin, int64_t row_end) {
+      if (jitter && pinhole) {
+        RenderTiles<true, true, L, RayHit>(view, plan, shade, row_begin, row_end);
+      } else if (jitter) {
+        RenderTiles<true, false, L, RayHit>(view, plan, shade, row_begin, row_end);
+      } else if (pinhole) {
+        RenderTiles<false, true, L, RayHit>(view, plan, shade, row_begin, row_end);
+      } else {
+        RenderTiles<false, false, L, RayHit>(view, plan, shade, row_begin, row_end);
+      }
+    });
+  };
+  if (model.representation() == Representation::kVertexColoredMesh) {
+    run(VertexColorShade{view.mesh.faces.data(), view.mesh.colors.data()});
+  } else {
+    run(GenericShade{&view.shader});
   }
 }
 
@@ -352,15 +531,11 @@ void RenderRephoto(const RenderModel& model, const CameraRays& rays,
   const bool cull = !options.backfaces && !mesh.is_point_cloud();
   const SampleGrid grid(options);
   const View view{shader, rays, grid, model.scene(), mesh, cull, spp, out};
-  const int lanes = PacketWidth(model.scene(), options.packet_width);
-  const int tile_rows = (height + lanes / kTileWidth - 1) / (lanes / kTileWidth);
-  ParallelFor(0, tile_rows, 1, [&](int64_t row_begin, int64_t row_end) {
-    if (lanes == 16) {
-      RenderTiles<16, RTCRayHit16>(view, row_begin, row_end);
-    } else {
-      RenderTiles<8, RTCRayHit8>(view, row_begin, row_end);
-    }
-  });
+  if (PacketWidth(model.scene(), options.packet_width) == 16) {
+    RenderView<16, RTCRayHit16>(view, model);
+  } else {
+    RenderView<8, RTCRayHit8>(view, model);
+  }
 }
 
 Rephoto RenderRephoto(const RenderModel& model, const camera::Camera& camera,
