@@ -6,17 +6,18 @@
 // src/rephoto/compare/compare.h for inputs, outputs and exit codes).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "command.h"
-#include "rephoto/run/summary_table.h"
 #include "rephoto/compare/compare.h"
 #include "rephoto/compare/compat_compare.h"
 #include "rephoto/core/error.h"
 #include "rephoto/metrics/metrics.h"
+#include "rephoto/run/summary_table.h"
 
 namespace rephoto::cli {
 namespace {
@@ -26,6 +27,7 @@ struct CompareArguments {
   std::string metrics = "all";
   std::string ssim_mode = "gaussian";
   bool no_error_images = false;
+  std::string error_image_metrics = "all";
   bool no_prefetch = false;
   std::string compat;
   std::vector<float> compat_background;
@@ -70,6 +72,9 @@ CommandRunner SetupCompare(CLI::App& app) {
                "Rescale renderings whose size differs to the photo size (area/bilinear)");
   app.add_flag("--no-error-images", args->no_error_images,
                "Do not write errors/<name>.<metric>.exr/.png");
+  app.add_option("--error-image-metrics", args->error_image_metrics,
+                 "Write error images of these of the --metrics only (comma-separated) or all")
+      ->capture_default_str();
   app.add_flag("--no-prefetch", args->no_prefetch,
                "Do not decode the next pair while comparing the current one");
   app.add_option("--compat", args->compat,
@@ -93,6 +98,20 @@ CommandRunner SetupCompare(CLI::App& app) {
       options.metric_options.ssim_window = 7;
     }
     options.write_error_images = !args->no_error_images;
+    if (args->error_image_metrics != "all") {
+      try {
+        options.error_image_metrics = metrics::ParseMetricList(args->error_image_metrics);
+      } catch (const Error& e) {  // it names --metrics
+        std::string_view why = e.what();
+        if (why.starts_with("--metrics: ")) why.remove_prefix(11);
+        throw UsageError(fmt::format("--error-image-metrics: {}", why));
+      }
+      for (metrics::Metric m : options.error_image_metrics) {
+        REPHOTO_CHECK_USAGE(
+            std::find(options.metrics.begin(), options.metrics.end(), m) != options.metrics.end(),
+            "--error-image-metrics: {} is not among --metrics", metrics::MetricName(m));
+      }
+    }
     REPHOTO_CHECK_USAGE(args->compat_background.empty() || !args->compat.empty(),
                         "--compat-background needs --compat");
     if (!args->compat.empty()) {

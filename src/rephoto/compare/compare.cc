@@ -87,6 +87,13 @@ std::pair<float, float> ErrorColourRange(Metric metric) {
   return {0.f, 1.f};
 }
 
+bool WritesErrorImage(const CompareOptions& options, metrics::Metric metric) {
+  return options.write_error_images &&
+         (options.error_image_metrics.empty() ||
+          std::find(options.error_image_metrics.begin(), options.error_image_metrics.end(),
+                    metric) != options.error_image_metrics.end());
+}
+
 void ColourErrorImage(const Image& error, float low, float high, std::vector<uint8_t>* rgba) {
   REPHOTO_CHECK(error.channels() == 1, "ColourErrorImage: expected 1 channel, got {}",
                 error.channels());
@@ -355,19 +362,22 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
   // The error images are written while they are made: EXR rows band by band, then each PNG
   // from its EXR's rows read back, one at a time, so that no whole error image is held.
   std::vector<std::unique_ptr<ErrorExrWriter>> exrs;
+  std::vector<size_t> exr_metric;  // exrs[j] is of options.metrics[exr_metric[j]]
   const auto stem = [&](metrics::Metric metric) {
     return fmt::format("{}.{}", name, metrics::MetricName(metric));
   };
   if (options.write_error_images && !error_images) {
-    for (metrics::Metric metric : options.metrics) {
-      exrs.push_back(
-          std::make_unique<ErrorExrWriter>(error_folder / (stem(metric) + ".exr"), width, height));
+    for (size_t i = 0; i < options.metrics.size(); ++i) {
+      if (!WritesErrorImage(options, options.metrics[i])) continue;
+      exrs.push_back(std::make_unique<ErrorExrWriter>(
+          error_folder / (stem(options.metrics[i]) + ".exr"), width, height));
+      exr_metric.push_back(i);
     }
   }
   metrics::ErrorBandSink sink;
   if (!exrs.empty()) {
     sink = [&](int y0, int y1, std::span<const float* const> rows) {
-      for (size_t i = 0; i < exrs.size(); ++i) exrs[i]->WriteRows(y0, y1, rows[i]);
+      for (size_t j = 0; j < exrs.size(); ++j) exrs[j]->WriteRows(y0, y1, rows[exr_metric[j]]);
     };
   } else if (error_images) {  // whole images in memory (CompareInMemory)
     error_images->resize(options.metrics.size());
@@ -384,13 +394,13 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
   for (const metrics::MetricResult& metric : ws->results) {
     result.metrics.push_back({metric.mean, metric.evaluated});
   }
-  for (size_t i = 0; i < exrs.size(); ++i) {
-    const metrics::Metric metric = options.metrics[i];
+  for (size_t j = 0; j < exrs.size(); ++j) {
+    const metrics::Metric metric = options.metrics[exr_metric[j]];
     const auto [low, high] = ErrorColourRange(metric);
-    WriteErrorPng(*exrs[i], width, height, low, high, error_folder / (stem(metric) + ".png"),
+    WriteErrorPng(*exrs[j], width, height, low, high, error_folder / (stem(metric) + ".png"),
                   &ws->rgba);
-    exrs[i]->Commit();
-    exrs[i].reset();
+    exrs[j]->Commit();
+    exrs[j].reset();
   }
   return result;
 }

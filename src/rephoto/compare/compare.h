@@ -83,7 +83,10 @@ struct CompareOptions {
   metrics::ExposureOptions exposure;      // photo dark/saturated thresholds
   bool resize = false;                    // rescale renderings to their photo's size
   bool write_error_images = true;         // errors/*.exr and *.png
-  bool prefetch = true;                   // decode the next pair while comparing the current
+  // Of `metrics`, those whose error images are written (empty = all). Each is 4 bytes per pixel
+  // as EXR plus its PNG: at 12 MP, 8 metrics write about 0.5 GB per image.
+  std::vector<metrics::Metric> error_image_metrics;
+  bool prefetch = true;  // decode the next pair while comparing the current
   // --compat: compare as graphdeco's metrics.py or nerfstudio's ns-eval do (compat_compare.h:
   // no masks, psnr and ssim only, no error images); photos with alpha are composited over
   // compat_background (RGB in [0,1]).
@@ -200,6 +203,10 @@ std::pair<float, float> ErrorColourRange(metrics::Metric metric);
 // Colours a 1-channel error image with JetColor over [low, high] (low > high reverses) into
 // 8-bit RGBA, alpha 0 where the value is NaN. `rgba` is resized to width*height*4.
 void ColourErrorImage(const Image& error, float low, float high, std::vector<uint8_t>* rgba);
+
+// Whether the error images of `metric` are written under `options` (write_error_images, and
+// error_image_metrics empty or holding it).
+bool WritesErrorImage(const CompareOptions& options, metrics::Metric metric);
 
 // The tool version written into summary.json.
 std::string ToolVersion();

@@ -622,6 +622,37 @@ TEST(Compare, ErrorImagesReturnedAndWrittenLaterAreTheStreamedFiles) {
   fs::remove_all(dir);
 }
 
+// Error images of some metrics only: the other metrics are computed all the same, and the files
+// written are those of the full run for the chosen metrics, byte for byte.
+TEST(Compare, ErrorImageMetricsWriteOnlyTheirFiles) {
+  auto rng = testing::MakeRng();
+  const Folders f = MakeFolders();
+  io::WritePng(f.photos / "a.png", RandomImage(rng));
+  io::WritePng(f.renders / "a.png", RandomImage(rng));
+  const CompareOptions all = Options(f);
+  const CompareResult full = RunCompare(all);
+  CompareOptions some = all;
+  some.out = f.root / "some";
+  some.error_image_metrics = {Metric::kDssim, Metric::kCensus};
+  const CompareResult part = RunCompare(some);
+  EXPECT_EQ(
+      FolderEntries(some.out / "errors"),
+      (std::vector<std::string>{"a.census.exr", "a.census.png", "a.dssim.exr", "a.dssim.png"}));
+  for (const std::string& file : FolderEntries(some.out / "errors")) {
+    EXPECT_EQ(ReadFileToString(some.out / "errors" / file),
+              ReadFileToString(all.out / "errors" / file))
+        << file;
+  }
+  ASSERT_EQ(part.images.size(), 1u);
+  for (size_t i = 0; i < all.metrics.size(); ++i) {
+    const double a = part.images[0].metrics[i].mean, b = full.images[0].metrics[i].mean;
+    EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << i;
+  }
+  EXPECT_TRUE(WritesErrorImage(some, Metric::kDssim));
+  EXPECT_FALSE(WritesErrorImage(some, Metric::kOneMinusNcc));
+  EXPECT_TRUE(WritesErrorImage(all, Metric::kOneMinusNcc));
+}
+
 // issue 14: compare --out never destroys a folder it did not make, has one writer, and a
 // failure leaves no empty folder behind.
 TEST(Compare, RefusesAFolderItDidNotMakeAndLeavesItUntouched) {

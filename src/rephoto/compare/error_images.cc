@@ -194,10 +194,12 @@ void WriteErrorPng(const ErrorExrWriter& exr, int width, int height, float low, 
 }
 
 void WriteErrorImages(const std::vector<Image>& errors, const std::vector<metrics::Metric>& metrics,
-                      const fs::path& folder, const std::string& name, std::vector<uint8_t>* rgba) {
+                      const fs::path& folder, const std::string& name, std::vector<uint8_t>* rgba,
+                      const std::vector<metrics::Metric>& only) {
   REPHOTO_CHECK(errors.size() == metrics.size(), "{}: {} error images for {} metrics",
                 (folder / name).string(), errors.size(), metrics.size());
   for (size_t i = 0; i < errors.size(); ++i) {
+    if (!only.empty() && std::find(only.begin(), only.end(), metrics[i]) == only.end()) continue;
     const std::string base = fmt::format("{}.{}", name, metrics::MetricName(metrics[i]));
     const Image& error = errors[i];
     // Bands of rows through ErrorExrWriter: no whole-file buffer (io::WriteExr's), the same bytes.

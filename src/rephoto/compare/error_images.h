@@ -52,13 +52,13 @@ void ColourErrorValues(const float* values, size_t count, float low, float high,
 void WriteErrorPng(const ErrorExrWriter& exr, int width, int height, float low, float high,
                    const std::filesystem::path& path, std::vector<uint8_t>* rgba);
 
-// Writes errors[i] (width x height x 1, NaN = not evaluated) of metrics[i] as
-// <folder>/<name>.<metric>.exr and its jet .png over ErrorColourRange (compare.h): the same
-// bytes ComparePhotoAndRender writes while it compares, each file atomically. `name` may
-// contain '/' (the subfolders must exist). `rgba` is scratch reused between calls. Throws Error
-// naming the file that cannot be written.
+// Writes errors[i] (width x height x 1, NaN = not evaluated) of metrics[i], for the metrics in
+// `only` (empty = all), as <folder>/<name>.<metric>.exr and its jet .png over ErrorColourRange
+// (compare.h): the same bytes ComparePhotoAndRender writes while it compares, each file
+// atomically. `name` may contain '/' (the subfolders must exist). `rgba` is scratch reused
+// between calls. Throws Error naming the file that cannot be written.
 void WriteErrorImages(const std::vector<Image>& errors, const std::vector<metrics::Metric>& metrics,
                       const std::filesystem::path& folder, const std::string& name,
-                      std::vector<uint8_t>* rgba);
+                      std::vector<uint8_t>* rgba, const std::vector<metrics::Metric>& only = {});
 
 }  // namespace rephoto::compare

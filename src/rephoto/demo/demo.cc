@@ -142,6 +142,9 @@ DemoReconstruction EvaluateRecipe(const DemoOptions& options, const Recipe& reci
   e.model = model_path;
   e.representation = recipe.representation;
   e.metrics = options.metrics;
+  // Error images of 1-NCC only (the reports show them, the projection reads them): all eight
+  // metrics' would be 5 GB for the demo's 96 views.
+  e.error_image_metrics = {metrics::Metric::kOneMinusNcc};
   e.samples_per_pixel = options.render_samples_per_pixel;
   e.report = options.report;
   e.out = options.out / "runs" / recipe.name;

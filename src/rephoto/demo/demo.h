@@ -27,7 +27,8 @@
 //   scene/ground_truth.ply        the ground-truth mesh
 //   models/<reconstruction>.ply   the reconstructions
 //   runs/<reconstruction>/        `rephoto evaluate` run directories (per_image.csv,
-//                                 per_fold.csv, summary.json, projected/1-ncc.ply, report.html)
+//                                 per_fold.csv, summary.json, projected/1-ncc.ply, report.html;
+//                                 error images of 1-NCC only, what the reports show)
 //   next_photos/photos_so_far/sparse/  the one-sided photos' cameras (COLMAP text)
 //   next_photos/                  `rephoto suggest`'s outputs for them: sparse/,
 //                                 transforms.json, suggestions.json, renders/, report.html

@@ -33,6 +33,15 @@ TEST(Demo, SmallDemoRanksGroundTruthFirstAndWritesItsOutputs) {
     EXPECT_TRUE(std::filesystem::exists(r.model));
     EXPECT_TRUE(std::filesystem::exists(r.run_dir / "per_fold.csv"));
     EXPECT_TRUE(std::filesystem::exists(r.run_dir / "report.html"));
+    // Error images of 1-NCC only: 4 views, an EXR and a PNG each.
+    size_t error_files = 0;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(r.run_dir / "folds")) {
+      if (entry.path().parent_path().filename() != "errors") continue;
+      EXPECT_NE(entry.path().filename().string().find(".1-ncc."), std::string::npos)
+          << entry.path();
+      ++error_files;
+    }
+    EXPECT_EQ(error_files, 8u) << r.name;
   }
   // The ground truth covers everything the photos show.
   EXPECT_GT(result.ranking.front().result.completeness_across_folds.median, 0.99);

@@ -188,7 +188,8 @@ void RephotoAllFolds(RunState& s, ViewWorkspace& ws, ProjectionPlan& plan, Comma
       }
     }
     WriteFoldJson(s, fold, fold.ok ? "ok" : "failed");
-    if (!InterruptRequested()) ProjectFold(s, ws.models, plan, fold);  // while its model is in memory
+    if (!InterruptRequested())
+      ProjectFold(s, ws.models, plan, fold);  // while its model is in memory
   }
 }
 
@@ -368,9 +369,8 @@ EvaluateResult RunTask(RunState& s) {
   REPHOTO_CHECK_USAGE(task.fold < s.folds.size(), "--only {}: the run has {} folds", s.o.only,
                       s.folds.size());
   FoldState& fold = s.folds[task.fold];
-  result.exit_code = task.kind == Task::Kind::kFold
-                         ? RunFoldTask(s, fold)
-                         : RunViewsTask(s, fold, task.first, task.count);
+  result.exit_code = task.kind == Task::Kind::kFold ? RunFoldTask(s, fold)
+                                                    : RunViewsTask(s, fold, task.first, task.count);
   return result;
 }
 
@@ -552,6 +552,12 @@ void EvaluateOptions::Check() const {
     throw UsageError("evaluate: counts and sizes must not be negative");
   }
   if (metrics.empty()) throw UsageError("evaluate: no metric selected");
+  for (metrics::Metric m : error_image_metrics) {
+    if (std::find(metrics.begin(), metrics.end(), m) == metrics.end()) {
+      throw UsageError(fmt::format("evaluate: --error-image-metrics: {} is not among --metrics",
+                                   metrics::MetricName(m)));
+    }
+  }
   if (projection_metric != "none" && !metrics::ParseMetric(projection_metric)) {
     throw UsageError(fmt::format("evaluate: unknown projection metric '{}'", projection_metric));
   }
@@ -603,6 +609,19 @@ EvaluateResult RunEvaluate(const EvaluateOptions& options) {
     }
     throw;
   }
+}
+
+std::vector<metrics::Metric> ErrorImageMetrics(const EvaluateOptions& options) {
+  std::vector<metrics::Metric> list = options.error_image_metrics;
+  if (list.empty()) return list;  // all
+  const std::optional<metrics::Metric> projected = metrics::ParseMetric(options.projection_metric);
+  if (projected &&
+      std::find(options.metrics.begin(), options.metrics.end(), *projected) !=
+          options.metrics.end() &&
+      std::find(list.begin(), list.end(), *projected) == list.end()) {
+    list.push_back(*projected);
+  }
+  return list;
 }
 
 }  // namespace rephoto::eval

@@ -184,6 +184,9 @@ struct EvaluateOptions {
   std::filesystem::path photo_masks;  // folder of masks by photo stem ("" = the scene's masks)
   bool resize = false;                // rescale external renders of another size
   bool error_images = true;
+  // Of `metrics`, those whose error images are written (empty = all); the projection metric's
+  // are always written, since the projection reads them (ErrorImageMetrics).
+  std::vector<metrics::Metric> error_image_metrics;
 
   // ---- built-in rendering (as `rephoto render`)
   int samples_per_pixel = 4;
@@ -316,6 +319,10 @@ struct EvaluateResult {
   size_t evaluated_images = 0;         // with a result
   ExitCode exit_code = ExitCode::kOk;  // kIncomplete: failed folds/views or missing photos
 };
+
+// The metrics whose error images an evaluation writes: empty = all of options.metrics, else
+// options.error_image_metrics and the projection metric (when it is one of options.metrics).
+std::vector<metrics::Metric> ErrorImageMetrics(const EvaluateOptions& options);
 
 // Runs the evaluation described above and writes the run directory. Throws UsageError for bad
 // settings, Error for bad input that stops everything (unreadable scene, another scene's run

@@ -13,7 +13,6 @@
 #include "rephoto/compare/compare.h"
 #include "rephoto/compare/resample.h"
 #include "rephoto/core/file.h"
-#include "rephoto/core/parallel.h"
 #include "rephoto/eval/command.h"
 #include "rephoto/eval/evaluate_fixture.h"
 #include "rephoto/io/csv.h"
@@ -760,46 +759,6 @@ TEST(EvaluateTest, EvalShortSideRendersAndComparesSmaller) {
   const EvaluateResult again = RunEvaluate(o);
   EXPECT_EQ(again.counters.photos_downscaled, 0u);
   EXPECT_EQ(again.counters.views_reused, static_cast<size_t>(kViews));
-}
-
-// issue 18: the views go through a pipeline (render the next, compare this one, write the
-// previous one's error images in the background). With one thread there is no pipeline; both
-// orders give the same renderings, error images and tables, byte for byte, and run.json
-// separates the steps' summed seconds from the view stage's wall time.
-TEST(EvaluateTest, PipelinedViewsWriteTheFilesOfOneViewAtATime) {
-  const fs::path root = testing::MakeTempDir();
-  EvaluateOptions o = BaseOptions(root / "pipelined");
-  o.model = Files().truth;
-  o.scheme = "kfold:2";
-  o.report = false;
-  const EvaluateResult pipelined = RunEvaluate(o);
-  EvaluateOptions sequential = o;
-  sequential.out = root / "sequential";
-  {
-    ThreadLimit one(1);
-    RunEvaluate(sequential);
-  }
-  EXPECT_EQ(pipelined.evaluated_images, static_cast<size_t>(kViews));
-  size_t files = 0;
-  for (const auto& entry : fs::recursive_directory_iterator(o.out / "folds")) {
-    const std::string folder = entry.path().parent_path().filename().string();
-    if (!entry.is_regular_file() || (folder != "errors" && folder != "renders")) continue;
-    const fs::path other = sequential.out / fs::relative(entry.path(), o.out);
-    EXPECT_EQ(ReadFileToString(entry.path()), ReadFileToString(other)) << entry.path();
-    ++files;
-  }
-  // Per view: a rendering and its depth, and an EXR and a PNG per metric.
-  EXPECT_EQ(files, kViews * (2 + 2 * o.metrics.size()));
-  for (const char* table : {"per_image.csv", "per_fold.csv"}) {
-    EXPECT_EQ(ReadFileToString(o.out / table), ReadFileToString(sequential.out / table)) << table;
-  }
-  const nlohmann::json timings =
-      nlohmann::json::parse(ReadFileToString(o.out / "run.json"))["timings"];
-  for (const char* step : {"render", "photos", "compare", "write", "views"}) {
-    EXPECT_GT(timings["rephoto"][step].get<double>(), 0.0) << step;
-  }
-  EXPECT_GT(pipelined.timings.write, 0.0);
-  fs::remove_all(root);
 }
 
 TEST(EvaluateTest, TrainCountAndTrainShortSideShapeTheTrainingScene) {

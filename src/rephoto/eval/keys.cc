@@ -46,6 +46,11 @@ std::string CompareSettingsKey(const EvaluateOptions& o) {
   h.AddDouble(mo.ncc_flat_threshold).AddInt(mo.icid_window).AddDouble(mo.icid_sigma);
   h.AddDouble(o.exposure.dark_threshold).AddDouble(o.exposure.saturated_threshold);
   h.AddInt(o.resize).AddInt(o.error_images).AddInt(o.eval_short_side);
+  const std::vector<metrics::Metric> error_images = ErrorImageMetrics(o);
+  if (!error_images.empty()) {  // (all metrics keeps the keys of runs made before the option)
+    h.Add("error-image-metrics");
+    for (metrics::Metric m : error_images) h.Add(metrics::MetricName(m));
+  }
   h.Add(compare::ToolVersion());
   return h.Hex();
 }
@@ -64,8 +69,7 @@ std::string ModelFileKey(FileHashCache& hashes, const std::filesystem::path& pat
   for (const mesh::Material& material : mesh.materials) {
     h.Add(material.name);
     for (int c = 0; c < 3; ++c) h.AddDouble(material.diffuse[c]);
-    h.Add(material.diffuse_texture.empty() ? std::string()
-                                           : hashes.Hash(material.diffuse_texture));
+    h.Add(material.diffuse_texture.empty() ? std::string() : hashes.Hash(material.diffuse_texture));
   }
   return h.Hex();
 }

@@ -111,6 +111,7 @@ compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
   c.exposure = o.exposure;
   c.resize = o.resize;
   c.write_error_images = o.error_images;
+  c.error_image_metrics = ErrorImageMetrics(o);
   return c;
 }
 
@@ -199,7 +200,8 @@ void WriteView(RunState& s, ViewWorkspace& ws, FoldState& fold, const TestView& 
     RemoveStaleErrorImages(errors_dir, test.stem);
     std::error_code ec;
     fs::create_directories((errors_dir / test.stem).parent_path(), ec);
-    compare::WriteErrorImages(*error_images, s.o.metrics, errors_dir, test.stem, &ws.rgba);
+    compare::WriteErrorImages(*error_images, s.o.metrics, errors_dir, test.stem, &ws.rgba,
+                              ErrorImageMetrics(s.o));
   }
   outcome.ok = true;
   WriteViewRecord(s, fold, outcome);

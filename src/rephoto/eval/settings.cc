@@ -73,6 +73,8 @@ const std::vector<SettingInfo>& Settings() {
        "Folder of photo masks by stem (0 = ignore the pixel); default: the scene's masks"},
       {"resize", SettingType::kBool, "Rescale external renderings of another size to the photo"},
       {"error-images", SettingType::kBool, "Write errors/<stem>.<metric>.exr/.png"},
+      {"error-image-metrics", SettingType::kMetricList,
+       "Write error images of these of the metrics only (and of the projection metric) or all"},
       {"spp", SettingType::kInt, "Samples per pixel of the built-in renderer"},
       {"backfaces", SettingType::kBool, "Render the back sides of triangles"},
       {"point-radius", SettingType::kDouble,
@@ -301,6 +303,9 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->resize = AsBool(value, source);
   } else if (n == "error-images") {
     o->error_images = AsBool(value, source);
+  } else if (n == "error-image-metrics") {
+    o->error_image_metrics = AsMetrics(value, source);
+    if (o->error_image_metrics == metrics::AllMetrics()) o->error_image_metrics.clear();
   } else if (n == "spp") {
     o->samples_per_pixel = CheckedInt(value, source, 1, 1024);
   } else if (n == "backfaces") {
@@ -501,6 +506,10 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["photo-masks"] = o.photo_masks.string();
   j["resize"] = o.resize;
   j["error-images"] = o.error_images;
+  Json error_image_names = Json::array();
+  for (metrics::Metric m : ErrorImageMetrics(o))
+    error_image_names.push_back(metrics::MetricName(m));
+  j["error-image-metrics"] = o.error_image_metrics.empty() ? Json("all") : error_image_names;
   j["spp"] = o.samples_per_pixel;
   j["backfaces"] = o.backfaces;
   j["point-radius"] = o.point_radius;
