@@ -1,14 +1,10 @@
 // Census kernels (kernels.h): one template, inlined into a 16-wide AVX-512 function and an
 // 8-wide function cloned for AVX2 and the baseline.
 #include "rephoto/metrics/kernels.h"
+#include "rephoto/metrics/simd.h"
 
 namespace rephoto::metrics::internal {
 namespace {
-
-typedef float V8f __attribute__((vector_size(32)));
-typedef int V8i __attribute__((vector_size(32)));
-typedef float V16f __attribute__((vector_size(64)));
-typedef int V16i __attribute__((vector_size(64)));
 
 // values[x] for x in [r, end): the number of window neighbours whose census bit differs, times
 // inv_bits, where end = r + whole blocks of 2 vectors of pixels that fit before w - r; returns

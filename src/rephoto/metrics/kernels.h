@@ -32,6 +32,13 @@
 
 namespace rephoto::metrics::internal {
 
+// Per-thread scratch, reused across bands and calls (TBB workers live for the process).
+template <typename T>
+T* Scratch(std::vector<T>& buffer, size_t size) {
+  if (buffer.size() < size) buffer.resize(size);
+  return buffer.data();
+}
+
 inline constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 // Output rows per parallel chunk. Fixed (not derived from the thread count) so that ordered
 // reductions give the same result on every machine.

@@ -11,6 +11,7 @@
 #include "rephoto/core/parallel.h"
 #include "rephoto/metrics/icid.h"
 #include "rephoto/metrics/kernels.h"
+#include "rephoto/metrics/simd.h"
 
 namespace rephoto::metrics {
 namespace {
@@ -23,15 +24,11 @@ using internal::MaskRange;
 using internal::MeanSums;
 using internal::WindowValidityRows;
 
+using internal::Deinterleave8;
 using internal::ErrorRows;
+using internal::Scratch;
+using internal::V8f;
 using Inputs = internal::BandInputs;
-
-// Per-thread scratch, reused across bands and calls (TBB workers live for the process).
-template <typename T>
-T* Scratch(std::vector<T>& buffer, size_t size) {
-  if (buffer.size() < size) buffer.resize(size);
-  return buffer.data();
-}
 
 // ---------------------------------------------------------------------------------------------
 // 1-NCC and ZSSD need, per window, the sums of x_c and y_c per channel c, and of
@@ -41,8 +38,6 @@ T* Scratch(std::vector<T>& buffer, size_t size) {
 
 constexpr int kBoxQuantities = 9;
 
-typedef float V8f __attribute__((vector_size(32)));
-
 // Splits an interleaved RGB row into three planes. Eight pixels at a time by shuffles (the
 // compiler's stride-3 loop was a sixth of census's time); pure data movement.
 REPHOTO_SIMD_CLONES
@@ -50,16 +45,8 @@ void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, floa
                   float* __restrict c2) {
   int x = 0;
   for (; x + 8 <= w; x += 8) {
-    V8f a, b, c;
-    __builtin_memcpy(&a, rgb + 3 * x, 32);
-    __builtin_memcpy(&b, rgb + 3 * x + 8, 32);
-    __builtin_memcpy(&c, rgb + 3 * x + 16, 32);
-    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
-    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
-    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
-    const V8f r = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
-    const V8f g = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
-    const V8f bl = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    V8f r, g, bl;
+    Deinterleave8(rgb + 3 * x, &r, &g, &bl);
     __builtin_memcpy(c0 + x, &r, 32);
     __builtin_memcpy(c1 + x, &g, 32);
     __builtin_memcpy(c2 + x, &bl, 32);
@@ -77,16 +64,8 @@ REPHOTO_SIMD_CLONES
 void LumaInterleaved(const float* __restrict rgb, int w, float* __restrict luma) {
   int x = 0;
   for (; x + 8 <= w; x += 8) {
-    V8f a, b, c;
-    __builtin_memcpy(&a, rgb + 3 * x, 32);
-    __builtin_memcpy(&b, rgb + 3 * x + 8, 32);
-    __builtin_memcpy(&c, rgb + 3 * x + 16, 32);
-    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
-    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
-    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
-    const V8f r = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
-    const V8f g = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
-    const V8f bl = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    V8f r, g, bl;
+    Deinterleave8(rgb + 3 * x, &r, &g, &bl);
     const V8f y = 0.299f * r + 0.587f * g + 0.114f * bl;
     __builtin_memcpy(luma + x, &y, 32);
   }

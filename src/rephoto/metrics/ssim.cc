@@ -8,18 +8,10 @@
 #include <cstring>
 
 #include "rephoto/metrics/kernels.h"
+#include "rephoto/metrics/simd.h"
 
 namespace rephoto::metrics::internal {
 namespace {
-
-typedef float V8f __attribute__((vector_size(32)));
-
-// Per-thread scratch, reused across bands and calls (TBB workers live for the process).
-template <typename T>
-T* Scratch(std::vector<T>& buffer, size_t size) {
-  if (buffer.size() < size) buffer.resize(size);
-  return buffer.data();
-}
 
 std::atomic<int> selected_kernel{static_cast<int>(SsimKernel::kFused)};
 
@@ -51,16 +43,8 @@ void ChannelMeans(const float* __restrict e, int n, float* __restrict ssim,
                   float* __restrict dssim) {
   int x = 0;
   for (; x + 8 <= n; x += 8) {
-    V8f a, b, c;
-    __builtin_memcpy(&a, e + 3 * x, 32);
-    __builtin_memcpy(&b, e + 3 * x + 8, 32);
-    __builtin_memcpy(&c, e + 3 * x + 16, 32);
-    const V8f ab0 = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0);
-    const V8f ab1 = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0);
-    const V8f ab2 = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0);
-    const V8f e0 = __builtin_shufflevector(ab0, c, 0, 1, 2, 3, 4, 5, 10, 13);
-    const V8f e1 = __builtin_shufflevector(ab1, c, 0, 1, 2, 3, 4, 8, 11, 14);
-    const V8f e2 = __builtin_shufflevector(ab2, c, 0, 1, 2, 3, 4, 9, 12, 15);
+    V8f e0, e1, e2;
+    Deinterleave8(e + 3 * x, &e0, &e1, &e2);
     const V8f v = (e0 + e1 + e2) / 3.0f;
     const V8f d = (1.0f - v) * 0.5f;
     __builtin_memcpy(ssim + x, &v, 32);

@@ -1,6 +1,7 @@
 #include <algorithm>
 
 #include "rephoto/metrics/kernels.h"
+#include "rephoto/metrics/simd.h"
 
 // Compiled with -ffp-contract=fast (see CMakeLists.txt): a * b + c becomes one FMA in the AVX2
 // and AVX-512 versions. Both images go through the same instruction sequence, so identical
@@ -12,23 +13,6 @@
 // operations in the AVX2 clone: DSSIM 9x slower on CPUs without AVX-512.)
 namespace rephoto::metrics::internal {
 namespace {
-
-typedef float V8f __attribute__((vector_size(32)));
-typedef float V16f __attribute__((vector_size(64)));
-
-// Macros rather than functions: passing vectors by value to a function not compiled for
-// their width changes the ABI (GCC's -Wpsabi).
-#define REPHOTO_LOAD(VF, p)                 \
-  ({                                        \
-    VF v_;                                  \
-    __builtin_memcpy(&v_, (p), sizeof(v_)); \
-    v_;                                     \
-  })
-#define REPHOTO_STORE(p, v)                 \
-  do {                                      \
-    const auto s_ = (v);                    \
-    __builtin_memcpy((p), &s_, sizeof(s_)); \
-  } while (false)
 
 template <typename VF>
 [[gnu::always_inline]] inline void VerticalBody(const float* const* p_rows,

@@ -2,6 +2,7 @@
 #include <utility>
 
 #include "rephoto/metrics/kernels.h"
+#include "rephoto/metrics/simd.h"
 
 // The fused SSIM filters (kernels.h): the four products of an input row are formed once, then
 // filtered vertically for a block of output rows at a time (each loaded row feeds every output
@@ -18,21 +19,6 @@
 // an 8-wide function cloned for AVX2 and the baseline, with the same arithmetic element-wise.
 namespace rephoto::metrics::internal {
 namespace {
-
-typedef float V8f __attribute__((vector_size(32)));
-typedef float V16f __attribute__((vector_size(64)));
-
-#define REPHOTO_LOAD(VF, p)                 \
-  ({                                        \
-    VF v_;                                  \
-    __builtin_memcpy(&v_, (p), sizeof(v_)); \
-    v_;                                     \
-  })
-#define REPHOTO_STORE(p, v)                 \
-  do {                                      \
-    const auto s_ = (v);                    \
-    __builtin_memcpy((p), &s_, sizeof(s_)); \
-  } while (false)
 
 // Start of the vector at i: whole vectors, the last one overlapping its predecessor when n is
 // not a multiple of the width (recomputing values with the same arithmetic). Returns -1 when
