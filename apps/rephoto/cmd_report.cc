@@ -36,6 +36,7 @@ struct ReportArguments {
   double completeness_margin = report::CollectionOptions{}.completeness_margin;
   std::string reference;
   geometry::GeometryOptions geometry;
+  std::vector<std::filesystem::path> image_folders;
 };
 
 CommandRunner SetupReport(CLI::App& app) {
@@ -82,6 +83,12 @@ CommandRunner SetupReport(CLI::App& app) {
   app.add_option("--geometry-samples", args->geometry.samples,
                  "With --reference: area-uniform samples per surface")
       ->capture_default_str();
+  app.add_option("--image-folders", args->image_folders,
+                 "Folders outside the run directories whose photos and renderings the report may "
+                 "show (the photos' folder); paths in the runs' files leading anywhere else are "
+                 "not followed")
+      ->delimiter(',')
+      ->check(CLI::ExistingDirectory);
   app.add_flag("--keep-order", args->keep_order,
                "Several runs: keep the given order instead of ranking by the primary metric");
 
@@ -106,6 +113,7 @@ CommandRunner SetupReport(CLI::App& app) {
       if (args->examples >= 0) options.example_images = args->examples;
       if (args->thumbnail_width > 0) options.thumbnail_width = args->thumbnail_width;
       if (options.title.empty() && !args->labels.empty()) options.title = args->labels[0];
+      options.image_folders = args->image_folders;
       report::WriteRunReport(args->runs[0], args->out, options);
     } else {
       std::vector<report::CollectionEntry> entries;
@@ -123,6 +131,7 @@ CommandRunner SetupReport(CLI::App& app) {
       options.completeness_margin = args->completeness_margin;
       options.geometry_reference = args->reference;
       options.geometry_options = args->geometry;
+      options.image_folders = args->image_folders;
       if (args->examples >= 0) options.example_images = args->examples;
       if (args->thumbnail_width > 0) options.thumbnail_width = args->thumbnail_width;
       report::WriteCollectionReport(entries, args->out, options);

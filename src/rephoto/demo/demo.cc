@@ -237,6 +237,7 @@ void WriteDemoReport(const DemoOptions& options, const DemoResult& result) {
   }
   report::CollectionOptions report_options;
   report_options.title = "rephoto demo: six reconstructions of the procedural scene";
+  report_options.image_folders = {options.out / "scene" / "images"};
   if (result.suggestions) {
     report_options.suggestions = result.suggestions->folder;
     report_options.suggestions_note = fmt::format(

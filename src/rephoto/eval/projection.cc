@@ -163,7 +163,8 @@ void ProjectSharedModel(RunState& s, ModelCache& cache, ProjectionPlan& plan) {
         model = folds.front()->dir / "model.ply";
         model_key = folds.front()->model_key;
       }
-      ProjectOnto(s, cache, model, model_key, folds, *metric, s.run / "projected" / (name + ".ply"));
+      ProjectOnto(s, cache, model, model_key, folds, *metric,
+                  s.run / "projected" / (name + ".ply"));
     });
   }
   s.timings.project += Seconds(start);
@@ -173,7 +174,9 @@ void WriteReport(RunState& s) {
   const auto start = Clock::now();
   if (s.o.report) {
     try {
-      report::WriteRunReport(s.run, s.run / "report.html");
+      report::ReportOptions options;
+      options.image_folders = {s.scene.image_root};  // the photos the user named
+      report::WriteRunReport(s.run, s.run / "report.html", options);
     } catch (const Error& e) {
       LogWarning(fmt::format("report not written: {}", e.what()));
       s.report_message = e.what();

@@ -55,7 +55,8 @@ std::string PlotsHtml(const std::vector<BoxPlot>& plots) {
 
 void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
                     const ReportOptions& options) {
-  const run::RunData run = run::LoadRun(run_dir);
+  run::RunData run = run::LoadRun(run_dir);
+  run.image_folders = options.image_folders;
   const std::string title =
       options.title.empty() ? "rephoto report: " + DirName(run_dir) : options.title;
   std::string html = PageStart(title);
@@ -139,6 +140,7 @@ Collection LoadCollection(const std::vector<CollectionEntry>& entries, const fs:
   }
   for (const CollectionEntry& e : entries) {
     Loaded l{e, run::LoadRun(e.run_dir)};
+    l.run.image_folders = options.image_folders;
     if (l.entry.label.empty()) l.entry.label = DirName(e.run_dir);
     l.primary = l.run.MetricIndex(options.primary_metric);
     const std::vector<double> primary_values =

@@ -67,6 +67,9 @@ struct ReportOptions {
   std::string primary_metric = "1-ncc";  // ranks the example images; absent: the first metric
   int example_images = 3;                // that many worst and that many best images (0 = none)
   int thumbnail_width = 480;             // pixels; thumbnails are never enlarged
+  // Folders outside the run folder whose photos and renderings may be shown (the ones the user
+  // named: the photos' folder); paths in the run's files leading elsewhere are not followed.
+  std::vector<std::filesystem::path> image_folders;
 };
 
 // One run directory (evaluate or compare layout) -> one self-contained HTML file.
@@ -117,6 +120,8 @@ struct CollectionOptions {
   // (what the photos so far were). Empty = no section.
   std::filesystem::path suggestions;
   std::string suggestions_note;
+  // As ReportOptions::image_folders, for every run.
+  std::vector<std::filesystem::path> image_folders;
 };
 
 // Several runs (the demo's reconstructions; a sweep's settings) -> one HTML: ranking table,

@@ -144,12 +144,13 @@ TEST(ReportBrowser, ChromiumRunsTheScriptsWithoutErrorsAndSorts) {
   const fs::path root = rephoto::testing::MakeTempDir();
   // A compare run (7 rows: 6 compared incl. a hostile name, 1 missing) and its report.
   const compare::CompareResult result = testing::MakeCompareRun(root / "a", 5, 0.02, 11);
-  WriteRunReport(root / "a" / "run", root / "run.html", {.thumbnail_width = 40});
+  WriteRunReport(root / "a" / "run", root / "run.html",
+                 {.thumbnail_width = 40, .image_folders = {root / "a"}});
   // A collection of it and an evaluate-layout run.
   testing::WriteEvaluateRun(root / "eval");
   WriteCollectionReport({{.label = "compare", .run_dir = root / "a" / "run"},
                          {.label = "evaluate", .run_dir = root / "eval"}},
-                        root / "collection.html");
+                        root / "collection.html", {.image_folders = {root / "a"}});
   // Negative control: the same report with a console message and an uncaught exception, to
   // show that such problems are detected.
   std::string broken = ReadFileToString(root / "run.html");

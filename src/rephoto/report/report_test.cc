@@ -16,8 +16,8 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_fixture.h"
-#include "rephoto/run/run_data.h"
 #include "rephoto/report/thumbnails.h"
+#include "rephoto/run/run_data.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::report {
@@ -108,6 +108,11 @@ TEST(RunReport, CompareRunRowsBoxesExamplesAndEscaping) {
   ReportOptions options;
   options.example_images = 2;
   options.thumbnail_width = 24;
+  // The photos and renderings lie outside the run folder: they are shown from the folders the
+  // caller names only. Without them, no file the run's CSV names outside the run is read.
+  WriteRunReport(root / "run", root / "unnamed.html", options);
+  EXPECT_EQ(Elements(ReadFileToString(root / "unnamed.html"), "<img ").size(), 4u);  // errors
+  options.image_folders = {root / "photos", root / "renders"};
   WriteRunReport(root / "run", root / "report.html", options);
   const std::string html = ReadFileToString(root / "report.html");
   ExpectSelfContained(html);
@@ -357,7 +362,8 @@ TEST(CollectionReport, MarksRunsThatDoNotCompareByAccuracyAlone) {
   std::string summary = ReadFileToString(root / "fixed" / "summary.json");
   summary.replace(summary.find("\"folds\": 5,"), 11, "\"folds\": 5, \"cross_validated\": false,");
   WriteTextFileAtomically(root / "fixed" / "summary.json", summary);
-  const double clean_completeness = Summarize(run::LoadRun(root / "clean" / "run").Values(-1)).median;
+  const double clean_completeness =
+      Summarize(run::LoadRun(root / "clean" / "run").Values(-1)).median;
   ASSERT_GT(clean_completeness, 0.9);
   const std::vector<CollectionEntry> entries = {
       {.label = "clean", .run_dir = root / "clean" / "run"},
@@ -381,7 +387,8 @@ TEST(CollectionReport, MarksRunsThatDoNotCompareByAccuracyAlone) {
       "covers fewer pixels and does not compare",
       clean_completeness);
   EXPECT_EQ(by_label["eval"].back(), low);
-  EXPECT_EQ(by_label["fixed"].back(), low + "; not cross-validated: the model may have seen the test photos");
+  EXPECT_EQ(by_label["fixed"].back(),
+            low + "; not cross-validated: the model may have seen the test photos");
   EXPECT_EQ(by_label["fixed"][rows[0].size() - 2], "false");
   const std::string html = ReadFileToString(root / "report.html");
   EXPECT_NE(html.find("<th class=\"text\" data-col=\"note\">note</th>"), std::string::npos);
@@ -391,8 +398,9 @@ TEST(CollectionReport, MarksRunsThatDoNotCompareByAccuracyAlone) {
   WriteCollectionReport(entries, root / "report.html", options);
   const auto wide = io::ParseCsv(ReadFileToString(root / "ranking.csv"), "ranking.csv");
   for (size_t r = 1; r < wide.size(); ++r) {
-    EXPECT_EQ(wide[r].back(),
-              wide[r][1] == "fixed" ? "not cross-validated: the model may have seen the test photos" : "");
+    EXPECT_EQ(wide[r].back(), wide[r][1] == "fixed"
+                                  ? "not cross-validated: the model may have seen the test photos"
+                                  : "");
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <limits>
@@ -131,10 +132,30 @@ fs::path Resolve(const std::string& written, const std::vector<fs::path>& bases)
   return {};
 }
 
+// Whether `path` (symbolic links and ".." resolved) lies inside `folder`.
+bool Inside(const fs::path& path, const fs::path& folder) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path), ec);
+  if (ec) return false;
+  const fs::path f = fs::weakly_canonical(fs::absolute(folder), ec);
+  if (ec) return false;
+  const auto [f_end, p_end] = std::mismatch(f.begin(), f.end(), p.begin(), p.end());
+  return f_end == f.end();
+}
+
 }  // namespace
 
+fs::path RunData::Readable(const fs::path& path) const {
+  if (path.empty()) return {};
+  if (Inside(path, dir)) return path;
+  for (const fs::path& folder : image_folders) {
+    if (Inside(path, folder)) return path;
+  }
+  return {};
+}
+
 fs::path RunData::RenderPath(const ImageRow& image) const {
-  return Resolve(image.render, {ImageDir(image), dir, dir.parent_path()});
+  return Readable(Resolve(image.render, {ImageDir(image), dir, dir.parent_path()}));
 }
 
 fs::path RunData::PhotoPath(const ImageRow& image) const {
@@ -147,11 +168,11 @@ fs::path RunData::PhotoPath(const ImageRow& image) const {
       const nlohmann::ordered_json path = photo.value("path", nlohmann::ordered_json());
       std::error_code ec;
       if (path.is_string() && fs::is_regular_file(path.get<std::string>(), ec)) {
-        return path.get<std::string>();
+        return Readable(path.get<std::string>());
       }
     }
   }
-  return Resolve(image.photo, {ImageDir(image), dir, dir.parent_path()});
+  return Readable(Resolve(image.photo, {ImageDir(image), dir, dir.parent_path()}));
 }
 
 RunData LoadRun(const fs::path& dir) {

@@ -80,9 +80,17 @@ struct RunData {
   // Where an image's outputs are: RUN for compare runs, RUN/folds/<fold dir> for evaluate runs
   // (a fold written as a number n means "fold_%02d").
   std::filesystem::path ImageDir(const ImageRow& image) const;
+  // Besides RUN, the folders whose photos and renderings RenderPath and PhotoPath may return:
+  // the folders the user named (evaluate's image root, `rephoto report --image-folders`). A
+  // path read from the run's files that leads anywhere else is not followed (hostile files).
+  std::vector<std::filesystem::path> image_folders;
+  // `path` when it lies inside RUN or one of image_folders (symbolic links and ".." resolved),
+  // else empty.
+  std::filesystem::path Readable(const std::filesystem::path& path) const;
   // The rendering of an image as a readable path: absolute as written, else relative to the
   // image's folder, RUN, RUN's parent (`rephoto compare --photos photos --out run` run from
-  // that folder) or the current directory (the first that exists); empty if none.
+  // that folder) or the current directory (the first that exists), and Readable; empty if
+  // none.
   std::filesystem::path RenderPath(const ImageRow& image) const;
   // The photo likewise; evaluate runs name each photo by its scene name (view_000.png): that
   // name's file is the one run.json's inputs.photos lists for it (where evaluate read it).

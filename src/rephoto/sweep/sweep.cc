@@ -30,13 +30,18 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The smallest training set over the folds the base experiment will use (photos missing on
-// disk are left out, as evaluate does).
-int SmallestTrainingSet(const eval::EvaluateOptions& base) {
+// The base experiment's scene, read as evaluate reads it.
+scene::Scene ReadBaseScene(const eval::EvaluateOptions& base) {
   scene::ReadSceneOptions read;
   if (!base.format.empty()) read.format = scene::ParseSceneFormat(base.format);
   if (!base.image_root.empty()) read.image_root = base.image_root;
-  const scene::Scene scene = scene::ReadScene(base.scene, read);
+  return scene::ReadScene(base.scene, read);
+}
+
+// The smallest training set over the folds the base experiment will use (photos missing on
+// disk are left out, as evaluate does).
+int SmallestTrainingSet(const eval::EvaluateOptions& base) {
+  const scene::Scene scene = ReadBaseScene(base);
   std::vector<std::string> names;
   for (const auto& view : scene.views) {
     if (fs::exists(view.image_path)) names.push_back(view.name);
@@ -370,6 +375,7 @@ void WriteReport(const SweepOptions& options, const std::string& x_axis,
   if (entries.empty()) return;
   report::CollectionOptions report_options;
   report_options.title = "rephoto sweep: " + options.out.filename().string();
+  report_options.image_folders = {ReadBaseScene(options.base).image_root};  // the photos
   report_options.setting_name = x_axis;
   report_options.rank = false;
   report_options.geometry_reference = options.reference;
