@@ -31,6 +31,7 @@
 
 #include "rephoto/compare/compare.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/image.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/eval/evaluate.h"
@@ -595,6 +596,9 @@ PYBIND11_MODULE(_rephoto, m) {
   m.attr("_build_type") = "Debug";
 #endif
   m.attr("_compiler") = __VERSION__;
+  // The instruction-set path (core/isa.h); a bad REPHOTO_ISA fails the import with UsageError.
+  core::CheckIsaEnvironment();
+  m.attr("_isa") = std::string(core::IsaName(core::ActiveIsa()));
 
   m.def("compare", &Compare, py::arg("photo"), py::arg("render"), py::arg("mask") = py::none(),
         py::arg("metrics") = py::none(), py::arg("render_mask") = py::none(),

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "rephoto/core/file.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/synth/demo_files.h"
@@ -67,6 +68,9 @@ TEST(Cli, UsageMistakesAnywhereExitTwoWithOneLine) {
             (dir / "t").string() + "'",
         "evaluate " + SceauxArgs() + " --scheme bogus --model '" + Mesh() + "' --out '" +
             (dir / "e").string() + "'",
+        // Found against the data: Sceaux has 11 photos.
+        "split " + SceauxArgs().substr(8) + " --scheme kfold:12 --out '" + (dir / "s").string() +
+            "'",
         "evaluate " + SceauxArgs() + " --reconstruct true --out '" + (dir / "e").string() + "'",
         "evaluate " + SceauxArgs() + " --executor bogus --model '" + Mesh() + "' --out '" +
             (dir / "e").string() + "'",
@@ -81,6 +85,35 @@ TEST(Cli, UsageMistakesAnywhereExitTwoWithOneLine) {
     EXPECT_EQ(Lines(message), 1u) << outcome.err;
   }
   EXPECT_FALSE(fs::exists(dir / "e"));
+  // A scheme that does not fit the photos found (Sceaux: 10 of its 11 photos exist) is a usage
+  // error in evaluate too; its message is the last line (after the warning naming the missing
+  // photo).
+  const Outcome kfold = RunCli("evaluate " + SceauxArgs() + " --scheme kfold:12 --model '" +
+                               Mesh() + "' --out '" + (dir / "k").string() + "'");
+  EXPECT_EQ(kfold.exit_code, 2) << kfold.err;
+  EXPECT_THAT(kfold.err, HasSubstr("rephoto: error: split kfold:12:0: needs 2 <= K <= number of "
+                                   "images (10)\n"));
+}
+
+// REPHOTO_ISA (core/isa.h): --version names the path; an unknown path, or one the CPU lacks, is
+// a usage error naming the variable.
+TEST(Cli, IsaPathIsShownAndCanBeForced) {
+  const Outcome version = testing::RunShell(std::string(REPHOTO_CLI) + " --version");
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_THAT(version.out, HasSubstr("isa: " + std::string(core::IsaName(core::DetectedIsa()))));
+  const Outcome forced =
+      testing::RunShell("REPHOTO_ISA=baseline " + std::string(REPHOTO_CLI) + " --version");
+  EXPECT_THAT(forced.out, HasSubstr("isa: baseline"));
+  std::vector<std::string> bad = {"avx1024"};
+  if (!core::CpuSupports(core::Isa::kAvx512)) bad.push_back("avx512");
+  for (const std::string& isa : bad) {
+    const Outcome run = testing::RunShell("REPHOTO_ISA=" + isa + " " + std::string(REPHOTO_CLI) +
+                                          " split /nonexistent --scheme kfold:2 --out " +
+                                          testing::MakeTempDir().string() + "/s");
+    EXPECT_EQ(run.exit_code, 2) << run.err;
+    EXPECT_EQ(Lines(run.err), 1u) << run.err;
+    EXPECT_THAT(run.err, HasSubstr("REPHOTO_ISA=" + isa));
+  }
 }
 
 // A mistake in a sweep's TOML file is a usage error too, found before anything is written, and

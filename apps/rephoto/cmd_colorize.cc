@@ -32,7 +32,7 @@ struct ColorizeArguments {
   SceneArguments scene_args;
   std::string out;
   bool ascii = false;
-  double min_cosine = 0.0;
+  double min_cosine = render::VisibilityRule{}.min_facing_cosine;  // render/visibility.h
 };
 
 CommandRunner SetupColorize(CLI::App& app) {

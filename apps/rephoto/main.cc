@@ -11,6 +11,7 @@
 
 #include "command.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/limits.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/process.h"
@@ -45,7 +46,9 @@ int main(int argc, char** argv) {
   CLI::App app{
       "rephoto: how good does a 3D reconstruction look? Virtual rephotography "
       "(Waechter et al. 2017): render held-out views and compare them with the photos."};
-  app.set_version_flag("--version", std::string(REPHOTO_VERSION));
+  // The version and the instruction-set path the kernels take (core/isa.h: REPHOTO_ISA).
+  app.set_version_flag(
+      "--version", fmt::format("{}\nisa: {}", REPHOTO_VERSION, core::IsaName(core::ActiveIsa())));
   app.formatter(std::make_shared<cli::HelpFormatter>());
   app.require_subcommand(1);
   // A mistake in the options: one line naming it, then where the options are listed (the same
@@ -108,10 +111,12 @@ int main(int argc, char** argv) {
   if (!max_memory.empty()) SetMaxMemoryBytes(ParseByteSize(max_memory));
   // Inside a Slurm job without -j: the CPUs the job was given, not every core of a shared node.
   if (threads == 0) {
-    if (const char* slurm_cpus = std::getenv("SLURM_CPUS_PER_TASK")) threads = std::atoi(slurm_cpus);
+    if (const char* slurm_cpus = std::getenv("SLURM_CPUS_PER_TASK"))
+      threads = std::atoi(slurm_cpus);
   }
   ThreadLimit thread_limit(std::max(threads, 0));
   try {
+    core::CheckIsaEnvironment();
     for (auto& [sub, run] : commands) {
       if (sub->parsed()) return run();
     }

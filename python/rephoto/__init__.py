@@ -33,11 +33,13 @@ from . import _rephoto
 from ._rephoto import Camera, Error, Model, Scene, UsageError, View
 
 __version__: str = _rephoto.__version__
-#: How the extension was built (version, build type, compiler).
+#: How the extension was built (version, build type, compiler) and the instruction-set path its
+#: kernels take ("baseline", "avx2" or "avx512"; REPHOTO_ISA forces one, see docs/determinism.md).
 build_info: Dict[str, str] = {
     "version": _rephoto.__version__,
     "build_type": _rephoto._build_type,
     "compiler": _rephoto._compiler,
+    "isa": _rephoto._isa,
 }
 
 #: Metric names as in the SPEC and the CLI, in the CLI's order.

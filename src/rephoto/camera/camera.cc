@@ -407,6 +407,43 @@ void Camera::Validate(std::string_view context) const {
                 FocalLengthY());
 }
 
+UsableField::UsableField(const Camera& camera) : fisheye_(camera.IsFisheye()) {
+  const ModelInfo& info = Info(camera.model);
+  REPHOTO_CHECK(static_cast<int>(camera.params.size()) == info.num_params,
+                "{} camera has {} parameters, expected {}", info.name, camera.params.size(),
+                info.num_params);
+  radius_ = std::numeric_limits<double>::infinity();
+  if (camera.IsPinhole() || camera.model == CameraModel::kFov) return;
+  const double* k = camera.params.data() + info.num_focal + 2;
+  const double limit = fisheye_ ? M_PI / 2 : 20.0;
+  constexpr int kDirections = 64;
+  for (int d = 0; d < kDirections; ++d) {
+    const double angle = 2 * M_PI * d / kDirections;
+    const double cx = std::cos(angle), cy = std::sin(angle);
+    double last_good = 0;
+    for (double r = 1e-3; r < std::min(limit, radius_); r *= 1.005) {
+      const Dual u{r * cx, 1.0, 0.0};
+      const Dual v{r * cy, 0.0, 1.0};
+      Dual du, dv;
+      Distortion(camera.model, k, u, v, &du, &dv);
+      const double det = (1.0 + du.d0) * (1.0 + dv.d1) - du.d1 * dv.d0;
+      if (!(det > 0)) {
+        radius_ = std::min(radius_, last_good);
+        break;
+      }
+      last_good = r;
+    }
+  }
+}
+
+bool UsableField::Contains(const Eigen::Vector3d& point_in_cam) const {
+  if (!(point_in_cam.z() > 0)) return false;
+  if (radius_ == std::numeric_limits<double>::infinity()) return true;
+  const double u = point_in_cam.x() / point_in_cam.z(), v = point_in_cam.y() / point_in_cam.z();
+  const double r = std::sqrt(u * u + v * v);
+  return (fisheye_ ? std::atan(r) : r) < radius_;
+}
+
 Pose Pose::FromQuaternion(double qw, double qx, double qy, double qz,
                           const Eigen::Vector3d& translation) {
   Pose pose;

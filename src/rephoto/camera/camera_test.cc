@@ -424,3 +424,59 @@ TEST(Pose, NearestRotationRepairsPrintedPrecision) {
 
 }  // namespace
 }  // namespace rephoto::camera
+
+namespace rephoto::camera {
+namespace {
+
+// The usable field against closed forms: for radial distortion d(r) = r (1 + k1 r^2 + k2 r^4)
+// the Jacobian determinant is (1 + k1 r^2 + k2 r^4)(1 + 3 k1 r^2 + 5 k2 r^4), whose second
+// factor vanishes first (k1 < 0) at r^2 = (-3 k1 - sqrt(9 k1^2 - 20 k2)) / (10 k2), or
+// r^2 = -1 / (3 k1) when k2 = 0.
+TEST(UsableField, FoldRadiusMatchesClosedForm) {
+  struct Case {
+    CameraModel model;
+    std::vector<double> params;
+    double expected;
+  };
+  const double k1 = -0.3, k2 = 0.01;
+  const double opencv =
+      std::sqrt((-3 * k1 - std::sqrt(9 * k1 * k1 - 20 * k2)) / (10 * k2));  // 1.0908
+  for (const Case& c :
+       {Case{CameraModel::kRadial, {500, 320, 240, -0.2, 0.0}, 1.0 / std::sqrt(0.6)},
+        Case{CameraModel::kOpenCv, {500, 500, 320, 240, k1, k2, 0, 0}, opencv},
+        Case{CameraModel::kSimpleRadial, {500, 320, 240, -0.05}, 1.0 / std::sqrt(0.15)}}) {
+    Camera camera{c.model, 640, 480, c.params};
+    const UsableField field(camera);
+    SCOPED_TRACE(CameraModelName(c.model));
+    EXPECT_LE(field.radius(), c.expected);
+    EXPECT_GE(field.radius(), c.expected * 0.994);
+    // Just inside and just outside, along a diagonal.
+    const double inside = 0.99 * c.expected / std::sqrt(2.0);
+    const double outside = 1.01 * c.expected / std::sqrt(2.0);
+    EXPECT_TRUE(field.Contains({inside, inside, 1.0}));
+    EXPECT_FALSE(field.Contains({outside, outside, 1.0}));
+    EXPECT_FALSE(field.Contains({0.0, 0.0, -1.0}));  // behind the camera
+  }
+  // No fold: pinhole, pincushion (k1 > 0).
+  for (const Camera& camera : {Camera{CameraModel::kPinhole, 640, 480, {500, 500, 320, 240}},
+                               Camera{CameraModel::kRadial, 640, 480, {500, 320, 240, 0.1, 0.0}}}) {
+    const UsableField field(camera);
+    EXPECT_EQ(field.radius(), std::numeric_limits<double>::infinity());
+    EXPECT_TRUE(field.Contains({100.0, 100.0, 1.0}));
+  }
+}
+
+// What the field is for: with strong barrel distortion a point far outside the lens's view
+// projects inside the image; the field rejects it.
+TEST(UsableField, RejectsPointsTheDistortionFoldsIntoTheImage) {
+  Camera camera{CameraModel::kRadial, 640, 480, {300, 320, 240, -0.2, 0.0}};
+  // r = 2.5: d = 2.5 (1 - 0.2 * 6.25) = -0.625 -> 300 * -0.625 + 320 = 132.5, inside.
+  const Eigen::Vector3d folded(2.5, 0.0, 1.0);
+  const auto pixel = camera.ImgFromCam(folded);
+  ASSERT_TRUE(pixel.has_value());
+  EXPECT_NEAR(pixel->x(), 132.5, 1e-9);
+  EXPECT_FALSE(UsableField(camera).Contains(folded));
+}
+
+}  // namespace
+}  // namespace rephoto::camera

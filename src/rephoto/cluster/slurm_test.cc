@@ -29,7 +29,7 @@ namespace fs = std::filesystem;
 class SbatchCounter {
  public:
   explicit SbatchCounter(const fs::path& dir) : script_(dir / "sbatch"), log_(dir / "sbatch.log") {
-    WriteTextFileAtomically(script_, "#!/bin/sh\necho \"$*\" >> " + ShellWord(log_.string()) +
+    WriteTextFileAtomically(script_, "#!/bin/sh\necho \"$*\" >> " + ShellQuote(log_.string()) +
                                          "\nexec sbatch \"$@\"\n");
     fs::permissions(script_, fs::perms::owner_all);
   }
@@ -99,7 +99,7 @@ bool WaitFor(const std::function<bool()>& condition, double seconds) {
   return condition();
 }
 
-std::string Q(const fs::path& path) { return ShellWord(path.string()); }
+std::string Q(const fs::path& path) { return ShellQuote(path.string()); }
 
 TEST(Slurm, GroupsRunAsArraysInOrderAndFinishedTasksAreNotSubmittedAgain) {
   REPHOTO_REQUIRE_SLURM(cluster);
@@ -202,10 +202,10 @@ TEST(Slurm, FailedTaskIsNamedWithItsLogAndOnlyItRunsAgain) {
         i == 1 ? fmt::format("[ -e {} ] || {{ echo 'pipeline broke' >&2; exit 3; }}; ", Q(fixed))
                : "";
     groups[0].tasks.push_back(
-        Sh(fmt::format("fold_{:02}/reconstruct", i), fail + "echo model > " + ShellWord(out)));
+        Sh(fmt::format("fold_{:02}/reconstruct", i), fail + "echo model > " + ShellQuote(out)));
     groups[1].tasks.push_back(
         Sh(fmt::format("fold_{:02}/views", i),
-           "cat " + ShellWord(out) + " >/dev/null 2>&1; echo views",
+           "cat " + ShellQuote(out) + " >/dev/null 2>&1; echo views",
            std::vector<std::string>{fmt::format("fold_{:02}/reconstruct", i)}));
   }
   groups[2].name = "aggregate";

@@ -98,19 +98,6 @@ void CheckGroupName(std::string_view name) {
   }
 }
 
-std::string ShellWord(std::string_view value) {
-  std::string word = "'";
-  for (char c : value) {
-    if (c == '\'') {
-      word += "'\\''";
-    } else {
-      word += c;
-    }
-  }
-  word += "'";
-  return word;
-}
-
 std::string TaskFingerprint(const Task& task) {
   std::string serialized;
   for (const std::string& arg : task.argv) {
@@ -135,7 +122,7 @@ std::string MakeArrayScript(const ArraySpec& spec, const std::vector<std::string
       spec.group, spec.submission, spec.tasks.size());
   for (const std::string& arg : sbatch_argv) {
     script += ' ';
-    script += ShellWord(arg);
+    script += ShellQuote(arg);
   }
   script +=
       "\n# Array index i runs task i below. When its command exits, this script writes\n"
@@ -144,11 +131,11 @@ std::string MakeArrayScript(const ArraySpec& spec, const std::vector<std::string
   script += "index=\"${SLURM_ARRAY_TASK_ID:-}\"\ncase \"$index\" in\n";
   for (size_t i = 0; i < spec.tasks.size(); ++i) {
     const Task& task = *spec.tasks[i];
-    script += fmt::format("  {})\n    id={}\n    fingerprint={}\n    set --", i, ShellWord(task.id),
+    script += fmt::format("  {})\n    id={}\n    fingerprint={}\n    set --", i, ShellQuote(task.id),
                           TaskFingerprint(task));
     for (const std::string& arg : task.argv) {
       script += ' ';
-      script += ShellWord(arg);
+      script += ShellQuote(arg);
     }
     script += "\n    ;;\n";
   }
@@ -156,7 +143,7 @@ std::string MakeArrayScript(const ArraySpec& spec, const std::vector<std::string
       "  *)\n    echo \"rephoto: array index '$index' is not a task of this script\" >&2\n"
       "    exit 2\n    ;;\nesac\n";
   script += fmt::format("submission={}\nresults={}\n", spec.submission,
-                        ShellWord((spec.slurm_dir / "results").string()));
+                        ShellQuote((spec.slurm_dir / "results").string()));
   // Three processes besides the command (two `date`, one `mv`): on a busy node every fork
   // counts, so names are checked with `case`, not `tr`, and the results folder exists already.
   script += R"SH(node="${SLURMD_NODENAME:-unknown}"

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "rephoto/cluster/slurm.h"
+#include "rephoto/core/process.h"
 
 namespace rephoto::cluster {
 
@@ -27,8 +28,7 @@ void CheckTaskId(std::string_view id);
 // Throws UsageError "task group '<name>': <why>" unless name matches [a-z0-9_-]{1,64}.
 void CheckGroupName(std::string_view name);
 
-// `value` as one POSIX shell word ('...' with ' written as '\'').
-std::string ShellWord(std::string_view value);
+// `value` as one POSIX shell word (core/process.h ShellQuote, the project's one quoting rule).
 
 // 32 hex digits (XXH3-128) of the task's argv and key: what identifies its work.
 std::string TaskFingerprint(const Task& task);

@@ -42,13 +42,13 @@ TEST(SlurmText, TaskIdsAreSafeRelativePaths) {
 
 // The shell itself reads each word back as the original text.
 TEST(SlurmText, ShellWordsReadBackUnchanged) {
-  EXPECT_EQ(ShellWord("it's"), "'it'\\''s'");
+  EXPECT_EQ(ShellQuote("it's"), "'it'\\''s'");
   const fs::path dir = testing::MakeTempDir();
   for (const std::string& value :
        {std::string("plain"), std::string("two words"), std::string("it's"),
         std::string("$HOME `id`"), std::string("line\nbreak"), std::string("back\\slash \"q\" ''"),
         std::string("")}) {
-    const ProgramOutput output = RunProgram({"/bin/sh", "-c", "printf '%s' " + ShellWord(value)});
+    const ProgramOutput output = RunProgram({"/bin/sh", "-c", "printf '%s' " + ShellQuote(value)});
     ASSERT_TRUE(output.ok()) << output.err;
     EXPECT_EQ(output.out, value);
   }

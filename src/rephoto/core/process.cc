@@ -1,14 +1,26 @@
 #include "rephoto/core/process.h"
 
-#include <csignal>
-
 #include <climits>
+#include <csignal>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
 namespace rephoto {
+
+std::string ShellQuote(std::string_view value) {
+  std::string quoted = "'";
+  for (char c : value) {
+    if (c == '\'') {
+      quoted += "'\\''";
+    } else {
+      quoted += c;
+    }
+  }
+  quoted += '\'';
+  return quoted;
+}
 
 void KeepFreedMemory() {
 #if defined(__GLIBC__)

@@ -4,6 +4,9 @@
 #include <spawn.h>
 #include <sys/resource.h>
 
+#include <string>
+#include <string_view>
+
 namespace rephoto {
 
 // rephoto allocates and frees large buffers over and over: images of every view, photo decode
@@ -15,6 +18,11 @@ namespace rephoto {
 // lets the heap keep up to 2 GB of freed memory for reuse: the process keeps close to its peak
 // memory until it exits. Call once, early (the rephoto CLI does). No effect without glibc.
 void KeepFreedMemory();
+
+// `value` as one POSIX shell word: 'value' with each ' written as '\'' (so paths with spaces,
+// quotes or $ reach a command as one literal word). The one quoting rule of the project: command
+// templates (eval/command.h) and Slurm batch scripts (cluster/slurm_text.h) use it.
+std::string ShellQuote(std::string_view value);
 
 // User + system CPU seconds in a resource usage record (getrusage, wait4).
 double CpuSeconds(const struct rusage& usage);

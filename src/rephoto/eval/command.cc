@@ -23,19 +23,6 @@ extern char** environ;
 namespace rephoto::eval {
 namespace fs = std::filesystem;
 
-std::string ShellQuote(std::string_view value) {
-  std::string quoted = "'";
-  for (char c : value) {
-    if (c == '\'') {
-      quoted += "'\\''";
-    } else {
-      quoted += c;
-    }
-  }
-  quoted += '\'';
-  return quoted;
-}
-
 namespace {
 
 bool IsPlaceholderChar(char c) {

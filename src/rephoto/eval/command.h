@@ -21,14 +21,15 @@
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/process.h"
 
 namespace rephoto::eval {
 
 // A bad setting (core/error.h; the CLI exits with ExitCode::kUsage).
 using ::rephoto::UsageError;
 
-// `value` as one POSIX shell word: 'value' with ' written as '\''.
-std::string ShellQuote(std::string_view value);
+// `value` as one POSIX shell word (core/process.h).
+using ::rephoto::ShellQuote;
 
 // The placeholder names used in `command_template` (sorted, unique). Throws UsageError
 // "<what>: unknown placeholder {x} (known: {a}, {b}, ...)" when one is not in `known`.

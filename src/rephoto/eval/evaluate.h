@@ -2,7 +2,7 @@
 // obtain each fold's reconstruction from its training photos, rephotograph it at the fold's
 // held-out cameras, compare with the photos, aggregate per image / fold / dataset, project the
 // error onto the model and write a report. The run directory layout is the contract in
-// /work/notes/run-layout.md (mirrored in the comments below).
+// docs/run-folder.md (mirrored in the comments below).
 //
 // Model sources (exactly one):
 //   kModel        EvaluateOptions::model alone: one model file for every fold (a global method,
@@ -79,7 +79,7 @@
 // directory that holds a run of another scene (different set of image names) is an Error.
 //
 // Outputs in `out` (every file written atomically; the full contract with all fields is
-// /work/notes/run-layout.md):
+// docs/run-folder.md):
 //   run.json       schema "rephoto.evaluate/1": tool version, command line, resolved settings
 //                  (eval/settings.h names), scene identity, inputs with XXH3 content hashes
 //                  (scene, model, photos, missing photos), the split, timings in seconds

@@ -11,6 +11,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/stats.h"
+#include "rephoto/render/visibility.h"
 
 namespace rephoto::geometry {
 namespace {
@@ -34,9 +35,6 @@ Eigen::Vector3d SceneUp(const scene::Scene& scene) {
   Eigen::Vector3d up = solver.eigenvectors().col(0);  // smallest eigenvalue first
   return up.dot(mean_up) < 0 ? Eigen::Vector3d(-up) : up;
 }
-
-constexpr double kFacingCosine = 0.05;
-constexpr float kOcclusionEpsilon = 1e-3f;
 
 std::vector<double> VertexAreas(const mesh::Mesh& mesh) {
   if (mesh.is_point_cloud()) return std::vector<double>(mesh.vertex_count(), 1.0);
@@ -83,41 +81,21 @@ std::vector<uint8_t> VisibleVertices(const render::RenderModel& model,
   const mesh::Mesh& mesh = model.mesh();
   const size_t n = mesh.vertex_count();
   std::vector<uint8_t> visible(n, 0);
-  const Eigen::Vector3d center = cam_from_world.Center();
+  const render::ViewGeometry geometry(camera, cam_from_world);
+  const render::VisibilityRule rule;  // render/visibility.h, the defaults
   ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
+    render::OcclusionBatch batch(model.scene(), geometry.center, rule.occlusion_epsilon);
+    auto mark = [&](uint32_t vertex) { visible[vertex] = 1; };
     for (int64_t i = begin; i < end; ++i) {
       const Eigen::Vector3d v = mesh.positions[static_cast<size_t>(i)].cast<double>();
-      const Eigen::Vector3d in_cam = cam_from_world.CamFromWorld(v);
-      if (!(in_cam.z() > 0)) continue;
-      const std::optional<Eigen::Vector2d> pixel = camera.ImgFromCam(in_cam);
-      if (!pixel || pixel->x() < 0 || pixel->y() < 0 || pixel->x() >= camera.width ||
-          pixel->y() >= camera.height) {
-        continue;
-      }
-      const Eigen::Vector3d to_camera = center - v;
-      if (static_cast<size_t>(i) < normals.size()) {
-        const Eigen::Vector3d normal = normals[static_cast<size_t>(i)].cast<double>();
-        if (normal.squaredNorm() > 0 &&
-            normal.normalized().dot(to_camera) <= kFacingCosine * to_camera.norm()) {
-          continue;
-        }
-      }
-      RTCRay ray{};
-      ray.org_x = static_cast<float>(center.x());
-      ray.org_y = static_cast<float>(center.y());
-      ray.org_z = static_cast<float>(center.z());
-      ray.dir_x = static_cast<float>(-to_camera.x());
-      ray.dir_y = static_cast<float>(-to_camera.y());
-      ray.dir_z = static_cast<float>(-to_camera.z());
-      ray.tnear = 0;
-      ray.tfar = 1.0f - kOcclusionEpsilon;  // the direction spans centre -> vertex
-      ray.mask = 0xFFFFFFFFu;
-      ray.flags = 0;
-      rtcOccluded1(model.scene(), &context, &ray);
-      if (ray.tfar >= 0) visible[static_cast<size_t>(i)] = 1;
+      const Eigen::Vector3d normal =
+          static_cast<size_t>(i) < normals.size()
+              ? Eigen::Vector3d(normals[static_cast<size_t>(i)].cast<double>())
+              : Eigen::Vector3d::Zero();
+      if (!render::Sighting(geometry, v, normal, rule)) continue;
+      batch.Add(v, static_cast<uint32_t>(i), mark);
     }
+    batch.Flush(mark);
   });
   return visible;
 }

@@ -2,14 +2,11 @@
 // model that no photo observes yet and the parts with the highest projected error.
 //
 // Surface elements are the model's vertices, each weighing its area (a third of the area of the
-// faces around it; 1 per point for point clouds). A vertex is seen from a camera when
-//   1. it lies in front (camera-frame z > 0) and projects inside the image (Camera::ImgFromCam,
-//      with the camera's distortion);
-//   2. it faces the camera: n . (centre - V) > 0.05 |centre - V| with the area-weighted vertex
-//      normal n (the file's normals for point clouds; skipped where the normal is zero);
-//   3. nothing of the model lies between the camera centre and the vertex: an occlusion ray
-//      from the centre to the vertex, ending 0.1 % of the distance short of it, hits nothing
-//      (the RenderModel's BVH, as the renderer sees the model; colorize.h uses the same test).
+// faces around it; 1 per point for point clouds). A vertex is seen from a camera by the rule
+// of render/visibility.h with its defaults (in the camera's usable field, projected inside the
+// image, facing it with cosine > 0.05 for the area-weighted vertex normal, or the file's normals
+// for point clouds, and unoccluded in the RenderModel's BVH up to 0.1 % of the distance short of
+// it): the rule colorize, texturing and error projection use.
 // Need of a vertex: 1 if no scene photo sees it, else its projected error mapped to [0, 1]
 // between the 2.5 and 97.5 % percentiles of the finite errors (0 without errors). Its weight is
 // area * need.
@@ -64,7 +61,7 @@ struct SuggestResult {
   std::vector<uint8_t> observed;                     // per vertex: 1 when some scene photo sees it
 };
 
-// Per vertex, whether `camera` at `cam_from_world` sees it (tests 1-3 above).
+// Per vertex, whether `camera` at `cam_from_world` sees it (render/visibility.h).
 std::vector<uint8_t> VisibleVertices(const render::RenderModel& model,
                                      const std::vector<Eigen::Vector3f>& normals,
                                      const camera::Camera& camera,

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 
 namespace rephoto::geometry {
@@ -118,7 +119,7 @@ SurfaceDistance::SurfaceDistance(const mesh::Mesh& mesh, std::string_view name)
     : positions_(mesh.positions), faces_(mesh.faces) {
   REPHOTO_CHECK(!positions_.empty(), "{}: the model has no vertices", name);
   mesh.Validate(name);
-  device_ = rtcNewDevice(nullptr);
+  device_ = rtcNewDevice(core::EmbreeDeviceConfig().c_str());
   REPHOTO_CHECK(device_ != nullptr, "{}: cannot create an Embree device", name);
   scene_ = rtcNewScene(device_);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);

@@ -16,6 +16,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/limits.h"
+#include "rephoto/io/ply_header.h"
 #include "rephoto/io/ply_types.h"
 
 namespace rephoto::mesh {
@@ -209,93 +210,57 @@ class PlyReader {
   }
 
  private:
+  // The header (io/ply_header.h, the project's one PLY header parser), then this reader's view
+  // of it: the roles of the properties and the texture files named in comments.
   void ReadHeader() {
-    std::string line;
-    REPHOTO_CHECK(input_.ReadLine(line) && line == "ply", "{}: not a PLY file (no 'ply' magic)",
-                  name_);
-    bool have_format = false;
-    int line_number = 1;
-    while (true) {
-      REPHOTO_CHECK(input_.ReadLine(line), "{}: unexpected end of file in the header", name_);
-      ++line_number;
-      std::istringstream words(line);
-      std::string keyword;
-      words >> keyword;
-      if (keyword.empty() || keyword == "obj_info") continue;
-      if (keyword == "end_header") break;
-      if (keyword == "comment") {
-        std::string tag;
-        words >> tag;
-        if (tag == "TextureFile") {
-          std::string file;
-          std::getline(words >> std::ws, file);
-          while (!file.empty() && (file.back() == ' ' || file.back() == '\t')) file.pop_back();
-          Material material;
-          material.name = file;
-          std::filesystem::path path(file);
-          material.diffuse_texture =
-              path.is_absolute() || base_dir_.empty() ? path : base_dir_ / path;
-          mesh_.materials.push_back(std::move(material));
-        }
-        continue;
-      }
-      if (keyword == "format") {
-        std::string format, version;
-        words >> format >> version;
-        if (format == "ascii") {
-          format_ = Format::kAscii;
-        } else if (format == "binary_little_endian") {
-          format_ = Format::kBinaryLittle;
-        } else if (format == "binary_big_endian") {
-          format_ = Format::kBinaryBig;
-        } else {
-          ThrowError("{}: header line {}: unknown format '{}'", name_, line_number, format);
-        }
-        have_format = true;
-        continue;
-      }
-      if (keyword == "element") {
-        Element element;
-        long long count = -1;
-        words >> element.name >> count;
-        REPHOTO_CHECK(!words.fail() && count >= 0, "{}: header line {}: bad element line '{}'",
-                      name_, line_number, line);
-        element.count = static_cast<size_t>(count);
-        elements_.push_back(std::move(element));
-        continue;
-      }
-      if (keyword == "property") {
-        REPHOTO_CHECK(!elements_.empty(), "{}: header line {}: property before any element", name_,
-                      line_number);
-        Property property;
-        std::string type_name;
-        words >> type_name;
-        if (type_name == "list") {
-          std::string count_name, item_name;
-          words >> count_name >> item_name >> property.name;
-          const auto count_type = ParseType(count_name);
-          const auto item_type = ParseType(item_name);
-          REPHOTO_CHECK(count_type && item_type && !property.name.empty(),
-                        "{}: header line {}: bad list property '{}'", name_, line_number, line);
-          REPHOTO_CHECK(*count_type != Type::kFloat32 && *count_type != Type::kFloat64,
-                        "{}: header line {}: list count type must be an integer", name_,
-                        line_number);
-          property.is_list = true;
-          property.count_type = *count_type;
-          property.type = *item_type;
-        } else {
-          const auto type = ParseType(type_name);
-          words >> property.name;
-          REPHOTO_CHECK(type && !property.name.empty(), "{}: header line {}: bad property '{}'",
-                        name_, line_number, line);
-          property.type = *type;
-        }
-        elements_.back().properties.push_back(std::move(property));
-        continue;
-      }
-      ThrowError("{}: header line {}: unknown keyword '{}'", name_, line_number, keyword);
+    const io::PlyHeader header =
+        io::ParsePlyHeader([this](std::string& line) { return input_.ReadLine(line); }, name_);
+    switch (header.encoding) {
+      case io::PlyEncoding::kAscii:
+        format_ = Format::kAscii;
+        break;
+      case io::PlyEncoding::kBinaryLittleEndian:
+        format_ = Format::kBinaryLittle;
+        break;
+      case io::PlyEncoding::kBinaryBigEndian:
+        format_ = Format::kBinaryBig;
+        break;
     }
-    REPHOTO_CHECK(have_format, "{}: header has no format line", name_);
+    for (const io::PlyElement& in : header.elements) {
+      Element element;
+      element.name = in.name;
+      REPHOTO_CHECK(in.count <= std::numeric_limits<size_t>::max(),
+                    "{}: element '{}': count {} is too large", name_, in.name, in.count);
+      element.count = static_cast<size_t>(in.count);
+      for (const io::PlyProperty& p : in.properties) {
+        Property property;
+        property.name = p.name;
+        property.type = p.type;
+        property.is_list = p.is_list;
+        property.count_type = p.count_type;
+        element.properties.push_back(std::move(property));
+      }
+      elements_.push_back(std::move(element));
+    }
+    for (const std::string& comment : header.comments) {
+      // "TextureFile <file>" (MeshLab's, OpenMVS's and mvs-texturing's way to name a texture).
+      constexpr std::string_view kTag = "TextureFile";
+      if (!comment.starts_with(kTag) ||
+          (comment.size() > kTag.size() && comment[kTag.size()] != ' ' &&
+           comment[kTag.size()] != '\t')) {
+        continue;
+      }
+      std::string file = comment.substr(kTag.size());
+      const size_t first = file.find_first_not_of(" \t");
+      file = first == std::string::npos ? std::string() : file.substr(first);
+      while (!file.empty() && (file.back() == ' ' || file.back() == '\t')) file.pop_back();
+      if (file.empty()) continue;
+      Material material;
+      material.name = file;
+      std::filesystem::path path(file);
+      material.diffuse_texture = path.is_absolute() || base_dir_.empty() ? path : base_dir_ / path;
+      mesh_.materials.push_back(std::move(material));
+    }
     AssignRoles();
   }
 

@@ -48,20 +48,21 @@ template <typename VF, typename VI>
 // 8-wide vectors: one ymm register each with AVX2, SSE pairs in the baseline. (64-byte GCC
 // vectors, which the AVX-512 version uses, were lowered to scalar compares in the AVX2 clone:
 // census 10x slower on CPUs without AVX-512.)
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-#endif
-int CensusValues8(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
-                  float inv_bits, float* values) {
+[[gnu::always_inline]] inline int CensusValues8Body(const float* const* photo_rows,
+                                                    const float* const* rephoto_rows, int r, int w,
+                                                    float inv_bits, float* values) {
   return CensusBlocks<V8f, V8i>(photo_rows, rephoto_rows, r, w, inv_bits, values);
 }
+REPHOTO_ISA_DISPATCH_AVX2(int, CensusValues8,
+                          (const float* const* photo_rows, const float* const* rephoto_rows, int r,
+                           int w, float inv_bits, float* values),
+                          (photo_rows, rephoto_rows, r, w, inv_bits, values))
 
 #ifdef REPHOTO_HAVE_AVX512_KERNELS
 // 16-wide: one zmm register each (15 % faster than ymm on the AMD EPYC this was measured on).
-__attribute__((target("arch=x86-64-v4"))) int CensusValues16(const float* const* photo_rows,
-                                                             const float* const* rephoto_rows,
-                                                             int r, int w, float inv_bits,
-                                                             float* values) {
+REPHOTO_TARGET_AVX512 int CensusValues16(const float* const* photo_rows,
+                                         const float* const* rephoto_rows, int r, int w,
+                                         float inv_bits, float* values) {
   return CensusBlocks<V16f, V16i>(photo_rows, rephoto_rows, r, w, inv_bits, values);
 }
 #endif

@@ -53,9 +53,9 @@ inline int TableIndex(float c) {
 
 // linear[i] = SrgbDecode(c[i]) by table for the n values that are 8-bit values; returns how
 // many are not (their linear[i] is to be computed by the formula). No branches: vectorises.
-REPHOTO_SIMD_CLONES
-int DecodeByTable(const float* __restrict c, int n, const SrgbTable& table,
-                  double* __restrict linear) {
+[[gnu::always_inline]] inline int DecodeByTableBody(const float* __restrict c, int n,
+                                                    const SrgbTable& table,
+                                                    double* __restrict linear) {
   int misses = 0;
   for (int i = 0; i < n; ++i) {
     const int k = TableIndex(c[i]);
@@ -64,6 +64,10 @@ int DecodeByTable(const float* __restrict c, int n, const SrgbTable& table,
   }
   return misses;
 }
+REPHOTO_ISA_DISPATCH(int, DecodeByTable,
+                     (const float* __restrict c, int n, const SrgbTable& table,
+                      double* __restrict linear),
+                     (c, n, table, linear))
 
 // Planar linear RGB (r[0..w), g[w..2w), b[2w..3w)) of an interleaved sRGB row: by table, then
 // the formula for values that are not 8-bit values; the same values as SrgbDecode everywhere.
@@ -157,13 +161,12 @@ enum Quantity { kL1, kL2, kC1, kC2, kL1L1, kL2L2, kC1C1, kC2C2, kL1L2, kC1C2, kH
 
 // The kCount quantities of a row from the planar linear RGB of photo (1) and rendering (2), one
 // __restrict pointer per output plane (through an array of pointers the loop did not vectorise).
-REPHOTO_SIMD_CLONES
-void IcidQuantitiesRow(const double* __restrict linear1, const double* __restrict linear2, int w,
-                       double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
-                       double* __restrict o_c2, double* __restrict o_l1l1,
-                       double* __restrict o_l2l2, double* __restrict o_c1c1,
-                       double* __restrict o_c2c2, double* __restrict o_l1l2,
-                       double* __restrict o_c1c2, double* __restrict o_hue) {
+[[gnu::always_inline]] inline void IcidQuantitiesRowBody(
+    const double* __restrict linear1, const double* __restrict linear2, int w,
+    double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
+    double* __restrict o_c2, double* __restrict o_l1l1, double* __restrict o_l2l2,
+    double* __restrict o_c1c1, double* __restrict o_c2c2, double* __restrict o_l1l2,
+    double* __restrict o_c1c2, double* __restrict o_hue) {
   for (int x = 0; x < w; ++x) {
     double l1, a1, b1, l2, a2, b2;
     LinearToLab(linear1[x], linear1[w + x], linear1[2 * w + x], l1, a1, b1);
@@ -185,6 +188,15 @@ void IcidQuantitiesRow(const double* __restrict linear1, const double* __restric
     o_hue[x] = std::sqrt(std::max(0.0, da * da + db * db - dc * dc));
   }
 }
+REPHOTO_ISA_DISPATCH(void, IcidQuantitiesRow,
+                     (const double* __restrict linear1, const double* __restrict linear2, int w,
+                      double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
+                      double* __restrict o_c2, double* __restrict o_l1l1, double* __restrict o_l2l2,
+                      double* __restrict o_c1c1, double* __restrict o_c2c2,
+                      double* __restrict o_l1l2, double* __restrict o_c1c2,
+                      double* __restrict o_hue),
+                     (linear1, linear2, w, o_l1, o_l2, o_c1, o_c2, o_l1l1, o_l2l2, o_c1c1, o_c2c2,
+                      o_l1l2, o_c1c2, o_hue))
 
 void IcidQuantities(const double* linear1, const double* linear2, int w, double* const* out) {
   IcidQuantitiesRow(linear1, linear2, w, out[kL1], out[kL2], out[kC1], out[kC2], out[kL1L1],
@@ -193,9 +205,9 @@ void IcidQuantities(const double* linear1, const double* linear2, int w, double*
 
 // v[x] = sum over k of weights[k] * src[x + k * stride], added in order of k. One loop per tap so
 // that the x loop vectorises; the order of the additions per value is the one of a plain loop.
-REPHOTO_SIMD_CLONES
-void IcidVertical(const double* __restrict src, size_t stride, const double* __restrict weights,
-                  int taps, int w, double* __restrict v) {
+[[gnu::always_inline]] inline void IcidVerticalBody(const double* __restrict src, size_t stride,
+                                                    const double* __restrict weights, int taps,
+                                                    int w, double* __restrict v) {
   for (int x = 0; x < w; ++x) v[x] = weights[0] * src[x];
   for (int k = 1; k < taps; ++k) {
     const double wk = weights[k];
@@ -203,11 +215,15 @@ void IcidVertical(const double* __restrict src, size_t stride, const double* __r
     for (int x = 0; x < w; ++x) v[x] += wk * s[x];
   }
 }
+REPHOTO_ISA_DISPATCH(void, IcidVertical,
+                     (const double* __restrict src, size_t stride, const double* __restrict weights,
+                      int taps, int w, double* __restrict v),
+                     (src, stride, weights, taps, w, v))
 
 // f[x] = 0 + sum over k in [0, 2r] of weights[k] * v[x - r + k], for x in [r, w - r).
-REPHOTO_SIMD_CLONES
-void IcidHorizontal(const double* __restrict v, const double* __restrict weights, int r, int w,
-                    double* __restrict f) {
+[[gnu::always_inline]] inline void IcidHorizontalBody(const double* __restrict v,
+                                                      const double* __restrict weights, int r,
+                                                      int w, double* __restrict f) {
   for (int x = r; x < w - r; ++x) f[x] = 0.0;
   for (int k = 0; k <= 2 * r; ++k) {
     const double wk = weights[k];
@@ -215,11 +231,15 @@ void IcidHorizontal(const double* __restrict v, const double* __restrict weights
     for (int x = r; x < w - r; ++x) f[x] += wk * s[x];
   }
 }
+REPHOTO_ISA_DISPATCH(void, IcidHorizontal,
+                     (const double* __restrict v, const double* __restrict weights, int r, int w,
+                      double* __restrict f),
+                     (v, weights, r, w, f))
 
 // The error 1 - (product of the seven terms) of every x in [r, w - r) from the filtered planes
 // (kCount planes of w values), whether or not the window is valid (selected afterwards).
-REPHOTO_SIMD_CLONES
-void IcidFormula(const double* __restrict filtered, int w, int r, float* __restrict out) {
+[[gnu::always_inline]] inline void IcidFormulaBody(const double* __restrict filtered, int w, int r,
+                                                   float* __restrict out) {
   auto plane = [&](int q) { return filtered + static_cast<size_t>(q) * w; };
   const double* __restrict l1 = plane(kL1);
   const double* __restrict l2 = plane(kL2);
@@ -260,6 +280,9 @@ void IcidFormula(const double* __restrict filtered, int w, int r, float* __restr
     out[x] = static_cast<float>(std::clamp(1.0 - similarity, 0.0, 1.0));
   }
 }
+REPHOTO_ISA_DISPATCH(void, IcidFormula,
+                     (const double* __restrict filtered, int w, int r, float* __restrict out),
+                     (filtered, w, r, out))
 
 }  // namespace
 

@@ -22,18 +22,22 @@ WindowValidityRows::WindowValidityRows(const Mask& valid, int width, int height,
 
 namespace {
 
-REPHOTO_SIMD_CLONES
-void SlideCounts(const uint8_t* __restrict add, const uint8_t* __restrict sub, int width,
-                 int* __restrict counts) {
+[[gnu::always_inline]] inline void SlideCountsBody(const uint8_t* __restrict add,
+                                                   const uint8_t* __restrict sub, int width,
+                                                   int* __restrict counts) {
   for (int x = 0; x < width; ++x) counts[x] += (add[x] == 0) - (sub[x] == 0);
 }
+REPHOTO_ISA_DISPATCH(void, SlideCounts,
+                     (const uint8_t* __restrict add, const uint8_t* __restrict sub, int width,
+                      int* __restrict counts),
+                     (add, sub, width, counts))
 
 // out[x] for x in [r, width - r): 1 where counts[x - r .. x + r] are all 0. all[x] = 1 where
 // columns [x, x + span) are all valid; the span doubles per pass and the window is the AND of
 // two overlapping spans: log2(2r + 1) vectorised byte passes, ping-ponging between a and b.
-REPHOTO_SIMD_CLONES
-void RowFromCounts(const int* __restrict counts, int width, int r, uint8_t* __restrict a,
-                   uint8_t* __restrict b, uint8_t* __restrict out) {
+[[gnu::always_inline]] inline void RowFromCountsBody(const int* __restrict counts, int width, int r,
+                                                     uint8_t* __restrict a, uint8_t* __restrict b,
+                                                     uint8_t* __restrict out) {
   const int window = 2 * r + 1;
   for (int x = 0; x < width; ++x) a[x] = counts[x] == 0;
   int span = 1;
@@ -45,6 +49,10 @@ void RowFromCounts(const int* __restrict counts, int width, int r, uint8_t* __re
   const int tail = window - span;
   for (int x = r; x < width - r; ++x) out[x] = a[x - r] & a[x - r + tail];
 }
+REPHOTO_ISA_DISPATCH(void, RowFromCounts,
+                     (const int* __restrict counts, int width, int r, uint8_t* __restrict a,
+                      uint8_t* __restrict b, uint8_t* __restrict out),
+                     (counts, width, r, a, b, out))
 
 }  // namespace
 
@@ -71,20 +79,24 @@ namespace {
 
 // The float io::ReadImage makes of each 8-bit value: a division, not a multiplication by
 // 1/255, so that the bits are the same.
-REPHOTO_SIMD_CLONES
-void BytesToFloats(const uint8_t* __restrict in, int n, float* __restrict out) {
+[[gnu::always_inline]] inline void BytesToFloatsBody(const uint8_t* __restrict in, int n,
+                                                     float* __restrict out) {
   for (int i = 0; i < n; ++i) out[i] = static_cast<float>(in[i]) / 255.f;
 }
+REPHOTO_ISA_DISPATCH(void, BytesToFloats,
+                     (const uint8_t* __restrict in, int n, float* __restrict out), (in, n, out))
 
 // The same for RGBA pixels, alpha dropped.
-REPHOTO_SIMD_CLONES
-void RgbaBytesToFloats(const uint8_t* __restrict in, int w, float* __restrict out) {
+[[gnu::always_inline]] inline void RgbaBytesToFloatsBody(const uint8_t* __restrict in, int w,
+                                                         float* __restrict out) {
   for (int x = 0; x < w; ++x) {
     out[3 * x] = static_cast<float>(in[4 * x]) / 255.f;
     out[3 * x + 1] = static_cast<float>(in[4 * x + 1]) / 255.f;
     out[3 * x + 2] = static_cast<float>(in[4 * x + 2]) / 255.f;
   }
 }
+REPHOTO_ISA_DISPATCH(void, RgbaBytesToFloats,
+                     (const uint8_t* __restrict in, int w, float* __restrict out), (in, w, out))
 
 }  // namespace
 
@@ -144,9 +156,9 @@ std::vector<float> FilterWeights(int radius, double sigma) {
 }
 
 // Eight partial sums break the add latency chain; their order is fixed.
-REPHOTO_SIMD_CLONES
-double MaskRange(const float* __restrict values, const uint8_t* __restrict ok, int begin, int end,
-                 float* __restrict out) {
+[[gnu::always_inline]] inline double MaskRangeBody(const float* __restrict values,
+                                                   const uint8_t* __restrict ok, int begin, int end,
+                                                   float* __restrict out) {
   for (int x = begin; x < end; ++x) out[x] = ok[x] ? values[x] : kNaN;
   double acc[8] = {};
   int x = begin;
@@ -156,16 +168,10 @@ double MaskRange(const float* __restrict values, const uint8_t* __restrict ok, i
   for (; x < end; ++x) acc[0] += ok[x] ? static_cast<double>(values[x]) : 0.0;
   return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
-
-bool HasAvx512() {
-#ifdef REPHOTO_HAVE_AVX512_KERNELS
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  return has;
-#else
-  return false;
-#endif
-}
+REPHOTO_ISA_DISPATCH(double, MaskRange,
+                     (const float* __restrict values, const uint8_t* __restrict ok, int begin,
+                      int end, float* __restrict out),
+                     (values, ok, begin, end, out))
 
 void FillNaN(float* row, int width) { std::fill(row, row + width, kNaN); }
 

@@ -7,26 +7,17 @@
 #include <vector>
 
 #include "rephoto/core/image.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/metrics/metrics.h"
 
-// Row kernels are compiled three times, for AVX-512 (x86-64-v4), AVX2+FMA (x86-64-v3) and the
-// baseline, and the loader picks one at start-up. Floating-point contraction is off for this
-// library (CMakeLists.txt), so the clones compute bit-identical results (except the SSIM
-// filters, see ssim_filter.cc and ssim_fused.cc: the AVX-512 and AVX2 versions agree, the
-// baseline without FMA rounds differently).
-// REPHOTO_METRICS_NO_AVX512 (CMake option of the same name) drops the AVX-512 clone, so that
-// the AVX2 code that CPUs without AVX-512 run can be measured on one that has it.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
-    defined(REPHOTO_METRICS_NO_AVX512)
-#define REPHOTO_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define REPHOTO_SIMD_CLONES \
-  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define REPHOTO_SIMD_CLONES
-#endif
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
-    !defined(REPHOTO_METRICS_NO_AVX512)
+// Row kernels are compiled once per instruction-set path (AVX-512, AVX2+FMA, baseline;
+// core/isa.h REPHOTO_ISA_DISPATCH) and each call takes the variant of core::ActiveIsa().
+// Floating-point contraction is off for this library (CMakeLists.txt), so the variants compute
+// bit-identical results, except the SSIM filters (ssim_filter.cc, ssim_fused.cc): their AVX-512
+// and AVX2 versions agree bit for bit (FMA, the same order of operations per output value), the
+// baseline without FMA rounds differently (within 1e-6 relative). REPHOTO_ISA=avx2 runs the AVX2
+// code on a CPU that has AVX-512.
+#if defined(REPHOTO_HAVE_ISA_TARGETS)
 #define REPHOTO_HAVE_AVX512_KERNELS 1
 #endif
 
@@ -179,9 +170,9 @@ MeanSums SsimBand(const BandInputs& in, const SsimSetup& setup, const ErrorRows*
 // are).
 double MaskRange(const float* values, const uint8_t* ok, int begin, int end, float* out);
 
-// Whether the CPU runs the AVX-512 (x86-64-v4) versions of the kernels that have one
-// (REPHOTO_HAVE_AVX512_KERNELS) besides their AVX2/baseline clones. Thread-safe.
-bool HasAvx512();
+// Whether the kernels that have a separate AVX-512 (x86-64-v4) version take it now: the active
+// path is AVX-512 (core::ActiveIsa()). Thread-safe.
+inline bool HasAvx512() { return core::ActiveIsa() == core::Isa::kAvx512; }
 
 // Census of a row of centres (census.cc): values[x] for x in [r, end) = the number of the
 // (2r+1)^2 - 1 window neighbours whose "darker than the centre" bit differs between the two

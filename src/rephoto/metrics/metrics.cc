@@ -40,9 +40,9 @@ constexpr int kBoxQuantities = 9;
 
 // Splits an interleaved RGB row into three planes. Eight pixels at a time by shuffles (the
 // compiler's stride-3 loop was a sixth of census's time); pure data movement.
-REPHOTO_SIMD_CLONES
-void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, float* __restrict c1,
-                  float* __restrict c2) {
+[[gnu::always_inline]] inline void DeinterleaveBody(const float* __restrict rgb, int w,
+                                                    float* __restrict c0, float* __restrict c1,
+                                                    float* __restrict c2) {
   int x = 0;
   for (; x + 8 <= w; x += 8) {
     V8f r, g, bl;
@@ -57,11 +57,15 @@ void Deinterleave(const float* __restrict rgb, int w, float* __restrict c0, floa
     c2[x] = rgb[3 * x + 2];
   }
 }
+REPHOTO_ISA_DISPATCH(void, Deinterleave,
+                     (const float* __restrict rgb, int w, float* __restrict c0,
+                      float* __restrict c1, float* __restrict c2),
+                     (rgb, w, c0, c1, c2))
 
 // Luma 0.299 R + 0.587 G + 0.114 B of an interleaved RGB row, the arithmetic of LumaPlanar on
 // the planes Deinterleave makes (same values), in one pass: census alone needs no planes.
-REPHOTO_SIMD_CLONES
-void LumaInterleaved(const float* __restrict rgb, int w, float* __restrict luma) {
+[[gnu::always_inline]] inline void LumaInterleavedBody(const float* __restrict rgb, int w,
+                                                       float* __restrict luma) {
   int x = 0;
   for (; x + 8 <= w; x += 8) {
     V8f r, g, bl;
@@ -72,11 +76,12 @@ void LumaInterleaved(const float* __restrict rgb, int w, float* __restrict luma)
   for (; x < w; ++x)
     luma[x] = 0.299f * rgb[3 * x] + 0.587f * rgb[3 * x + 1] + 0.114f * rgb[3 * x + 2];
 }
+REPHOTO_ISA_DISPATCH(void, LumaInterleaved,
+                     (const float* __restrict rgb, int w, float* __restrict luma), (rgb, w, luma))
 
 // cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes).
-REPHOTO_SIMD_CLONES
-void AccumulateBoxColumns(const float* __restrict planes, int w, double sign,
-                          double* __restrict cols) {
+[[gnu::always_inline]] inline void AccumulateBoxColumnsBody(const float* __restrict planes, int w,
+                                                            double sign, double* __restrict cols) {
   const float* __restrict a0 = planes;
   const float* __restrict a1 = planes + w;
   const float* __restrict a2 = planes + 2 * w;
@@ -111,6 +116,9 @@ void AccumulateBoxColumns(const float* __restrict planes, int w, double sign,
     sxy[x] += sign * (p0 * q0 + p1 * q1 + p2 * q2);
   }
 }
+REPHOTO_ISA_DISPATCH(void, AccumulateBoxColumns,
+                     (const float* __restrict planes, int w, double sign, double* __restrict cols),
+                     (planes, w, sign, cols))
 
 // prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. The nine
 // independent chains are interleaved so the adds overlap.
@@ -127,9 +135,9 @@ void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) 
 }
 
 // 1-NCC and ZSSD for centres x in [r, w - r) (no validity test yet).
-REPHOTO_SIMD_CLONES
-void BoxErrors(const double* __restrict prefix, int w, int r, double inv_count, double flat,
-               float* __restrict ncc, float* __restrict zssd) {
+[[gnu::always_inline]] inline void BoxErrorsBody(const double* __restrict prefix, int w, int r,
+                                                 double inv_count, double flat,
+                                                 float* __restrict ncc, float* __restrict zssd) {
   const int m = w + 1;
   const double* __restrict p[kBoxQuantities];
   for (int q = 0; q < kBoxQuantities; ++q) p[q] = prefix + q * m;
@@ -152,6 +160,10 @@ void BoxErrors(const double* __restrict prefix, int w, int r, double inv_count, 
     zssd[x] = static_cast<float>((z > 0.0 ? z : 0.0) * inv_count * (1.0 / 3.0));
   }
 }
+REPHOTO_ISA_DISPATCH(void, BoxErrors,
+                     (const double* __restrict prefix, int w, int r, double inv_count, double flat,
+                      float* __restrict ncc, float* __restrict zssd),
+                     (prefix, w, r, inv_count, flat, ncc, zssd))
 
 double MaskRow(const float* values, const uint8_t* ok, int w, float* out) {
   return MaskRange(values, ok, 0, w, out);
@@ -167,11 +179,16 @@ size_t CountRow(const uint8_t* __restrict ok, int w, int r) {
 // Census on luma.
 
 // Luma Y = 0.299 R + 0.587 G + 0.114 B of planar rows.
-REPHOTO_SIMD_CLONES
-void LumaPlanar(const float* __restrict red, const float* __restrict green,
-                const float* __restrict blue, int w, float* __restrict luma) {
+[[gnu::always_inline]] inline void LumaPlanarBody(const float* __restrict red,
+                                                  const float* __restrict green,
+                                                  const float* __restrict blue, int w,
+                                                  float* __restrict luma) {
   for (int x = 0; x < w; ++x) luma[x] = 0.299f * red[x] + 0.587f * green[x] + 0.114f * blue[x];
 }
+REPHOTO_ISA_DISPATCH(void, LumaPlanar,
+                     (const float* __restrict red, const float* __restrict green,
+                      const float* __restrict blue, int w, float* __restrict luma),
+                     (red, green, blue, w, luma))
 
 // 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
 // planes and converted to luma once, and kept in a ring of 2r+2 rows (the window plus the row

@@ -1,7 +1,7 @@
 // GCC vector types and helpers shared by the metrics' SIMD kernels (internal to metrics/).
 //
-// The kernels are written once with these types and compiled for several ISAs (kernels.h
-// REPHOTO_SIMD_CLONES, or one template inlined into per-width functions). Loads and stores are
+// The kernels are written once with these types and compiled for several ISAs (core/isa.h
+// REPHOTO_ISA_DISPATCH, or one template inlined into per-width functions). Loads and stores are
 // macros and the helpers below always inline: passing vectors by value to a function that is not
 // compiled for their width changes the ABI (GCC's -Wpsabi). Pure data movement; no state.
 #pragma once

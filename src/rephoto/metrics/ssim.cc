@@ -16,9 +16,8 @@ namespace {
 std::atomic<int> selected_kernel{static_cast<int>(SsimKernel::kFused)};
 
 // The SSIM of each element from the five moments of SsimHorizontal, for i in [3r, n - 3r).
-REPHOTO_SIMD_CLONES
-void SsimFormula(const float* __restrict moments, int r, int n, float cov_norm,
-                 float* __restrict ssim) {
+[[gnu::always_inline]] inline void SsimFormulaBody(const float* __restrict moments, int r, int n,
+                                                   float cov_norm, float* __restrict ssim) {
   const float* __restrict mx = moments;
   const float* __restrict my = moments + n;
   const float* __restrict mxx = moments + 2 * n;
@@ -35,12 +34,16 @@ void SsimFormula(const float* __restrict moments, int r, int n, float cov_norm,
     ssim[i] = (a1 * a2) / (b1 * b2);
   }
 }
+REPHOTO_ISA_DISPATCH(void, SsimFormula,
+                     (const float* __restrict moments, int r, int n, float cov_norm,
+                      float* __restrict ssim),
+                     (moments, r, n, cov_norm, ssim))
 
 // ssim[x] = mean of the 3 channel values e[3x..3x+2] ((e0 + e1) + e2) / 3, dssim[x] =
 // (1 - ssim[x]) / 2, for x in [0, n): eight pixels at a time by Deinterleave's shuffles.
-REPHOTO_SIMD_CLONES
-void ChannelMeans(const float* __restrict e, int n, float* __restrict ssim,
-                  float* __restrict dssim) {
+[[gnu::always_inline]] inline void ChannelMeansBody(const float* __restrict e, int n,
+                                                    float* __restrict ssim,
+                                                    float* __restrict dssim) {
   int x = 0;
   for (; x + 8 <= n; x += 8) {
     V8f e0, e1, e2;
@@ -56,22 +59,29 @@ void ChannelMeans(const float* __restrict e, int n, float* __restrict ssim,
     dssim[x] = (1.0f - v) * 0.5f;
   }
 }
+REPHOTO_ISA_DISPATCH(void, ChannelMeans,
+                     (const float* __restrict e, int n, float* __restrict ssim,
+                      float* __restrict dssim),
+                     (e, n, ssim, dssim))
 
 // Number of nonzero ok[x], x in [begin, end).
-REPHOTO_SIMD_CLONES
-size_t CountRange(const uint8_t* __restrict ok, int begin, int end) {
+[[gnu::always_inline]] inline size_t CountRangeBody(const uint8_t* __restrict ok, int begin,
+                                                    int end) {
   size_t n = 0;
   for (int x = begin; x < end; ++x) n += ok[x] != 0;
   return n;
 }
+REPHOTO_ISA_DISPATCH(size_t, CountRange, (const uint8_t* __restrict ok, int begin, int end),
+                     (ok, begin, end))
 
 // The SSIM of each element from the four fused moments (x, y, x^2 + y^2, xy of the values minus
 // shift), for i in [3r, n - 3r). sigma_x^2 + sigma_y^2 = E[x^2 + y^2] - (mu_x^2 + mu_y^2), the
 // squares added first: for identical images this is exactly twice sigma_xy, so SSIM is exactly 1.
-REPHOTO_SIMD_CLONES
-void SsimFormulaFused(const float* __restrict moments, const float* __restrict shift_p,
-                      const float* __restrict shift_q, int r, int n, float cov_norm,
-                      float* __restrict ssim) {
+[[gnu::always_inline]] inline void SsimFormulaFusedBody(const float* __restrict moments,
+                                                        const float* __restrict shift_p,
+                                                        const float* __restrict shift_q, int r,
+                                                        int n, float cov_norm,
+                                                        float* __restrict ssim) {
   const float* __restrict mx = moments;
   const float* __restrict my = moments + n;
   const float* __restrict mss = moments + 2 * n;
@@ -86,6 +96,11 @@ void SsimFormulaFused(const float* __restrict moments, const float* __restrict s
     ssim[i] = (a1 * a2) / (b1 * b2);
   }
 }
+REPHOTO_ISA_DISPATCH(void, SsimFormulaFused,
+                     (const float* __restrict moments, const float* __restrict shift_p,
+                      const float* __restrict shift_q, int r, int n, float cov_norm,
+                      float* __restrict ssim),
+                     (moments, shift_p, shift_q, r, n, cov_norm, ssim))
 
 // NaN error rows where the window leaves the image; returns the centre rows [c0, c1) (empty when
 // no window fits) and fills band_ok with the window validity of each of them.

@@ -100,33 +100,32 @@ template <typename VF>
   }
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define REPHOTO_AVX2_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define REPHOTO_AVX2_CLONES
-#endif
-
-REPHOTO_AVX2_CLONES
-void Vertical8(const float* const* p_rows, const float* const* q_rows, const float* weights, int r,
-               int n, float* out) {
+[[gnu::always_inline]] inline void Vertical8Body(const float* const* p_rows,
+                                                 const float* const* q_rows, const float* weights,
+                                                 int r, int n, float* out) {
   VerticalBody<V8f>(p_rows, q_rows, weights, r, n, out);
 }
+REPHOTO_ISA_DISPATCH_AVX2(void, Vertical8,
+                          (const float* const* p_rows, const float* const* q_rows,
+                           const float* weights, int r, int n, float* out),
+                          (p_rows, q_rows, weights, r, n, out))
 
-REPHOTO_AVX2_CLONES
-void Horizontal8(const float* in, const float* weights, int r, int n, float* out) {
+[[gnu::always_inline]] inline void Horizontal8Body(const float* in, const float* weights, int r,
+                                                   int n, float* out) {
   for (int q = 0; q < 5; ++q) HorizontalBody<V8f>(in + q * n, weights, r, n, out + q * n);
 }
+REPHOTO_ISA_DISPATCH_AVX2(void, Horizontal8,
+                          (const float* in, const float* weights, int r, int n, float* out),
+                          (in, weights, r, n, out))
 
 #ifdef REPHOTO_HAVE_AVX512_KERNELS
-__attribute__((target("arch=x86-64-v4"))) void Vertical16(const float* const* p_rows,
-                                                          const float* const* q_rows,
-                                                          const float* weights, int r, int n,
-                                                          float* out) {
+REPHOTO_TARGET_AVX512 void Vertical16(const float* const* p_rows, const float* const* q_rows,
+                                      const float* weights, int r, int n, float* out) {
   VerticalBody<V16f>(p_rows, q_rows, weights, r, n, out);
 }
 
-__attribute__((target("arch=x86-64-v4"))) void Horizontal16(const float* in, const float* weights,
-                                                            int r, int n, float* out) {
+REPHOTO_TARGET_AVX512 void Horizontal16(const float* in, const float* weights, int r, int n,
+                                        float* out) {
   for (int q = 0; q < 5; ++q) HorizontalBody<V16f>(in + q * n, weights, r, n, out + q * n);
 }
 #endif

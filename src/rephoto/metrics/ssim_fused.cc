@@ -242,12 +242,6 @@ template <typename VF>
   HorizontalRange<VF>(in, weights, r, 3 * r, n - 3 * r, out);
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define REPHOTO_AVX2_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define REPHOTO_AVX2_CLONES
-#endif
-
 // Rows per vertical block: what the registers hold besides the 2r+1 rows of the window
 // (16 vector registers for AVX2, 32 for AVX-512).
 constexpr int kBlock8 = 2;
@@ -255,40 +249,48 @@ constexpr int kBlock8 = 2;
 constexpr int kBlock16 = 4;
 #endif
 
-REPHOTO_AVX2_CLONES
-void Products8(const float* p, const float* q, const float* shift_p, const float* shift_q, int n,
-               float* out) {
+[[gnu::always_inline]] inline void Products8Body(const float* p, const float* q,
+                                                 const float* shift_p, const float* shift_q, int n,
+                                                 float* out) {
   ProductsBody<V8f>(p, q, shift_p, shift_q, n, out);
 }
+REPHOTO_ISA_DISPATCH_AVX2(void, Products8,
+                          (const float* p, const float* q, const float* shift_p,
+                           const float* shift_q, int n, float* out),
+                          (p, q, shift_p, shift_q, n, out))
 
-REPHOTO_AVX2_CLONES
-void Vertical8(const float* const* rows, const float* weights, int r, int n, int count,
-               float* const* out) {
+[[gnu::always_inline]] inline void Vertical8Body(const float* const* rows, const float* weights,
+                                                 int r, int n, int count, float* const* out) {
   VerticalBody<V8f, kBlock8>(rows, weights, r, n, count, out);
 }
+REPHOTO_ISA_DISPATCH_AVX2(void, Vertical8,
+                          (const float* const* rows, const float* weights, int r, int n, int count,
+                           float* const* out),
+                          (rows, weights, r, n, count, out))
 
-REPHOTO_AVX2_CLONES
-void Horizontal8(const float* in, const float* weights, int r, int n, float* out) {
+[[gnu::always_inline]] inline void Horizontal8Body(const float* in, const float* weights, int r,
+                                                   int n, float* out) {
   for (int q = 0; q < kSsimQuantities; ++q) {
     HorizontalBody<V8f>(in + q * n, weights, r, n, out + q * n);
   }
 }
+REPHOTO_ISA_DISPATCH_AVX2(void, Horizontal8,
+                          (const float* in, const float* weights, int r, int n, float* out),
+                          (in, weights, r, n, out))
 
 #ifdef REPHOTO_HAVE_AVX512_KERNELS
-__attribute__((target("arch=x86-64-v4"))) void Products16(const float* p, const float* q,
-                                                          const float* shift_p,
-                                                          const float* shift_q, int n, float* out) {
+REPHOTO_TARGET_AVX512 void Products16(const float* p, const float* q, const float* shift_p,
+                                      const float* shift_q, int n, float* out) {
   ProductsBody<V16f>(p, q, shift_p, shift_q, n, out);
 }
 
-__attribute__((target("arch=x86-64-v4"))) void Vertical16(const float* const* rows,
-                                                          const float* weights, int r, int n,
-                                                          int count, float* const* out) {
+REPHOTO_TARGET_AVX512 void Vertical16(const float* const* rows, const float* weights, int r, int n,
+                                      int count, float* const* out) {
   VerticalBody<V16f, kBlock16>(rows, weights, r, n, count, out);
 }
 
-__attribute__((target("arch=x86-64-v4"))) void Horizontal16(const float* in, const float* weights,
-                                                            int r, int n, float* out) {
+REPHOTO_TARGET_AVX512 void Horizontal16(const float* in, const float* weights, int r, int n,
+                                        float* out) {
   for (int q = 0; q < kSsimQuantities; ++q) {
     HorizontalBody<V16f>(in + q * n, weights, r, n, out + q * n);
   }

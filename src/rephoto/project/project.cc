@@ -21,6 +21,7 @@
 #include "rephoto/core/stats.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/render/render.h"
+#include "rephoto/render/visibility.h"
 #include "rephoto/scene/image_name.h"
 
 namespace rephoto::project {
@@ -98,8 +99,7 @@ struct Sample {
 
 // Everything fixed for one view.
 struct ViewContext {
-  const camera::Camera& camera;
-  const camera::Pose& pose;
+  const render::ViewGeometry& geometry;  // camera, pose and usable field (render/visibility.h)
   const render::CameraRays& rays;
   const Image& depth;
   const Image& error;
@@ -113,16 +113,18 @@ inline bool DepthAgrees(float d, double z, double tolerance) {
 
 Sample SampleVertex(const ViewContext& view, const Eigen::Vector3d& world, double radius) {
   Sample sample;
-  const Eigen::Vector3d cam = view.pose.CamFromWorld(world);
-  const double z = cam.z();
-  if (!(z > 0)) return sample;
-  const std::optional<Eigen::Vector2d> pixel = view.camera.ImgFromCam(cam);
+  // Steps 1-2 of render/visibility.h's rule (the usable field, inside the image); the depth test
+  // below against the view's rendering stands for steps 3-4 (a surface facing away or hidden
+  // lies behind the rendered one).
+  const std::optional<Eigen::Vector2d> pixel = render::ProjectInField(view.geometry, world);
   if (!pixel) return sample;
+  const Eigen::Vector3d cam = view.geometry.cam_from_world.CamFromWorld(world);
+  const double z = cam.z();
   const double px = pixel->x(), py = pixel->y();
   const int width = view.depth.width(), height = view.depth.height();
   if (!(px >= 0 && px < width && py >= 0 && py < height)) return sample;
-  // The renderer's ray through p must point back at the vertex (rejects fold-over of the
-  // distortion outside the usable field of view).
+  // And the pixel's rendered ray points back at the vertex: the depth read there is this
+  // vertex's (the ray table and the projection agree to a pixel).
   float xn = 0, yn = 0;
   if (!view.rays.Ray(static_cast<float>(px), static_cast<float>(py), &xn, &yn)) return sample;
   const double u = cam.x() / z, v = cam.y() / z;
@@ -290,9 +292,9 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
     result.render_seconds += Seconds(start);
 
     start = std::chrono::steady_clock::now();
+    const render::ViewGeometry geometry(camera, view.cam_from_world);
     const ViewContext context{
-        camera,
-        view.cam_from_world,
+        geometry,
         *rays,
         rephoto.depth,
         error,

@@ -58,7 +58,7 @@ class CameraRays {
   // True for pinhole models, whose rays PinholeRay computes.
   bool is_pinhole() const { return pinhole_; }
   // Ray for a pinhole model (is_pinhole()): always valid, the same values as Ray.
-  void PinholeRay(float px, float py, float* xn, float* yn) const {
+  [[gnu::always_inline]] void PinholeRay(float px, float py, float* xn, float* yn) const {
     *xn = (px - cx_) * inv_fx_;
     *yn = (py - cy_) * inv_fy_;
   }

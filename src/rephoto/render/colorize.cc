@@ -11,6 +11,7 @@
 #include "rephoto/core/progress.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/render/render_model.h"
+#include "rephoto/render/visibility.h"
 #include "rephoto/render/weighted_median.h"
 
 namespace rephoto::render {
@@ -111,8 +112,8 @@ struct ViewObservations {
 
 constexpr int64_t kBlock = 8192;
 
-// Tests every vertex against one view (facing, inside the image, unoccluded: Embree occlusion
-// rays 16 at a time) and records what the view sees, per block.
+// Tests every vertex against one view (render/visibility.h: facing, inside the image and the
+// usable field, unoccluded) and records what the view sees, per block.
 void ObserveView(const mesh::Mesh& mesh, const std::vector<Eigen::Vector3f>& normals,
                  RTCScene rtc_scene, const scene::View& view, camera::Camera camera,
                  const Photo& photo, const ColorizeOptions& options,
@@ -122,20 +123,15 @@ void ObserveView(const mesh::Mesh& mesh, const std::vector<Eigen::Vector3f>& nor
   if (camera.width != photo.width() || camera.height != photo.height()) {
     camera = camera.Scaled(photo.width(), photo.height());
   }
-  const Eigen::Vector3d center = view.cam_from_world.Center();
+  const ViewGeometry geometry(camera, view.cam_from_world);
+  VisibilityRule rule;
+  rule.min_facing_cosine = options.min_facing_cosine;
+  rule.occlusion_epsilon = options.occlusion_epsilon;
   const double focal = camera.MeanFocalLength();
-  const double min_x = 0.5, max_x = photo.width() - 0.5;
-  const double min_y = 0.5, max_y = photo.height() - 0.5;
-  const float org_x = static_cast<float>(center.x()), org_y = static_cast<float>(center.y()),
-              org_z = static_cast<float>(center.z());
-  const float tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
   ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
     // Occlusion rays go 16 at a time (neighbouring vertices: a coherent packet from the
-    // camera centre); lanes keep vertex order.
-    alignas(64) RTCRay16 packet;
-    alignas(64) int valid[16];
+    // camera centre); the batch visits the unoccluded ones in vertex order.
+    OcclusionBatch batch(rtc_scene, geometry.center, rule.occlusion_epsilon);
     struct Lane {
       uint32_t vertex;
       float weight;
@@ -144,17 +140,12 @@ void ObserveView(const mesh::Mesh& mesh, const std::vector<Eigen::Vector3f>& nor
     Lane lanes[16];
     int count = 0;
     ViewObservations* found = nullptr;
-    auto trace = [&] {
-      for (int k = count; k < 16; ++k) valid[k] = 0;
-      rtcOccluded16(valid, rtc_scene, &context, &packet);
-      for (int k = 0; k < count; ++k) {
-        if (packet.tfar[k] < 0) continue;  // something lies between the camera and the vertex
-        found->vertices.push_back(lanes[k].vertex);
-        found->observations.push_back(
-            {lanes[k].weight, photo.is8 ? SampleBilinear(photo.bytes, lanes[k].px, lanes[k].py)
-                                        : SampleBilinear(photo.floats, lanes[k].px, lanes[k].py)});
-      }
-      count = 0;
+    auto record = [&](uint32_t lane) {
+      const Lane& l = lanes[lane];
+      found->vertices.push_back(l.vertex);
+      found->observations.push_back({l.weight, photo.is8
+                                                   ? SampleBilinear(photo.bytes, l.px, l.py)
+                                                   : SampleBilinear(photo.floats, l.px, l.py)});
     };
     for (int64_t block = block_begin; block < block_end; ++block) {
       found = &seen[block];
@@ -162,38 +153,19 @@ void ObserveView(const mesh::Mesh& mesh, const std::vector<Eigen::Vector3f>& nor
       const int64_t end = std::min(begin + kBlock, static_cast<int64_t>(n));
       for (int64_t i = begin; i < end; ++i) {
         const Eigen::Vector3d p = mesh.positions[i].cast<double>();
-        const Eigen::Vector3d to_camera = center - p;
-        const double distance = to_camera.norm();
-        if (!(distance > 0)) continue;
-        double cosine = 1.0;
-        if (!normals.empty() && normals[i].squaredNorm() > 0) {
-          cosine = normals[i].cast<double>().normalized().dot(to_camera / distance);
-          if (cosine <= options.min_facing_cosine) continue;
-        }
-        const auto pixel = camera.ImgFromCam(view.cam_from_world.CamFromWorld(p));
-        if (!pixel || !(pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
-                        pixel->y() <= max_y)) {
-          continue;
-        }
-        packet.org_x[count] = org_x;
-        packet.org_y[count] = org_y;
-        packet.org_z[count] = org_z;
-        packet.dir_x[count] = static_cast<float>(-to_camera.x());
-        packet.dir_y[count] = static_cast<float>(-to_camera.y());
-        packet.dir_z[count] = static_cast<float>(-to_camera.z());
-        packet.tnear[count] = 0.0f;
-        packet.tfar[count] = tfar;
-        packet.mask[count] = 0xFFFFFFFFu;
-        packet.time[count] = 0.0f;
-        packet.flags[count] = 0;
-        packet.id[count] = static_cast<unsigned>(count);
-        valid[count] = -1;
-        const double density = focal / distance;
-        lanes[count] = {static_cast<uint32_t>(i), static_cast<float>(cosine * density * density),
-                        pixel->x(), pixel->y()};
-        if (++count == 16) trace();
+        const Eigen::Vector3d normal =
+            normals.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(normals[i].cast<double>());
+        const std::optional<SightingResult> sighting = Sighting(geometry, p, normal, rule);
+        if (!sighting) continue;
+        const double density = focal / sighting->distance;
+        lanes[count] = {static_cast<uint32_t>(i),
+                        static_cast<float>(sighting->cosine * density * density),
+                        sighting->pixel.x(), sighting->pixel.y()};
+        batch.Add(p, static_cast<uint32_t>(count), record);
+        if (++count == 16) count = 0;  // the batch traced and visited the 16 lanes
       }
-      if (count > 0) trace();  // a block's list holds its own vertices only
+      batch.Flush(record);  // a block's list holds its own vertices only
+      count = 0;
     }
   });
 }

@@ -2,12 +2,11 @@
 // the "mesh with vertex colours" representation.
 //
 // For every vertex V and every selected view (camera centre C, intrinsics, photo):
-//   visible  <=> the photo's camera projects V inside the image (at least half a pixel from the
-//                border, so that bilinear sampling stays inside), V faces the camera
-//                (n . (C - V) / |C - V| > min_facing_cosine, n = the mesh's vertex normal, or the
-//                area-weighted face normal average when the mesh has none), and an Embree
-//                occlusion ray from C towards V meets no surface before
-//                (1 - occlusion_epsilon) * |V - C| (relative, so independent of the units);
+//   visible  <=> the view sees V by render/visibility.h's rule (in the usable field, projected
+//                at least half a pixel inside the photo so that bilinear sampling stays inside,
+//                facing: n . (C - V) / |C - V| > min_facing_cosine with n = the mesh's vertex
+//                normal, or the area-weighted face normal average when the mesh has none, and
+//                no surface before (1 - occlusion_epsilon) * |V - C|);
 //   sample   =  the photo bilinearly interpolated at the projection (pixel-corner convention),
 //               RGB as stored in the file, in [0,1];
 //   weight   =  cos * (f / |V - C|)^2 with cos the facing cosine above and f the camera's mean
@@ -25,13 +24,14 @@
 
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/render/render_model.h"
+#include "rephoto/render/visibility.h"
 #include "rephoto/scene/scene.h"
 
 namespace rephoto::render {
 
 struct ColorizeOptions {
-  double min_facing_cosine = 0.0;
-  double occlusion_epsilon = 1e-3;
+  double min_facing_cosine = VisibilityRule{}.min_facing_cosine;
+  double occlusion_epsilon = VisibilityRule{}.occlusion_epsilon;
   int irls_iterations = 5;
   bool show_progress = false;  // a Progress line per photo
 };

@@ -7,50 +7,18 @@
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 
 namespace rephoto::render {
 namespace {
 
-// The tile loop is compiled for AVX-512 (x86-64-v4), AVX2 (x86-64-v3) and the baseline; the
-// loader picks one for the CPU. Contraction is off (CMakeLists.txt), so all three compute the
-// same values bit for bit. (Clang does not clone templates; it builds the baseline only.)
-// REPHOTO_RENDER_NO_AVX512 (CMake option) drops the AVX-512 clone, to measure the AVX2 code on
-// a CPU that has AVX-512.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
-    defined(REPHOTO_RENDER_NO_AVX512)
-#define REPHOTO_RENDER_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define REPHOTO_RENDER_CLONES \
-  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define REPHOTO_RENDER_CLONES
-#endif
+// The tile loop is compiled for each instruction-set path (AVX-512, AVX2, baseline; core/isa.h)
+// and RenderTiles calls the one of core::ActiveIsa(). Contraction is off (CMakeLists.txt), so
+// all three compute the same values bit for bit.
 
 // Tiles are 4 pixels wide and L / 4 rows high for packets of L = 8 or 16 rays (RenderTiles).
 constexpr int kTileWidth = 4;
-
-// Intersection context carrying what the backface filter needs.
-struct RenderContext {
-  RTCIntersectContext context;  // first member: Embree sees a plain RTCIntersectContext
-  const mesh::Mesh* mesh = nullptr;
-};
-
-// Rejects hits on the back side of triangles (context filter, only installed when asked).
-void BackfaceFilter(const RTCFilterFunctionNArguments* args) {
-  const auto* context = reinterpret_cast<const RenderContext*>(args->context);
-  const mesh::Mesh& mesh = *context->mesh;
-  const unsigned n = args->N;
-  for (unsigned i = 0; i < n; ++i) {
-    if (args->valid[i] == 0) continue;
-    const mesh::Triangle& t = mesh.faces[RTCHitN_primID(args->hit, n, i)];
-    const Eigen::Vector3f& p0 = mesh.positions[t[0]];
-    const Eigen::Vector3f normal = (mesh.positions[t[1]] - p0).cross(mesh.positions[t[2]] - p0);
-    const Eigen::Vector3f direction(RTCRayN_dir_x(args->ray, n, i), RTCRayN_dir_y(args->ray, n, i),
-                                    RTCRayN_dir_z(args->ray, n, i));
-    if (normal.dot(direction) > 0) args->valid[i] = 0;
-  }
-}
 
 inline uint32_t Hash(uint32_t x) {  // "lowbias32" integer hash (C. Wellons)
   x ^= x >> 16;
@@ -261,7 +229,8 @@ inline Float4 Load3(const Eigen::Vector3f& v) { return Float4{v.x(), v.y(), v.z(
 struct VertexColorShade {
   const mesh::Triangle* faces;
   const Eigen::Vector3f* colors;
-  Float4 operator()(unsigned prim, float u, float v, float /*sx*/, float /*sy*/) const {
+  [[gnu::always_inline]] Float4 operator()(unsigned prim, float u, float v, float /*sx*/,
+                                           float /*sy*/) const {
     const mesh::Triangle& f = faces[prim];
     const float w = 1 - u - v;
     Float4 c = (w * Load3(colors[f[0]]) + u * Load3(colors[f[1]])) + v * Load3(colors[f[2]]);
@@ -273,7 +242,8 @@ struct VertexColorShade {
 // Every other representation: Shader::Shade.
 struct GenericShade {
   const Shader* shader;
-  Float4 operator()(unsigned prim, float u, float v, float sx, float sy) const {
+  [[gnu::always_inline]] Float4 operator()(unsigned prim, float u, float v, float sx,
+                                           float sy) const {
     const Eigen::Vector3f c = shader->Shade(prim, u, v, sx, sy);
     return Float4{c.x(), c.y(), c.z(), 1.0f};
   }
@@ -296,6 +266,8 @@ struct View {
   RTCScene scene;
   const mesh::Mesh& mesh;
   bool cull;
+  bool triangles;  // a triangle mesh (NearestHitFilter), not a point cloud
+  const BorderSkirts* skirts;
   int spp;
   Rephoto* out;
 };
@@ -315,6 +287,11 @@ struct TileState {
   alignas(64) int has_ray[L];
   alignas(64) Float4 sum[L];  // per pixel of the tile: colour sums and the number of hits
   alignas(64) float nearest[L];
+  // NearestHitFilter's choice per lane (triangle meshes).
+  alignas(64) float best_t[L];
+  alignas(64) float best_u[L];
+  alignas(64) float best_v[L];
+  alignas(64) unsigned best_prim[L];
 
   explicit TileState(const Eigen::Vector3f& origin) {
     for (int i = 0; i < L; ++i) {
@@ -357,9 +334,13 @@ template <int L, typename RayHit>
   ray.dir_x[i] = (m(0, 0) * xn + m(0, 1) * yn) + m(0, 2);
   ray.dir_y[i] = (m(1, 0) * xn + m(1, 1) * yn) + m(1, 2);
   ray.dir_z[i] = (m(2, 0) * xn + m(2, 1) * yn) + m(2, 2);
-  ray.tfar[i] = std::numeric_limits<float>::infinity();
-  state->packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
   const int traced = state->live[i] & has_ray;
+  // An untraced lane also gets tfar < tnear: where Embree has no native kernel for the packet
+  // width (16 rays on AVX2, 8 or 16 on SSE) it traces the packet as a ray stream, which ignores
+  // the valid mask and skips only rays with tnear > tfar.
+  ray.tfar[i] =
+      traced ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+  state->packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
   state->valid[i] = -traced;
   return traced;
 }
@@ -421,21 +402,42 @@ template <int L, typename RayHit>
   }
 }
 
+// The nearest hits NearestHitFilter chose (nearest_hit.h), into the packet: the face and its
+// (t, u, v) by rephoto's arithmetic.
+template <int L, typename RayHit>
+[[gnu::always_inline]] inline void TakeNearestHits(TileState<L, RayHit>* state) {
+  for (int i = 0; i < L; ++i) {
+    const bool hit = state->packet.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
+    state->packet.ray.tfar[i] = hit ? state->best_t[i] : state->packet.ray.tfar[i];
+    state->packet.hit.u[i] = hit ? state->best_u[i] : state->packet.hit.u[i];
+    state->packet.hit.v[i] = hit ? state->best_v[i] : state->packet.hit.v[i];
+    state->packet.hit.primID[i] = hit ? state->best_prim[i] : state->packet.hit.primID[i];
+  }
+}
+
 // Renders tile rows [row_begin, row_end) of 4 x (L / 4)-pixel tiles with the packets of
 // `plan`. Each pixel's samples are summed in increasing sample order, so both widths give the
 // same sums from the same hits.
 template <bool kJitter, bool kPinhole, int L, typename RayHit, typename Shade>
-REPHOTO_RENDER_CLONES void RenderTiles(const View& view, const std::vector<PacketLanes<L>>& plan,
-                                       const Shade& shade, int64_t row_begin, int64_t row_end) {
+[[gnu::always_inline]] inline void RenderTilesBody(const View& view,
+                                                   const std::vector<PacketLanes<L>>& plan,
+                                                   const Shade& shade, int64_t row_begin,
+                                                   int64_t row_end) {
   constexpr int kTileHeight = L / kTileWidth;
   const int width = view.rays.width();
   const float inf = std::numeric_limits<float>::infinity();
-  RenderContext context;
+  TileState<L, RayHit> state(view.shader.origin);
+  NearestHitContext context;
   rtcInitIntersectContext(&context.context);
   context.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  if (view.cull) context.context.filter = BackfaceFilter;
+  if (view.triangles) context.context.filter = NearestHitFilter;
   context.mesh = &view.mesh;
-  TileState<L, RayHit> state(view.shader.origin);
+  context.skirts = view.skirts;
+  context.cull = view.cull;
+  context.best_t = state.best_t;
+  context.best_u = state.best_u;
+  context.best_v = state.best_v;
+  context.best_prim = state.best_prim;
   for (int64_t tile_row = row_begin; tile_row < row_end; ++tile_row) {
     const int y0 = static_cast<int>(tile_row) * kTileHeight;
     for (int x0 = 0; x0 < width; x0 += kTileWidth) {
@@ -445,7 +447,14 @@ REPHOTO_RENDER_CLONES void RenderTiles(const View& view, const std::vector<Packe
       }
       for (const PacketLanes<L>& lanes : plan) {
         if (!FillPacket<kJitter, kPinhole>(view, lanes, x0, y0, &state)) continue;
+        if (view.triangles) {
+          for (int i = 0; i < L; ++i) {
+            state.best_t[i] = std::numeric_limits<float>::infinity();
+            state.best_prim[i] = std::numeric_limits<unsigned>::max();
+          }
+        }
         Intersect(state.valid, view.scene, &context.context, &state.packet);
+        if (view.triangles) TakeNearestHits(&state);
         // Lanes in order: each pixel's samples are summed in increasing sample order. Lanes
         // without a ray keep geomID invalid.
         for (int i = 0; i < L; ++i) {
@@ -461,6 +470,32 @@ REPHOTO_RENDER_CLONES void RenderTiles(const View& view, const std::vector<Packe
       StoreTile(view, state, x0, y0);
     }
   }
+}
+
+// RenderTilesBody compiled for each path (core/isa.h), called for the active one.
+#define REPHOTO_RENDER_TILES_VARIANT(Name, Target)                                                \
+  template <bool kJitter, bool kPinhole, int L, typename RayHit, typename Shade>                  \
+  Target void Name(const View& view, const std::vector<PacketLanes<L>>& plan, const Shade& shade, \
+                   int64_t row_begin, int64_t row_end) {                                          \
+    RenderTilesBody<kJitter, kPinhole, L, RayHit>(view, plan, shade, row_begin, row_end);         \
+  }
+REPHOTO_RENDER_TILES_VARIANT(RenderTilesAvx512, REPHOTO_TARGET_AVX512)
+REPHOTO_RENDER_TILES_VARIANT(RenderTilesAvx2, REPHOTO_TARGET_AVX2)
+REPHOTO_RENDER_TILES_VARIANT(RenderTilesBaseline, )
+#undef REPHOTO_RENDER_TILES_VARIANT
+
+template <bool kJitter, bool kPinhole, int L, typename RayHit, typename Shade>
+void RenderTiles(const View& view, const std::vector<PacketLanes<L>>& plan, const Shade& shade,
+                 int64_t row_begin, int64_t row_end) {
+  switch (core::ActiveIsa()) {
+    case core::Isa::kAvx512:
+      return RenderTilesAvx512<kJitter, kPinhole, L, RayHit>(view, plan, shade, row_begin, row_end);
+    case core::Isa::kAvx2:
+      return RenderTilesAvx2<kJitter, kPinhole, L, RayHit>(view, plan, shade, row_begin, row_end);
+    case core::Isa::kBaseline:
+      break;
+  }
+  RenderTilesBaseline<kJitter, kPinhole, L, RayHit>(view, plan, shade, row_begin, row_end);
 }
 
 // All tile rows of a view with L-ray packets, the tile loop specialized for the shading and
@@ -490,15 +525,12 @@ void RenderView(const View& view, const RenderModel& model) {
   }
 }
 
-// 16 where Embree traces 16-ray packets natively (AVX-512), else 8: on an AVX2 CPU Embree
-// splits a 16-ray packet into two 8-ray halves and 8-wide packets were measured 12 % faster.
-int PacketWidth(RTCScene scene, int requested) {
+// 16 on the AVX-512 path (Embree traces 16-ray packets natively there), else 8: on an AVX2 CPU
+// Embree splits a 16-ray packet into two 8-ray halves and 8-wide packets were measured 12 %
+// faster. The image is the same either way (render.h).
+int PacketWidth(int requested) {
   if (requested == 8 || requested == 16) return requested;
-  static const int native = [scene] {
-    const RTCDevice device = rtcGetSceneDevice(scene);
-    return rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? 16 : 8;
-  }();
-  return native;
+  return core::ActiveIsa() == core::Isa::kAvx512 ? 16 : 8;
 }
 
 }  // namespace
@@ -530,8 +562,10 @@ void RenderRephoto(const RenderModel& model, const CameraRays& rays,
                       sample_spacing};
   const bool cull = !options.backfaces && !mesh.is_point_cloud();
   const SampleGrid grid(options);
-  const View view{shader, rays, grid, model.scene(), mesh, cull, spp, out};
-  if (PacketWidth(model.scene(), options.packet_width) == 16) {
+  const View view{
+      shader, rays, grid, model.scene(), mesh, cull, !mesh.is_point_cloud(), &model.border_skirts(),
+      spp,    out};
+  if (PacketWidth(options.packet_width) == 16) {
     RenderView<16, RTCRayHit16>(view, model);
   } else {
     RenderView<8, RTCRayHit8>(view, model);

@@ -18,6 +18,12 @@
 // - depth: 1 channel, the camera-frame z (not the ray length) of the nearest hit among the
 //   pixel's samples, in model units; NaN where no sample hit.
 // Rays start at the camera centre (t = 0) and are unbounded.
+// Hits (docs/determinism.md): Embree finds the candidate triangles; of those, the one with the
+// smallest (t, triangle index) by rephoto's own Moeller-Trumbore in float (fixed operation
+// order) is the hit, and its t, u, v are those values, so a render is the same bytes on every
+// CPU and instruction-set path (core/isa.h) and with either packet width, also where surfaces
+// overlap within rounding. Point discs: rephoto's own disc test, the lowest index among discs at
+// exactly the same distance.
 // Backfaces: a triangle's front side is the side its normal (p1 - p0) x (p2 - p0) points to.
 // With backfaces = false, hits on a triangle's back side are ignored (the ray continues).
 // Performance: packets of 8 or 16 coherent rays (RenderOptions::packet_width: 16 where Embree

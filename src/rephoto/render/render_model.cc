@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/render/point_radius.h"
@@ -58,14 +59,13 @@ inline float IntersectDisc(const RenderModel::PointGeometry& data, unsigned prim
 }
 
 // Lane i of a ray packet against point disc `prim` (IntersectDisc); NaN = no hit.
-float IntersectLane(const RenderModel::PointGeometry& data, unsigned prim, RTCRayN* ray,
-                    unsigned n, unsigned i, Eigen::Vector3f* normal) {
+float IntersectLane(const RenderModel::PointGeometry& data, unsigned prim, RTCRayN* ray, unsigned n,
+                    unsigned i, Eigen::Vector3f* normal) {
   const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
                           RTCRayN_org_z(ray, n, i));
   const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
                           RTCRayN_dir_z(ray, n, i));
-  return IntersectDisc(data, prim, o, d, RTCRayN_tnear(ray, n, i), RTCRayN_tfar(ray, n, i),
-                       normal);
+  return IntersectDisc(data, prim, o, d, RTCRayN_tnear(ray, n, i), RTCRayN_tfar(ray, n, i), normal);
 }
 
 void PointIntersect(const RTCIntersectFunctionNArguments* args) {
@@ -75,9 +75,21 @@ void PointIntersect(const RTCIntersectFunctionNArguments* args) {
   RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, n);
   for (unsigned i = 0; i < n; ++i) {
     if (args->valid[i] == 0) continue;
+    const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
+                            RTCRayN_org_z(ray, n, i));
+    const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
+                            RTCRayN_dir_z(ray, n, i));
     Eigen::Vector3f normal;
-    const float t = IntersectLane(*data, args->primID, ray, n, i, &normal);
-    if (std::isnan(t)) continue;
+    const float tfar = RTCRayN_tfar(ray, n, i);
+    const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
+                                  std::numeric_limits<float>::infinity(), &normal);
+    // The nearest disc, and of discs at exactly the same distance (duplicate points) the lowest
+    // index: the same hit whatever order Embree's traversal (which differs between its ISA
+    // kernels and packet widths) visits them in.
+    if (!(t < tfar || (t == tfar && RTCHitN_geomID(hit, n, i) != RTC_INVALID_GEOMETRY_ID &&
+                       args->primID < RTCHitN_primID(hit, n, i)))) {
+      continue;
+    }
     RTCRayN_tfar(ray, n, i) = t;
     RTCHitN_Ng_x(hit, n, i) = normal.x();
     RTCHitN_Ng_y(hit, n, i) = normal.y();
@@ -134,10 +146,10 @@ RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::stri
     representation_ = Representation::kPlainMesh;
   }
 
-  device_ = rtcNewDevice(nullptr);
+  device_ = rtcNewDevice(core::EmbreeDeviceConfig().c_str());
   REPHOTO_CHECK(device_ != nullptr, "{}: cannot create an Embree device", name);
   scene_ = rtcNewScene(device_);
-  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION | RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
 
   if (representation_ == Representation::kPointCloud) {
@@ -193,8 +205,29 @@ RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::stri
     std::memcpy(vertices, mesh_.positions.data(), mesh_.positions.size() * 3 * sizeof(float));
     std::memcpy(indices, mesh_.faces.data(), mesh_.faces.size() * 3 * sizeof(uint32_t));
     rtcCommitGeometry(geometry);
-    rtcAttachGeometryByID(scene_, geometry, 0);
+    rtcAttachGeometryByID(scene_, geometry, kMeshGeometry);
     rtcReleaseGeometry(geometry);
+    // The border strips (nearest_hit.h), seen only by the renderer's nearest-hit queries.
+    skirts_ = MakeBorderSkirts(mesh_);
+    if (!skirts_.triangles.empty()) {
+      RTCGeometry strips = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* strip_vertices = static_cast<float*>(
+          rtcSetNewGeometryBuffer(strips, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                  3 * sizeof(float), skirts_.positions.size()));
+      auto* strip_indices = static_cast<uint32_t*>(
+          rtcSetNewGeometryBuffer(strips, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                  3 * sizeof(uint32_t), skirts_.triangles.size()));
+      CheckDevice(device_, name, "allocating buffers");
+      std::memcpy(strip_vertices, skirts_.positions.data(),
+                  skirts_.positions.size() * 3 * sizeof(float));
+      std::memcpy(strip_indices, skirts_.triangles.data(),
+                  skirts_.triangles.size() * 3 * sizeof(uint32_t));
+      rtcSetGeometryIntersectFilterFunction(strips, SkirtIntersectGate);
+      rtcSetGeometryOccludedFilterFunction(strips, SkirtOcclusionGate);
+      rtcCommitGeometry(strips);
+      rtcAttachGeometryByID(scene_, strips, kSkirtGeometry);
+      rtcReleaseGeometry(strips);
+    }
   }
   const auto start = std::chrono::steady_clock::now();
   rtcCommitScene(scene_);

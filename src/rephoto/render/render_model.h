@@ -31,6 +31,7 @@
 #include "rephoto/camera/camera.h"
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/render/camera_rays.h"
+#include "rephoto/render/nearest_hit.h"
 #include "rephoto/render/texture.h"
 
 namespace rephoto::render {
@@ -72,6 +73,9 @@ class RenderModel {
                ? &textures_[material]
                : nullptr;
   }
+  // The border strips of a triangle mesh (render/nearest_hit.h; empty for point clouds), the
+  // scene's geometry kSkirtGeometry.
+  const BorderSkirts& border_skirts() const { return skirts_; }
   // Seconds spent building the BVH (rtcCommitScene).
   double build_seconds() const { return build_seconds_; }
 
@@ -96,6 +100,7 @@ class RenderModel {
   Representation representation_ = Representation::kPlainMesh;
   std::vector<Texture> textures_;
   std::vector<float> point_radii_;
+  BorderSkirts skirts_;
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   double build_seconds_ = 0;

@@ -33,15 +33,14 @@ void ModelViewRenderer::Render(const camera::Camera& camera, const camera::Pose&
   RenderRephoto(*model_, *rays, cam_from_world, options_, out);
 }
 
-void GaussianViewRenderer::Render(const camera::Camera& camera,
-                                  const camera::Pose& cam_from_world, Rephoto* out) {
+void GaussianViewRenderer::Render(const camera::Camera& camera, const camera::Pose& cam_from_world,
+                                  Rephoto* out) {
   splat::RenderGaussians(*model_, camera, cam_from_world, options_, &rendering_);
   std::swap(out->color, rendering_.color);
   std::swap(out->depth, rendering_.depth);
 }
 
-void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem,
-                  Rephoto* rephoto) {
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto) {
   io::WritePngAndQuantize(out_dir / (stem + ".png"), &rephoto->color);
   io::WriteExr(out_dir / (stem + ".depth.exr"), rephoto->depth);
 }

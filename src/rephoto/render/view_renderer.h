@@ -81,8 +81,7 @@ class GaussianViewRenderer : public ViewRenderer {
 
 // Writes a rendering as OUT/<stem>.png (quantized in place: `rephoto->color` then holds the
 // values the PNG holds) and OUT/<stem>.depth.exr.
-void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem,
-                  Rephoto* rephoto);
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto);
 
 // See above. `stems[i]` names views[i]'s files.
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,

@@ -4,7 +4,7 @@
 // Thread safety: LoadRun is reentrant; a RunData is a value.
 //
 // Reading a run directory (the `rephoto evaluate` or `rephoto compare` layout, see
-// /work/notes/run-layout.md and compare/compare.h) into memory for the reports.
+// docs/run-folder.md and compare/compare.h) into memory for the reports.
 //
 // Both layouts have per_image.csv and summary.json; an evaluate run (per_image.csv starts with
 // a "fold" column, or summary.json has schema "rephoto.evaluate/...") also has per_fold.csv and

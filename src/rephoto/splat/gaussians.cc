@@ -17,6 +17,7 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/io/ply_header.h"
 #include "rephoto/io/ply_types.h"
 
 namespace rephoto::splat {
@@ -24,141 +25,14 @@ namespace {
 
 // PLY scalar types: io/ply_types.h.
 using Type = io::PlyType;
-inline std::optional<Type> ParseType(std::string_view name) { return io::ParsePlyType(name); }
 inline int TypeSize(Type type) { return io::PlyTypeSize(type); }
 
-enum class Encoding { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
-
-struct Property {
-  std::string name;
-  Type type = Type::kFloat32;
-  bool is_list = false;
-  Type count_type = Type::kUInt8;
-};
-
-struct Element {
-  std::string name;
-  uint64_t count = 0;
-  std::vector<Property> properties;
-
-  int Find(std::string_view property) const {
-    for (size_t i = 0; i < properties.size(); ++i) {
-      if (properties[i].name == property && !properties[i].is_list) return static_cast<int>(i);
-    }
-    return -1;
-  }
-  bool HasList() const {
-    return std::any_of(properties.begin(), properties.end(),
-                       [](const Property& p) { return p.is_list; });
-  }
-  uint64_t RecordBytes() const {  // fixed-size records only (no lists)
-    uint64_t bytes = 0;
-    for (const Property& p : properties) bytes += TypeSize(p.type);
-    return bytes;
-  }
-};
-
-struct Header {
-  Encoding encoding = Encoding::kBinaryLittleEndian;
-  std::vector<Element> elements;
-
-  const Element* Find(std::string_view name) const {
-    for (const Element& e : elements) {
-      if (e.name == name) return &e;
-    }
-    return nullptr;
-  }
-};
-
-std::vector<std::string_view> Tokens(std::string_view line) {
-  std::vector<std::string_view> tokens;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    const size_t begin = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
-    if (i > begin) tokens.push_back(line.substr(begin, i - begin));
-  }
-  return tokens;
-}
-
-// Reads one header line of at most `limit` bytes (binary files need not have line breaks);
-// false at end of stream or when the line is longer.
-bool ReadHeaderLine(std::istream& in, std::string& line, size_t limit) {
-  line.clear();
-  char c;
-  while (in.get(c)) {
-    if (c == '\n') return true;
-    if (line.size() >= limit) return false;
-    line.push_back(c);
-  }
-  return !line.empty();
-}
-
-// Reads the header through "end_header\n". Throws Error naming the file.
-Header ReadHeader(std::istream& in, std::string_view name) {
-  std::string line;
-  REPHOTO_CHECK(
-      ReadHeaderLine(in, line, 16) && Tokens(line) == std::vector<std::string_view>{"ply"},
-      "{}: not a PLY file (no 'ply' magic)", name);
-  Header header;
-  bool have_format = false;
-  int line_number = 1;
-  size_t header_bytes = line.size() + 1;
-  while (true) {
-    REPHOTO_CHECK(ReadHeaderLine(in, line, 1u << 16), "{}: PLY header ends before end_header",
-                  name);
-    ++line_number;
-    header_bytes += line.size() + 1;
-    REPHOTO_CHECK(header_bytes <= (1u << 20), "{}: PLY header longer than 1 MiB", name);
-    const std::vector<std::string_view> t = Tokens(line);
-    if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
-    if (t[0] == "end_header") break;
-    if (t[0] == "format") {
-      REPHOTO_CHECK(t.size() >= 2, "{}:{}: format line without encoding", name, line_number);
-      if (t[1] == "ascii") {
-        header.encoding = Encoding::kAscii;
-      } else if (t[1] == "binary_little_endian") {
-        header.encoding = Encoding::kBinaryLittleEndian;
-      } else if (t[1] == "binary_big_endian") {
-        header.encoding = Encoding::kBinaryBigEndian;
-      } else {
-        ThrowError("{}:{}: unknown PLY format '{}'", name, line_number, t[1]);
-      }
-      have_format = true;
-    } else if (t[0] == "element") {
-      REPHOTO_CHECK(t.size() == 3, "{}:{}: malformed element line", name, line_number);
-      Element element;
-      element.name = std::string(t[1]);
-      const auto [ptr, ec] = std::from_chars(t[2].data(), t[2].data() + t[2].size(), element.count);
-      REPHOTO_CHECK(ec == std::errc() && ptr == t[2].data() + t[2].size(),
-                    "{}:{}: element '{}': bad count '{}'", name, line_number, t[1], t[2]);
-      header.elements.push_back(std::move(element));
-    } else if (t[0] == "property") {
-      REPHOTO_CHECK(!header.elements.empty(), "{}:{}: property before any element", name,
-                    line_number);
-      Property property;
-      if (t.size() == 5 && t[1] == "list") {
-        const auto count_type = ParseType(t[2]);
-        const auto type = ParseType(t[3]);
-        REPHOTO_CHECK(count_type && type, "{}:{}: unknown list types '{} {}'", name, line_number,
-                      t[2], t[3]);
-        property = {std::string(t[4]), *type, true, *count_type};
-      } else {
-        REPHOTO_CHECK(t.size() == 3, "{}:{}: malformed property line", name, line_number);
-        const auto type = ParseType(t[1]);
-        REPHOTO_CHECK(type.has_value(), "{}:{}: unknown property type '{}'", name, line_number,
-                      t[1]);
-        property = {std::string(t[2]), *type, false, Type::kUInt8};
-      }
-      header.elements.back().properties.push_back(std::move(property));
-    } else {
-      ThrowError("{}:{}: unexpected PLY header line '{}'", name, line_number, line);
-    }
-  }
-  REPHOTO_CHECK(have_format, "{}: PLY header has no format line", name);
-  return header;
-}
+// The header: io/ply_header.h, the project's one PLY header parser.
+using Encoding = io::PlyEncoding;
+using Property = io::PlyProperty;
+using Element = io::PlyElement;
+using Header = io::PlyHeader;
+Header ReadHeader(std::istream& in, std::string_view name) { return io::ReadPlyHeader(in, name); }
 
 template <typename T>
 T LoadScalar(const char* p, bool swap) {

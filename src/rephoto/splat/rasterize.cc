@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 
 namespace rephoto::splat {
@@ -285,13 +286,13 @@ struct TileState {
 // Blends the Gaussians entries[begin, end) (front to back) into one tile, the reference's
 // per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse and then
 // evaluated over whole kTile-pixel rows without branches, so that the compiler vectorizes them
-// (target_clones: an AVX2 + FMA version where the CPU has it, SSE2 otherwise; the arithmetic is
-// the same IEEE float operations in both). `sums` (optional) receives per entry the sums of
+// (an AVX2 + FMA variant and an SSE2 one, core/isa.h; the arithmetic is the same IEEE float
+// operations in both). `sums` (optional) receives per entry the sums of
 // w * error and of w over valid error pixels.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void BlendTile(
-    const Splat* splats, const uint32_t* entries, uint32_t begin, uint32_t end, int x_begin,
-    int y_begin, int x_end, int y_end, bool with_error, TileState* state, float* sums_we,
-    float* sums_w) {
+[[gnu::always_inline]] inline void BlendTileBody(const Splat* splats, const uint32_t* entries,
+                                                 uint32_t begin, uint32_t end, int x_begin,
+                                                 int y_begin, int x_end, int y_end, bool with_error,
+                                                 TileState* state, float* sums_we, float* sums_w) {
   for (uint32_t e = begin; e < end && state->done_count < kTilePixels; ++e) {
     if (e + 8 < end) __builtin_prefetch(&splats[entries[e + 8]]);
     const Splat& s = splats[entries[e]];
@@ -365,6 +366,12 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void BlendTile(
     }
   }
 }
+REPHOTO_ISA_DISPATCH_AVX2(void, BlendTile,
+                          (const Splat* splats, const uint32_t* entries, uint32_t begin,
+                           uint32_t end, int x_begin, int y_begin, int x_end, int y_end,
+                           bool with_error, TileState* state, float* sums_we, float* sums_w),
+                          (splats, entries, begin, end, x_begin, y_begin, x_end, y_end, with_error,
+                           state, sums_we, sums_w))
 
 struct Band {
   std::vector<uint32_t> offsets;  // per tile of the band, +1

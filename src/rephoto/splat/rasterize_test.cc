@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/testing/testing.h"
@@ -165,6 +166,40 @@ TEST_F(ReferenceFixtures, SameResultWithOneThread) {
   }
   ASSERT_EQ(all.color.size(), one.color.size());
   EXPECT_EQ(0, std::memcmp(all.color.data(), one.color.data(), all.color.size() * 4));
+}
+
+// The same bytes on every instruction-set path this CPU has (core/isa.h), pinhole and
+// distorted cameras (the resampling path).
+TEST_F(ReferenceFixtures, SameResultOnEveryIsaPath) {
+  const fs::path base = Dir() / "scene_3";
+  const GaussianModel model = ReadGaussians(fs::path(base.string() + ".ply"));
+  const FixtureView view = ReadView(base.string() + ".json");
+  camera::Camera opencv = view.camera;
+  opencv.model = camera::CameraModel::kOpenCv;
+  opencv.params = {view.camera.params[0],
+                   view.camera.params[1],
+                   view.camera.params[2],
+                   view.camera.params[3],
+                   -0.1,
+                   0.02,
+                   0.001,
+                   -0.001};
+  for (const camera::Camera& camera : {view.camera, opencv}) {
+    std::vector<GaussianRendering> renderings;
+    for (core::Isa isa : core::SupportedIsas()) {
+      core::ScopedIsa scoped(isa);
+      renderings.push_back(RenderGaussians(model, camera, view.pose, view.options));
+    }
+    for (size_t i = 1; i < renderings.size(); ++i) {
+      SCOPED_TRACE(::testing::Message()
+                   << "path " << i << ", camera model " << static_cast<int>(camera.model));
+      const GaussianRendering& a = renderings[0];
+      const GaussianRendering& b = renderings[i];
+      ASSERT_EQ(a.color.size(), b.color.size());
+      EXPECT_EQ(0, std::memcmp(a.color.data(), b.color.data(), a.color.size() * 4));
+      EXPECT_EQ(0, std::memcmp(a.depth.data(), b.depth.data(), a.depth.size() * 4));
+    }
+  }
 }
 
 // An OPENCV camera with zero distortion goes through the undistorted-grid path; it must give

@@ -6,17 +6,13 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/io/ply_header.h"
 #include "rephoto/io/ply_types.h"
 
 namespace rephoto::splat {
 namespace {
 
 namespace fs = std::filesystem;
-
-size_t ScalarSize(std::string_view type) {
-  const std::optional<io::PlyType> parsed = io::ParsePlyType(type);
-  return parsed ? static_cast<size_t>(io::PlyTypeSize(*parsed)) : 0;
-}
 
 std::vector<std::string> Words(const std::string& line) {
   std::istringstream in(line);
@@ -29,47 +25,42 @@ std::vector<std::string> Words(const std::string& line) {
 
 std::string WithVertexFloatProperty(std::string_view ply, std::string_view name,
                                     const std::vector<float>& values, std::string_view context) {
-  const size_t end = ply.find("end_header\n");
-  REPHOTO_CHECK(ply.starts_with("ply\n") && end != std::string_view::npos,
-                "{}: not a PLY file with a header", context);
-  const size_t body = end + std::strlen("end_header\n");
-  std::vector<std::string> lines;
-  {
-    std::istringstream header{std::string(ply.substr(0, end))};
-    for (std::string line; std::getline(header, line);) {
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      lines.push_back(line);
-    }
-  }
-  size_t record = 0, count = 0, elements = 0, last_property = 0;
+  // The header by the project's one parser (io/ply_header.h); its lines are copied as they are.
+  const io::PlyHeader header = io::ParsePlyHeader(ply, context);
+  const size_t body = static_cast<size_t>(header.bytes);
+  REPHOTO_CHECK(header.elements.size() == 1 && header.elements[0].name == "vertex",
+                "{}: PLY has elements besides 'vertex'", context);
+  const io::PlyElement& vertex = header.elements[0];
+  REPHOTO_CHECK(!vertex.HasList(), "{}: PLY vertex element has a list property", context);
   std::optional<size_t> existing;  // byte offset of a float property `name` in a record
-  bool little_endian = false;
-  for (size_t i = 0; i < lines.size(); ++i) {
-    const std::vector<std::string> w = Words(lines[i]);
-    if (w.empty()) continue;
-    if (w[0] == "format") little_endian = w.size() >= 2 && w[1] == "binary_little_endian";
-    if (w[0] == "element") {
-      ++elements;
-      REPHOTO_CHECK(w.size() == 3 && w[1] == "vertex" && elements == 1,
-                    "{}: PLY has elements besides 'vertex'", context);
-      count = std::stoull(w[2]);
+  size_t record = 0;
+  for (const io::PlyProperty& p : vertex.properties) {
+    if (p.name == name) {
+      REPHOTO_CHECK(p.type == io::PlyType::kFloat32,
+                    "{}: PLY has a property '{}' that is not float", context, name);
+      existing = record;
     }
-    if (w[0] == "property") {
-      REPHOTO_CHECK(w.size() == 3 && ScalarSize(w[1]) > 0,
-                    "{}: PLY vertex property '{}' is not a scalar", context, lines[i]);
-      if (w[2] == name) {
-        REPHOTO_CHECK(w[1] == "float" || w[1] == "float32",
-                      "{}: PLY has a property '{}' that is not float", context, name);
-        existing = record;
-      }
-      record += ScalarSize(w[1]);
-      last_property = i;
+    record += static_cast<size_t>(io::PlyTypeSize(p.type));
+  }
+  const uint64_t count = vertex.count;
+  const bool little_endian = header.encoding == io::PlyEncoding::kBinaryLittleEndian;
+  // The header's lines (without line ends), to insert the new property after the last one.
+  std::vector<std::string> lines;
+  size_t last_property = 0;
+  {
+    std::istringstream text{std::string(ply.substr(0, body))};
+    for (std::string line; std::getline(text, line);) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const std::vector<std::string> w = Words(line);
+      if (!w.empty() && w[0] == "property") last_property = lines.size();
+      if (!w.empty() && w[0] == "end_header") break;
+      lines.push_back(line);
     }
   }
   REPHOTO_CHECK(little_endian, "{}: PLY is not binary_little_endian", context);
   REPHOTO_CHECK(count == values.size(), "{}: {} vertices but {} values", context, count,
                 values.size());
-  REPHOTO_CHECK(record > 0 && ply.size() - body >= count * record,
+  REPHOTO_CHECK(record > 0 && (ply.size() - body) / record >= count,
                 "{}: PLY holds fewer bytes than its {} vertices need", context, count);
   std::string out;
   if (existing) {

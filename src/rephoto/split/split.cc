@@ -221,8 +221,9 @@ Split MakeSplit(const std::vector<std::string>& image_names, const Scheme& schem
     case SchemeKind::kLeaveOneOut: {
       const size_t k =
           scheme.kind == SchemeKind::kLeaveOneOut ? n : static_cast<size_t>(scheme.folds);
-      REPHOTO_CHECK(k >= 2 && k <= n, "split {}: needs 2 <= K <= number of images ({})",
-                    scheme_text, n);
+      // A scheme that does not fit the scene is a bad setting (exit 2), as a malformed one is.
+      REPHOTO_CHECK_USAGE(k >= 2 && k <= n, "split {}: needs 2 <= K <= number of images ({})",
+                          scheme_text, n);
       std::vector<size_t> order(n);
       for (size_t i = 0; i < n; ++i) order[i] = i;
       if (scheme.kind == SchemeKind::kKFold) SeededShuffle(order, scheme.seed);
@@ -239,14 +240,14 @@ Split MakeSplit(const std::vector<std::string>& image_names, const Scheme& schem
       return split;
     }
     case SchemeKind::kEveryNth: {
-      REPHOTO_CHECK(scheme.every >= 2, "split {}: N must be at least 2", scheme_text);
-      REPHOTO_CHECK(n >= 2, "split {}: needs at least 2 images", scheme_text);
+      REPHOTO_CHECK_USAGE(scheme.every >= 2, "split {}: N must be at least 2", scheme_text);
+      REPHOTO_CHECK_USAGE(n >= 2, "split {}: needs at least 2 images", scheme_text);
       std::vector<bool> is_test(n);
       for (size_t i = 0; i < n; ++i) is_test[i] = i % static_cast<size_t>(scheme.every) == 0;
       return SingleFold(scheme, sorted, is_test);
     }
     case SchemeKind::kFraction: {
-      REPHOTO_CHECK(n >= 2, "split {}: needs at least 2 images", scheme_text);
+      REPHOTO_CHECK_USAGE(n >= 2, "split {}: needs at least 2 images", scheme_text);
       const long long rounded = std::llround(scheme.fraction * static_cast<double>(n));
       const size_t test_count =
           static_cast<size_t>(std::clamp<long long>(rounded, 1, static_cast<long long>(n) - 1));

@@ -183,6 +183,10 @@ TEST(SplitTest, ListsAndNone) {
 TEST(SplitTest, SchemeDoesNotFit) {
   EXPECT_THAT(ErrorOf([] { MakeSplit(Names(3), ParseScheme("kfold:4")); }),
               HasSubstr("needs 2 <= K <= number of images (3)"));
+  // A scheme that does not fit the data is a usage error (the CLI exits 2), as a malformed one.
+  EXPECT_THROW(MakeSplit(Names(3), ParseScheme("kfold:4")), UsageError);
+  EXPECT_THROW(MakeSplit(Names(1), ParseScheme("every:2")), UsageError);
+  EXPECT_THROW(MakeSplit(Names(1), ParseScheme("fraction:0.5")), UsageError);
   EXPECT_THAT(ErrorOf([] {
                 MakeSplit({"a", "a"}, ParseScheme("loo"));
               }),

@@ -7,6 +7,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
+#include "rephoto/render/visibility.h"
 #include "rephoto/texture/photo.h"
 
 namespace rephoto::texture {
@@ -77,55 +78,31 @@ void FacePoints(const mesh::Mesh& mesh, size_t face, const Eigen::Vector3d& cent
   }
 }
 
-// The fraction of `points` that no surface hides from the camera centre (Embree occlusion
-// rays, four at a time). With `all_or_nothing` it returns 0 at the first hidden point.
-double UnoccludedFraction(RTCScene scene, RTCIntersectContext& context,
-                          const Eigen::Vector3d& center, float tfar,
-                          const std::vector<Eigen::Vector3d>& points, bool all_or_nothing) {
-  size_t visible = 0;
-  alignas(16) RTCRay4 rays;
-  alignas(16) int valid[4];
-  for (size_t first = 0; first < points.size(); first += 4) {
-    for (size_t k = 0; k < 4; ++k) {
-      valid[k] = first + k < points.size() ? -1 : 0;
-      const Eigen::Vector3d direction = points[std::min(first + k, points.size() - 1)] - center;
-      rays.org_x[k] = static_cast<float>(center.x());
-      rays.org_y[k] = static_cast<float>(center.y());
-      rays.org_z[k] = static_cast<float>(center.z());
-      rays.dir_x[k] = static_cast<float>(direction.x());
-      rays.dir_y[k] = static_cast<float>(direction.y());
-      rays.dir_z[k] = static_cast<float>(direction.z());
-      rays.tnear[k] = 0.0f;
-      rays.tfar[k] = tfar;
-      rays.mask[k] = 0xFFFFFFFFu;
-      rays.time[k] = 0.0f;
-      rays.flags[k] = 0;
-      rays.id[k] = static_cast<unsigned>(k);
-    }
-    rtcOccluded4(valid, scene, &context, &rays);
-    for (size_t k = 0; k < 4; ++k) {
-      if (!valid[k]) continue;
-      if (rays.tfar[k] >= 0) {
-        ++visible;
-      } else if (all_or_nothing) {
-        return 0;
-      }
+// The fraction of `points` that no surface hides from the camera centre (render/visibility.h
+// OcclusionBatch). With `all_or_nothing` it returns 0 as soon as a batch has a hidden point.
+double UnoccludedFraction(render::OcclusionBatch& batch, const std::vector<Eigen::Vector3d>& points,
+                          bool all_or_nothing) {
+  size_t visible = 0, traced = 0;
+  auto count = [&](uint32_t) { ++visible; };
+  for (size_t i = 0; i < points.size(); ++i) {
+    batch.Add(points[i], static_cast<uint32_t>(i), count);
+    if ((i + 1) % 16 == 0) {
+      traced = i + 1;
+      if (all_or_nothing && visible < traced) return 0;
     }
   }
+  batch.Flush(count);
+  if (all_or_nothing && visible < points.size()) return 0;
   return points.empty() ? 0 : static_cast<double>(visible) / static_cast<double>(points.size());
 }
 
-// Keeps the points that project inside the photo (half a pixel from the border); returns the
-// fraction kept.
-double KeepInside(const Photo& photo, std::vector<Eigen::Vector3d>& points) {
+// Keeps the points that project inside the photo (half a pixel from the border) and its usable
+// field; returns the fraction kept.
+double KeepInside(const render::ViewGeometry& geometry, std::vector<Eigen::Vector3d>& points) {
   const size_t total = points.size();
   size_t kept = 0;
   for (const Eigen::Vector3d& p : points) {
-    const auto pixel = photo.Project(p);
-    if (pixel && pixel->x() >= 0.5 && pixel->x() <= photo.width() - 0.5 && pixel->y() >= 0.5 &&
-        pixel->y() <= photo.height() - 0.5) {
-      points[kept++] = p;
-    }
+    if (render::UsableProjection(geometry, p, 0.5)) points[kept++] = p;
   }
   points.resize(kept);
   return total == 0 ? 0 : static_cast<double>(kept) / static_cast<double>(total);
@@ -155,7 +132,6 @@ Candidates ComputeCandidates(const render::RenderModel& model, const scene::Scen
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("texture: views", views.size());
   RTCScene rtc_scene = model.scene();
-  const float tfar = static_cast<float>(1.0 - options.occlusion_epsilon);
   const float floor = static_cast<float>(options.gradient_floor);
   // Photos are decoded two at a time (one core each), then processed in list order.
   std::vector<Photo> batch(2);
@@ -171,46 +147,45 @@ Candidates ComputeCandidates(const render::RenderModel& model, const scene::Scen
     }
     const Photo& photo = batch[position % 2];
     GradientMagnitude(photo, &gradient);
-    const Eigen::Vector3d center = photo.cam_from_world().Center();
-    const double min_x = 0.5, max_x = photo.width() - 0.5;
-    const double min_y = 0.5, max_y = photo.height() - 0.5;
+    const render::ViewGeometry geometry(photo.camera(), photo.cam_from_world());
+    render::VisibilityRule rule;
+    rule.min_facing_cosine = options.min_facing_cosine;
+    rule.occlusion_epsilon = options.occlusion_epsilon;
     ParallelFor(0, blocks, 1, [&](int64_t block_begin, int64_t block_end) {
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
+      render::OcclusionBatch batch(rtc_scene, geometry.center, rule.occlusion_epsilon);
       std::vector<Eigen::Vector3d> points;
       for (int64_t block = block_begin; block < block_end; ++block) {
         std::vector<Found>& out = found[position][block];
         const int64_t end = std::min<int64_t>((block + 1) * kBlock, face_count);
         for (int64_t f = block * kBlock; f < end; ++f) {
           if (!(areas[f] > 0)) continue;
-          const Eigen::Vector3d to_camera = center - centroids[f];
+          // The face's centroid faces the camera and its corners lie in the usable field (the
+          // rule of render/visibility.h, per face).
+          const Eigen::Vector3d to_camera = geometry.center - centroids[f];
           const double distance = to_camera.norm();
-          if (!(distance > 0) ||
-              normals[f].dot(to_camera) / distance <= options.min_facing_cosine) {
+          if (!(distance > 0) || !(normals[f].dot(to_camera) / distance > rule.min_facing_cosine)) {
             continue;
           }
           Eigen::Vector2d pixels[3];
           bool projected = true, inside = true;
           for (int k = 0; k < 3 && projected; ++k) {
-            const auto pixel = photo.Project(mesh.positions[mesh.faces[f][k]].cast<double>());
+            const auto pixel =
+                render::ProjectInField(geometry, mesh.positions[mesh.faces[f][k]].cast<double>());
             projected = pixel.has_value();
             if (!projected) break;
             pixels[k] = *pixel;
-            inside = inside && pixel->x() >= min_x && pixel->x() <= max_x && pixel->y() >= min_y &&
-                     pixel->y() <= max_y;
+            inside = inside && render::InsideImage(photo.camera(), *pixel, rule.border_pixels);
           }
           if (!projected) continue;
           FacePoints(mesh, f, centroids[f], pixels, points);
           double fraction = 0;
-          if (inside) {
-            fraction = UnoccludedFraction(rtc_scene, context, center, tfar, points, true);
-          }
+          if (inside) fraction = UnoccludedFraction(batch, points, true);
           bool partial = false;
           if (fraction < 1) {
             if (!(options.partial_min_fraction > 0 && options.partial_min_fraction <= 1)) continue;
-            fraction = KeepInside(photo, points);
+            fraction = KeepInside(geometry, points);
             if (fraction < options.partial_min_fraction) continue;
-            fraction *= UnoccludedFraction(rtc_scene, context, center, tfar, points, false);
+            fraction *= UnoccludedFraction(batch, points, false);
             if (fraction < options.partial_min_fraction) continue;
             partial = true;
           }
