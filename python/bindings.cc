@@ -596,7 +596,8 @@ PYBIND11_MODULE(_rephoto, m) {
   m.attr("_build_type") = "Debug";
 #endif
   m.attr("_compiler") = __VERSION__;
-  // The instruction-set path (core/isa.h); a bad REPHOTO_ISA fails the import with UsageError.
+  // The instruction-set path (core/isa.h); a bad REPHOTO_ISA fails the import (ImportError
+  // with the one-line message naming it).
   core::CheckIsaEnvironment();
   m.attr("_isa") = std::string(core::IsaName(core::ActiveIsa()));
 

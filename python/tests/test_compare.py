@@ -187,3 +187,22 @@ def test_threads_run_concurrently_and_agree(pair):
     stop.set()
     t.join()
     assert len(ticks) > 100
+
+
+def test_isa_path_is_reported_and_a_bad_one_fails_the_import(tmp_path):
+    """build_info names the instruction-set path (core/isa.h); REPHOTO_ISA=bogus fails the import
+    with a message naming it."""
+    import os
+    import subprocess
+    import sys
+    assert rephoto.build_info["isa"] in ("baseline", "avx2", "avx512")
+    forced = subprocess.run(
+        [sys.executable, "-c", "import rephoto; print(rephoto.build_info['isa'])"],
+        env={**os.environ, "REPHOTO_ISA": "baseline"}, capture_output=True, text=True)
+    assert forced.returncode == 0, forced.stderr
+    assert forced.stdout.strip() == "baseline"
+    bad = subprocess.run([sys.executable, "-c", "import rephoto"],
+                         env={**os.environ, "REPHOTO_ISA": "bogus"}, capture_output=True,
+                         text=True)
+    assert bad.returncode != 0
+    assert "REPHOTO_ISA=bogus: must be baseline, avx2 or avx512" in bad.stderr

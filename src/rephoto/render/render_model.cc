@@ -83,13 +83,20 @@ void PointIntersect(const RTCIntersectFunctionNArguments* args) {
     const float tfar = RTCRayN_tfar(ray, n, i);
     const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
                                   std::numeric_limits<float>::infinity(), &normal);
-    // The nearest disc, and of discs at exactly the same distance (duplicate points) the lowest
-    // index: the same hit whatever order Embree's traversal (which differs between its ISA
-    // kernels and packet widths) visits them in.
-    if (!(t < tfar || (t == tfar && RTCHitN_geomID(hit, n, i) != RTC_INVALID_GEOMETRY_ID &&
-                       args->primID < RTCHitN_primID(hit, n, i)))) {
-      continue;
+    // The nearest disc; of discs at exactly the same distance (coplanar discs, e.g. on a flat
+    // ground: their planes give the same t for every ray) the one whose centre is nearest to the
+    // hit point, then the lowest index: the same hit whatever order Embree's traversal (which
+    // differs between its ISA kernels and packet widths) visits them in, and the disc that
+    // represents that point of the surface best.
+    bool better = t < tfar;
+    if (!better && t == tfar && RTCHitN_geomID(hit, n, i) != RTC_INVALID_GEOMETRY_ID) {
+      const unsigned current = RTCHitN_primID(hit, n, i);
+      const Eigen::Vector3f point = o + t * d;
+      const float mine = (point - data->positions[args->primID]).squaredNorm();
+      const float theirs = (point - data->positions[current]).squaredNorm();
+      better = mine < theirs || (mine == theirs && args->primID < current);
     }
+    if (!better) continue;
     RTCRayN_tfar(ray, n, i) = t;
     RTCHitN_Ng_x(hit, n, i) = normal.x();
     RTCHitN_Ng_y(hit, n, i) = normal.y();
@@ -149,6 +156,7 @@ RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::stri
   device_ = rtcNewDevice(core::EmbreeDeviceConfig().c_str());
   REPHOTO_CHECK(device_ != nullptr, "{}: cannot create an Embree device", name);
   scene_ = rtcNewScene(device_);
+  // Robust (watertight) triangle tests: render/nearest_hit.h.
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION | RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
 

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -413,6 +414,65 @@ TEST(RenderTest, RejectsBadInput) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("bad.ply: face 0: vertex index 5"));
   }
+}
+
+// Overlapping coplanar discs (a flat ground seen as points) are hit at exactly the same t: the
+// disc whose centre is nearest to the hit point shows (a Voronoi partition of the plane), in
+// whatever order the points are stored, on every ISA path and packet width.
+TEST(RenderTest, CoplanarDiscsShowTheNearestCentre) {
+  const Camera camera = MakePinhole(64, 48, 60.0, 32, 24);
+  mesh::Mesh grid;
+  for (int j = 0; j < 7; ++j) {
+    for (int i = 0; i < 9; ++i) {
+      grid.positions.emplace_back(-0.4f + 0.1f * i, -0.3f + 0.1f * j, 2.0f);
+      grid.colors.emplace_back(i / 8.0f, j / 6.0f, 0.5f);
+      grid.normals.emplace_back(0.0f, 0.0f, -1.0f);
+      grid.radii.push_back(0.12f);  // overlapping neighbours
+    }
+  }
+  mesh::Mesh reversed = grid;
+  std::reverse(reversed.positions.begin(), reversed.positions.end());
+  std::reverse(reversed.colors.begin(), reversed.colors.end());
+  std::vector<Rephoto> renders;
+  for (core::Isa isa : core::SupportedIsas()) {
+    core::ScopedIsa scoped(isa);
+    for (const mesh::Mesh* m : {&grid, &reversed}) {
+      RenderModel model(*m);
+      for (int width : {8, 16}) {
+        RenderOptions options;
+        options.samples_per_pixel = 1;
+        options.packet_width = width;
+        renders.push_back(RenderRephoto(model, camera, Pose(), options));
+      }
+    }
+  }
+  int checked = 0;
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      // The hit point on z = 2 and the nearest centre (closed form), unless two tie closely.
+      const Eigen::Vector2d p(2.0 * (x + 0.5 - 32) / 60.0, 2.0 * (y + 0.5 - 24) / 60.0);
+      double best = INFINITY, second = INFINITY;
+      int nearest = -1;
+      for (size_t k = 0; k < grid.positions.size(); ++k) {
+        const double dist = (p - grid.positions[k].head<2>().cast<double>()).norm();
+        if (dist < best) {
+          second = best;
+          best = dist;
+          nearest = static_cast<int>(k);
+        } else if (dist < second) {
+          second = dist;
+        }
+      }
+      if (best > 0.119 || second - best < 1e-4) continue;
+      ++checked;
+      for (const Rephoto& r : renders) {
+        ASSERT_EQ(r.color.at(x, y, 3), 1.0f) << x << "," << y;
+        EXPECT_EQ(r.color.at(x, y, 0), grid.colors[nearest].x()) << x << "," << y;
+        EXPECT_EQ(r.color.at(x, y, 1), grid.colors[nearest].y()) << x << "," << y;
+      }
+    }
+  }
+  EXPECT_GT(checked, 300);  // the grid covers about 27 x 21 pixels
 }
 
 TEST(RenderTest, PointCloudDiscs) {
