@@ -11,10 +11,11 @@ namespace {
 Isa Detect() {
 #if defined(REPHOTO_HAVE_ISA_TARGETS)
   __builtin_cpu_init();
+  // x86-64-v3 also has F16C, MOVBE and LZCNT, which every CPU with AVX2 + FMA + BMI2 has
+  // (clang 14's __builtin_cpu_supports does not know the first two).
   const bool v3 = __builtin_cpu_supports("avx") && __builtin_cpu_supports("avx2") &&
                   __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
-                  __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("f16c") &&
-                  __builtin_cpu_supports("movbe");
+                  __builtin_cpu_supports("bmi2");
   const bool v4 = v3 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                   __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
                   __builtin_cpu_supports("avx512cd");

@@ -30,9 +30,11 @@
 // traces 16 natively, i.e. AVX-512) over tiles of 4 x 2 or 4 x 4 pixels (one sample each, or
 // the samples of 2 x 2 pixels), tile rows in parallel (ParallelFor); ray setup, vertex-colour
 // shading and the tile's output in vectorized lane loops, compiled for AVX-512, AVX2 and the
-// baseline (same results bit for bit); no allocation per pixel. At 1920x1080, 1 sample per
-// pixel, 1M triangles the CPU time is that of Embree's rtcIntersect16 alone on the same rays
-// (bench/bench_render.cc, BM_RenderOverFloor).
+// baseline (same results bit for bit); no allocation per pixel. The price of deciding hits
+// itself (nearest_hit.h: a filter call per candidate hit, robust traversal, border strips): at
+// 1920x1080, 1 sample per pixel, 1M triangles the CPU time is 1.56x that of Embree's
+// rtcIntersect16 alone on the same rays on the AVX-512 path, 1.34x on AVX2 (it was 0.92x and
+// 1.02x when Embree's rounding decided; bench/bench_render.cc, BM_RenderOverFloor).
 //
 // Thread safety: RenderRephoto only reads the RenderModel and CameraRays (Embree queries on a
 // committed scene are thread-safe), so several threads may render one model at once, each into its
