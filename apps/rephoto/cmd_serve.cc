@@ -1,6 +1,7 @@
 // rephoto serve --root DIR [--listen HOST:PORT] [--threads N] [--scoring-workers N]
 //               [--max-body BYTES] [--max-extracted BYTES] [--max-files N]
-//               [--rate-limit N] [--rate-window SECONDS] [--request-timeout SECONDS]
+//               [--rate-limit N] [--rate-window SECONDS] [--header-timeout SECONDS]
+//               [--request-timeout SECONDS]
 //               [--keep-alive-timeout SECONDS] [--max-connections-per-address N]
 //               [--access-log FILE|-]
 // Serves the benchmark folder DIR over HTTP (rephoto/benchmark/server.h; API in
@@ -94,6 +95,10 @@ CommandRunner SetupServe(CLI::App& app) {
                  "(429 above)")
       ->capture_default_str();
   app.add_option("--rate-window", o.limits.window_seconds, "Rate-limit window in seconds")
+      ->capture_default_str();
+  app.add_option("--header-timeout", o.header_timeout,
+                 "Seconds for a request's line and headers (408 after)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--request-timeout", o.request_timeout,
                  "Seconds one request (line, headers, body) may take (408 after)")

@@ -10,6 +10,7 @@
 #include "rephoto/benchmark/submissions.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/progress.h"
 #include "rephoto/io/csv.h"
 
 namespace rephoto::benchmark {
@@ -161,23 +162,28 @@ std::optional<nlohmann::json> LeaderboardJson(Store& store, const std::string& n
         !s.scores.contains(subset)) {
       continue;
     }
-    const nlohmann::json& scores = s.scores.at(subset);
-    const double completeness = JsonNumber(scores.value("completeness", nlohmann::json()));
-    const nlohmann::json mean = scores.at("means").value(headline, nlohmann::json());
-    const nlohmann::json filled = scores.at("filled").value(headline, nlohmann::json());
-    const bool ranked = !rule.min_completeness || completeness >= *rule.min_completeness;
-    nlohmann::json json = {{"id", s.id},
-                           {"participant", s.participant},
-                           {"method", s.method},
-                           {"description", s.description},
-                           {"created", s.created},
-                           {"headline", {{"mean", mean}, {"filled", filled}}},
-                           {"completeness", Number(completeness)},
-                           {"metrics", scores.at("means")},
-                           {"filled", scores.at("filled")}};
-    if (split && revealed) json["public"] = s.scores.value("public", nlohmann::json());
-    entries.push_back({JsonNumber(rule.min_completeness ? mean : filled), ranked,
-                       std::to_string(s.participant_id) + "\n" + s.method, std::move(json)});
+    // A row edited by hand (or damaged) is left out, never fails the leaderboard.
+    try {
+      const nlohmann::json& scores = s.scores.at(subset);
+      const double completeness = JsonNumber(scores.value("completeness", nlohmann::json()));
+      const nlohmann::json mean = scores.at("means").value(headline, nlohmann::json());
+      const nlohmann::json filled = scores.at("filled").value(headline, nlohmann::json());
+      const bool ranked = !rule.min_completeness || completeness >= *rule.min_completeness;
+      nlohmann::json json = {{"id", s.id},
+                             {"participant", s.participant},
+                             {"method", s.method},
+                             {"description", s.description},
+                             {"created", s.created},
+                             {"headline", {{"mean", mean}, {"filled", filled}}},
+                             {"completeness", Number(completeness)},
+                             {"metrics", scores.at("means")},
+                             {"filled", scores.at("filled")}};
+      if (split && revealed) json["public"] = s.scores.value("public", nlohmann::json());
+      entries.push_back({JsonNumber(rule.min_completeness ? mean : filled), ranked,
+                         std::to_string(s.participant_id) + "\n" + s.method, std::move(json)});
+    } catch (const std::exception& error) {
+      LogWarning(fmt::format("submission {}: left out of the leaderboard: {}", s.id, error.what()));
+    }
   }
   // Best first; NaN last; ties by submission time (earlier first), kept by stable_sort.
   std::reverse(entries.begin(), entries.end());  // DatasetSubmissions is newest first
@@ -186,8 +192,11 @@ std::optional<nlohmann::json> LeaderboardJson(Store& store, const std::string& n
     return higher_is_better ? a.key > b.key : a.key < b.key;
   });
   nlohmann::json list = nlohmann::json::array(), unranked = nlohmann::json::array();
-  std::set<std::string> shown;
+  // Best per participant and method, among the ranked and (apart) among the unranked, so an
+  // unranked submission never hides a ranked one.
+  std::set<std::string> shown_ranked, shown_unranked;
   for (Entry& entry : entries) {
+    std::set<std::string>& shown = entry.ranked ? shown_ranked : shown_unranked;
     if (!options.all_submissions && !shown.insert(entry.best_key).second) continue;
     if (entry.ranked) {
       entry.json["rank"] = list.size() + 1;

@@ -177,6 +177,8 @@ class DeadlineStream : public httplib::Stream {
     expired_ = false;
     written_ = 0;
   }
+  // The headers are in: the body may take until `limit` from the request's start.
+  void SetDeadline(Clock::time_point deadline) { deadline_ = deadline; }
   bool expired() const { return expired_; }
   size_t written() const { return written_; }
   bool Buffered() const { return begin_ < end_; }
@@ -272,8 +274,16 @@ void CloseAfterResponse() {
   if (current_stream) current_stream->close_after = true;
 }
 
+// The current request's whole deadline (set with its start).
+thread_local Clock::time_point request_deadline;
+
 // Whether the current request's deadline passed while its body was read.
 bool RequestExpired() { return current_stream && current_stream->expired(); }
+
+// Called when the headers are in: the body may take until the request's whole deadline.
+void HeadersReceived() {
+  if (current_stream) current_stream->SetDeadline(request_deadline);
+}
 
 std::string JsonErrorOf(const httplib::Response& res) {
   if (res.body.empty() || res.body.size() > 4096 || res.body.front() != '{') return "";
@@ -399,7 +409,11 @@ class GuardedHttpServer : public httplib::Server {
       if (!stream.Buffered() && !WaitSocket(sock, POLLIN, seconds(options_.keep_alive_timeout))) {
         break;  // idle
       }
-      stream.StartRequest(seconds(options_.request_timeout));
+      // The request line and headers within header_timeout, all of it within request_timeout
+      // (the pre-routing handler extends the deadline once the headers are in).
+      const Clock::time_point start = Clock::now();
+      stream.StartRequest(seconds(std::min(options_.header_timeout, options_.request_timeout)));
+      request_deadline = start + seconds(options_.request_timeout);
       bool connection_closed = false;
       bool ok = false;
       try {
@@ -416,7 +430,10 @@ class GuardedHttpServer : public httplib::Server {
             "close\r\nContent-Length: {}\r\n\r\n{}",
             body.size(), body);
         send(sock, response.data(), response.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-        log_connection_(address, 408, body.size(), "request deadline");
+        log_connection_(address, 408, body.size(),
+                        fmt::format("request not complete within its deadline ({} s for the "
+                                    "headers, {} s in all)",
+                                    options_.header_timeout, options_.request_timeout));
         break;
       }
       if (!ok || connection_closed || stream.close_after) break;
@@ -443,10 +460,10 @@ Server::Server(const fs::path& root, const ServerOptions& options)
       store_(root),
       submissions_(store_, options.limits, options.scoring_workers),
       access_log_(std::make_unique<AccessLog>(options.access_log)) {
-  REPHOTO_CHECK(options.request_timeout > 0 && options.keep_alive_timeout > 0 &&
-                    options.max_connections_per_address > 0,
-                "the request timeout, keep-alive timeout and connections per address must be "
-                "positive");
+  REPHOTO_CHECK(options.request_timeout > 0 && options.header_timeout > 0 &&
+                    options.keep_alive_timeout > 0 && options.max_connections_per_address > 0,
+                "the request, header and keep-alive timeouts and the connections per address "
+                "must be positive");
   http_ = std::make_unique<GuardedHttpServer>(
       options,
       [this](const std::string& address, int status, size_t bytes, const std::string& why) {
@@ -491,6 +508,7 @@ Server::Server(const fs::path& root, const ServerOptions& options)
   const std::regex submission_route(kSubmissionRoute);
   http_->set_pre_routing_handler([submission_route](const httplib::Request& req,
                                                     httplib::Response& res) {
+    HeadersReceived();
     bool handled = true;
     Guarded(res, [&] {
       if (!IsCleanText(req.path)) {

@@ -7,9 +7,13 @@
 // found by (submission id, test-image stem, metric) checked against the dataset's record.
 // Requests, in the order the server looks at them (docs/benchmark.md, "Threat model"):
 //   - connections: at most max_connections_per_address at once from one client address (more
-//     get 503 and are closed); each request (request line, headers and body) must arrive within
-//     request_timeout seconds, else it is answered 408 (when nothing was written yet) and the
-//     connection closed; an idle kept-alive connection is closed after keep_alive_timeout;
+//     get 503 and are closed); a request's line and headers must arrive within header_timeout
+//     seconds and the whole request (with its body) within request_timeout, else it is answered
+//     408 (when nothing was written yet) and the connection closed; an idle kept-alive
+//     connection is closed after keep_alive_timeout. A connection holds an HTTP thread while
+//     it is open, so http_threads / max_connections_per_address addresses are needed to hold
+//     every thread, each for at most header_timeout seconds without sending its headers;
+//     more than that is for a front-end (nginx, docs/benchmark.md);
 //   - after the headers, before any body byte is read: the path and every query parameter must
 //     be clean text (text.h; 400); a Content-Encoding other than identity is refused (415);
 //     only POST .../submissions may have a body (a body elsewhere: 400; other POST/PUT/...:
@@ -57,6 +61,7 @@ struct ServerOptions {
   int http_threads = 8;
   int scoring_workers = 1;
   size_t max_body = size_t{512} << 20;  // bytes of one request body
+  double header_timeout = 10;           // seconds for a request's line and headers
   double request_timeout = 300;         // seconds for one request: line, headers and body
   double keep_alive_timeout = 5;        // seconds an idle connection stays open
   int max_connections_per_address = 4;  // connections at once from one client address
