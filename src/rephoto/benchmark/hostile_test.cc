@@ -392,6 +392,14 @@ TEST_F(ServerTest, Issue27Obs9_RenderingLessNeverRanksHigher) {
   }
   EXPECT_NEAR(JsonNumber(cheat_scores["scores"]["all"]["filled"]["1-ncc"]), expected, 1e-12);
   EXPECT_GT(expected, 1.8);
+  const double honest_filled = JsonNumber(honest_scores["scores"]["all"]["filled"]["1-ncc"]);
+  EXPECT_LT(honest_filled, expected);
+  std::fprintf(stderr,
+               "1-ncc: cheat mean %.4f filled %.4f completeness %.4f; honest mean %.4f filled %.4f "
+               "completeness %.4f\n",
+               cheat_mean, expected, JsonNumber(cheat_scores["scores"]["all"]["completeness"]),
+               honest_mean, honest_filled,
+               JsonNumber(honest_scores["scores"]["all"]["completeness"]));
   const nlohmann::json board = Json("/api/datasets/tiny/leaderboard");
   EXPECT_EQ(board["ranking"]["rule"], "filled");
   ASSERT_EQ(board["entries"].size(), 2u);
