@@ -155,9 +155,13 @@ void CloseConnection(int sock, Clock::duration linger) {
   char buffer[16384];
   size_t drained = 0;
   while (drained < (size_t{4} << 20)) {
-    const auto left = end - Clock::now();
-    if (left <= Clock::duration::zero() || !WaitSocket(sock, POLLIN, left)) break;
-    const ssize_t n = recv(sock, buffer, sizeof(buffer), 0);
+    // What has arrived already is dropped without waiting; more is waited for until `linger`.
+    ssize_t n = recv(sock, buffer, sizeof(buffer), MSG_DONTWAIT);
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+      const auto left = end - Clock::now();
+      if (left <= Clock::duration::zero() || !WaitSocket(sock, POLLIN, left)) break;
+      n = recv(sock, buffer, sizeof(buffer), MSG_DONTWAIT);
+    }
     if (n <= 0) break;
     drained += static_cast<size_t>(n);
   }
@@ -397,7 +401,9 @@ class GuardedHttpServer : public httplib::Server {
           send(sock, response.data(), response.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
       log_connection_(address, 503, sent > 0 ? body.size() : 0,
                       "too many connections from this address");
-      CloseConnection(sock, std::chrono::milliseconds(100));
+      // No linger: a refusal must cost the thread nothing (an address opening many connections
+      // queues them all before the threads that refuse each).
+      CloseConnection(sock, Clock::duration::zero());
       return true;
     }
     const auto seconds = [](double s) {
@@ -443,7 +449,9 @@ class GuardedHttpServer : public httplib::Server {
       std::lock_guard lock(mutex_);
       if (--connections_[address] == 0) connections_.erase(address);
     }
-    CloseConnection(sock, std::chrono::seconds(1));
+    // After an error or a POST the client may still be sending a body: linger so that the
+    // response is not destroyed by a reset. An idle or finished connection is closed at once.
+    CloseConnection(sock, stream.close_after ? std::chrono::seconds(1) : Clock::duration::zero());
     return true;
   }
 

@@ -58,7 +58,8 @@ namespace rephoto::benchmark {
 struct ServerOptions {
   std::string host = "127.0.0.1";
   int port = 8080;  // 0 = any free port (see Server::port)
-  int http_threads = 8;
+  // One per open connection (cpp-httplib's model); cheap (a stack each), so many.
+  int http_threads = 32;
   int scoring_workers = 1;
   size_t max_body = size_t{512} << 20;  // bytes of one request body
   double header_timeout = 10;           // seconds for a request's line and headers
