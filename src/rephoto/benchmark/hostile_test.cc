@@ -25,58 +25,17 @@ namespace rephoto::benchmark {
 namespace {
 namespace fs = std::filesystem;
 using testing::ArchiveFormat;
+using testing::Chunk;
 using testing::Connect;
 using testing::MakeArchive;
+using testing::SendStreaming;
 using testing::ServerTest;
+using testing::StatusOf;
+using testing::Streamed;
 using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-// Sends `head`, then the pieces `next(bytes sent so far)` returns (until it returns ""), and
-// stops sending as soon as the server answers or closes; returns the response (read until the
-// server closes, at most 10 s) and how many body bytes were sent.
-struct Streamed {
-  std::string response;
-  size_t sent = 0;
-};
-Streamed SendStreaming(int port, const std::string& head,
-                       const std::function<std::string(size_t)>& next) {
-  Streamed result;
-  const int fd = Connect(port);
-  EXPECT_GE(fd, 0);
-  if (fd < 0) return result;
-  EXPECT_EQ(send(fd, head.data(), head.size(), MSG_NOSIGNAL), static_cast<ssize_t>(head.size()));
-  for (;;) {
-    pollfd readable{fd, POLLIN, 0};
-    if (poll(&readable, 1, 0) > 0) break;  // answered (or closed)
-    const std::string piece = next(result.sent);
-    if (piece.empty()) break;
-    const ssize_t n = send(fd, piece.data(), piece.size(), MSG_NOSIGNAL);
-    if (n <= 0) break;
-    result.sent += static_cast<size_t>(n);
-  }
-  const Clock::time_point start = Clock::now();
-  char buffer[65536];
-  while (SecondsSince(start) < 10) {
-    pollfd readable{fd, POLLIN, 0};
-    if (poll(&readable, 1, 1000) <= 0) continue;
-    const ssize_t n = recv(fd, buffer, sizeof(buffer), 0);
-    if (n <= 0) break;
-    result.response.append(buffer, static_cast<size_t>(n));
-  }
-  close(fd);
-  return result;
-}
-
-int StatusOf(const std::string& response) {
-  if (response.rfind("HTTP/1.1 ", 0) != 0 || response.size() < 12) return 0;
-  return std::stoi(response.substr(9, 3));
-}
-
-std::string Chunk(const std::string& data) {
-  return fmt::format("{:x}\r\n", data.size()) + data + "\r\n";
 }
 
 // A tar of the dataset's test images rendered as flat grey (128, 128, 128, 255).

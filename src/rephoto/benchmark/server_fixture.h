@@ -4,7 +4,10 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <poll.h>
 
+#include <chrono>
+#include <functional>
 #include <thread>
 
 #include "rephoto/benchmark/api.h"
@@ -48,6 +51,51 @@ inline int Connect(int port, const char* from = "127.0.0.1") {
 
 // Sends `request` verbatim (no client-side normalisation of the path) and returns the whole
 // response.
+// Sends `head`, then the pieces `next(bytes sent so far)` returns (until it returns ""), and
+// stops sending as soon as the server answers or closes; returns the response (read until the
+// server closes, at most 10 s) and how many body bytes were sent.
+struct Streamed {
+  std::string response;
+  size_t sent = 0;
+};
+inline Streamed SendStreaming(int port, const std::string& head,
+                              const std::function<std::string(size_t)>& next) {
+  Streamed result;
+  const int fd = Connect(port);
+  EXPECT_GE(fd, 0);
+  if (fd < 0) return result;
+  EXPECT_EQ(send(fd, head.data(), head.size(), MSG_NOSIGNAL), static_cast<ssize_t>(head.size()));
+  for (;;) {
+    pollfd readable{fd, POLLIN, 0};
+    if (poll(&readable, 1, 0) > 0) break;  // answered (or closed)
+    const std::string piece = next(result.sent);
+    if (piece.empty()) break;
+    const ssize_t n = send(fd, piece.data(), piece.size(), MSG_NOSIGNAL);
+    if (n <= 0) break;
+    result.sent += static_cast<size_t>(n);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  char buffer[65536];
+  while (std::chrono::steady_clock::now() - start < std::chrono::seconds(10)) {
+    pollfd readable{fd, POLLIN, 0};
+    if (poll(&readable, 1, 1000) <= 0) continue;
+    const ssize_t n = recv(fd, buffer, sizeof(buffer), 0);
+    if (n <= 0) break;
+    result.response.append(buffer, static_cast<size_t>(n));
+  }
+  close(fd);
+  return result;
+}
+
+inline int StatusOf(const std::string& response) {
+  if (response.rfind("HTTP/1.1 ", 0) != 0 || response.size() < 12) return 0;
+  return std::stoi(response.substr(9, 3));
+}
+
+inline std::string Chunk(const std::string& data) {
+  return fmt::format("{:x}\r\n", data.size()) + data + "\r\n";
+}
+
 inline std::string RawHttp(int port, const std::string& request) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in address{};
