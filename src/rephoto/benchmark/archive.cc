@@ -22,6 +22,12 @@ using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
 
 [[noreturn]] void Refuse(int status, const std::string& message) { throw Refused(status, message); }
 
+// libarchive's reason, which may be null (found by fuzz_benchmark_upload).
+std::string ReaderError(struct archive* reader) {
+  const char* text = archive_error_string(reader);
+  return text ? Printable(text) : "unknown error";
+}
+
 std::string Lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -51,7 +57,7 @@ void CopyEntryData(struct archive* reader, int fd, const std::string& name,
     const int rc = archive_read_data_block(reader, &block, &size, &offset);
     if (rc == ARCHIVE_EOF) return;
     if (rc != ARCHIVE_OK) {
-      Refuse(400, fmt::format("archive entry '{}': {}", name, archive_error_string(reader)));
+      Refuse(400, fmt::format("archive entry '{}': {}", name, ReaderError(reader)));
     }
     *total += static_cast<int64_t>(size);
     if (*total > limits.max_bytes) {
@@ -116,7 +122,7 @@ std::vector<ExtractedFile> ExtractFromReader(struct archive* reader,
     if (rc == ARCHIVE_EOF) break;
     if (rc != ARCHIVE_OK && rc != ARCHIVE_WARN) {
       Refuse(400, fmt::format("malformed archive after {} entries: {}", files.size(),
-                              archive_error_string(reader)));
+                              ReaderError(reader)));
     }
     const char* raw_name = archive_entry_pathname(entry);
     // Names appear in messages only in printable form (the raw bytes may be anything).
@@ -165,7 +171,7 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
       archive_read_open_memory(reader.get(), archive.data(), archive.size()) != ARCHIVE_OK) {
     Refuse(400,
            fmt::format("not a tar or zip archive: {}",
-                       archive.empty() ? "the body is empty" : archive_error_string(reader.get())));
+                       archive.empty() ? std::string("the body is empty") : ReaderError(reader.get())));
   }
   return ExtractFromReader(reader.get(), stems, limits, out_dir);
 }
@@ -179,7 +185,7 @@ std::vector<ExtractedFile> ExtractRendersFromFile(const std::filesystem::path& a
   if (error || size == 0) Refuse(400, "not a tar or zip archive: the body is empty");
   ArchivePtr reader = NewReader();
   if (archive_read_open_filename(reader.get(), archive.c_str(), 1 << 16) != ARCHIVE_OK) {
-    Refuse(400, fmt::format("not a tar or zip archive: {}", archive_error_string(reader.get())));
+    Refuse(400, fmt::format("not a tar or zip archive: {}", ReaderError(reader.get())));
   }
   return ExtractFromReader(reader.get(), stems, limits, out_dir);
 }

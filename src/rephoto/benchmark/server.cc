@@ -519,16 +519,7 @@ Server::Server(const fs::path& root, const ServerOptions& options)
     HeadersReceived();
     bool handled = true;
     Guarded(res, [&] {
-      if (!IsCleanText(req.path)) {
-        throw Refused(400, "the path is not UTF-8 text without control characters");
-      }
-      for (const auto& [key, value] : req.params) {
-        if (!IsCleanText(key) || !IsCleanText(value, TextPolicy::kMultiLine)) {
-          throw Refused(400, fmt::format("query parameter '{}': not UTF-8 text without control "
-                                         "characters",
-                                         Printable(key, 100)));
-        }
-      }
+      CheckRequestTarget(req.path, req.params);
       const std::string encoding = req.get_header_value("Content-Encoding");
       if (req.has_header("Content-Encoding") && encoding != "identity") {
         throw Refused(415, fmt::format("Content-Encoding '{}' is not accepted: send the archive "

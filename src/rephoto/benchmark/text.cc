@@ -63,6 +63,20 @@ void CheckRequestText(std::string_view text, std::string_view field, size_t min_
   }
 }
 
+void CheckRequestTarget(std::string_view path,
+                        const std::multimap<std::string, std::string>& params) {
+  if (!IsCleanText(path)) {
+    throw Refused(400, "the path is not UTF-8 text without control characters");
+  }
+  for (const auto& [key, value] : params) {
+    if (!IsCleanText(key) || !IsCleanText(value, TextPolicy::kMultiLine)) {
+      throw Refused(400, fmt::format("query parameter '{}': not UTF-8 text without control "
+                                     "characters",
+                                     Printable(key, 100)));
+    }
+  }
+}
+
 std::string Printable(std::string_view text, size_t max_bytes) {
   std::string out;
   const size_t end = std::min(text.size(), max_bytes);

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 #include <string_view>
 
@@ -24,6 +25,12 @@ bool IsCleanText(std::string_view text, TextPolicy policy = TextPolicy::kOneLine
 // (`min_bytes` = 1: required).
 void CheckRequestText(std::string_view text, std::string_view field, size_t min_bytes,
                       size_t max_bytes, TextPolicy policy = TextPolicy::kOneLine);
+
+// The checks of a request's decoded path and query parameters, before anything else looks at
+// them: throws Refused(400) unless the path, every key and every value are clean text (values
+// may hold line breaks: a description).
+void CheckRequestTarget(std::string_view path,
+                        const std::multimap<std::string, std::string>& params);
 
 // `text` for a message or a log line: clean one-line text as is; every byte of an invalid
 // sequence and every control character as \xNN; at most `max_bytes` bytes of input shown
