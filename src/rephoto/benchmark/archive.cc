@@ -169,9 +169,9 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
   ArchivePtr reader = NewReader();
   if (archive.empty() ||
       archive_read_open_memory(reader.get(), archive.data(), archive.size()) != ARCHIVE_OK) {
-    Refuse(400,
-           fmt::format("not a tar or zip archive: {}",
-                       archive.empty() ? std::string("the body is empty") : ReaderError(reader.get())));
+    Refuse(400, fmt::format("not a tar or zip archive: {}", archive.empty()
+                                                                ? std::string("the body is empty")
+                                                                : ReaderError(reader.get())));
   }
   return ExtractFromReader(reader.get(), stems, limits, out_dir);
 }

@@ -274,8 +274,17 @@ class DeadlineStream : public httplib::Stream {
 // response.
 thread_local DeadlineStream* current_stream = nullptr;
 
-void CloseAfterResponse() {
+// Closes the connection after the response to `req`, and says so in the response
+// ("Connection: close", which cpp-httplib writes when the request carries it), so that a proxy
+// never reuses the connection (nginx would answer 502 for a request sent on it).
+void CloseAfterResponse(const httplib::Request& req) {
   if (current_stream) current_stream->close_after = true;
+  if (req.get_header_value("Connection") != "close") {
+    // The Request is httplib's own non-const object, handed to handlers as const.
+    auto& headers = const_cast<httplib::Request&>(req).headers;
+    headers.erase("Connection");
+    headers.emplace("Connection", "close");
+  }
 }
 
 // The current request's whole deadline (set with its start).
@@ -493,7 +502,6 @@ Server::Server(const fs::path& root, const ServerOptions& options)
       access_log_->Request(req, res);
     } catch (...) {
     }
-    if (res.status >= 400 || (req.method != "GET" && req.method != "HEAD")) CloseAfterResponse();
   });
   http_->set_exception_handler(
       [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
@@ -530,6 +538,8 @@ Server::Server(const fs::path& root, const ServerOptions& options)
           req.has_header("Transfer-Encoding") ||
           (req.has_header("Content-Length") && req.get_header_value("Content-Length") != "0");
       if (req.method == "POST" && std::regex_match(req.path, submission_route)) {
+        // An upload may be refused before its body is read: never reuse the connection.
+        CloseAfterResponse(req);
         handled = false;
         return;
       }
@@ -540,7 +550,7 @@ Server::Server(const fs::path& root, const ServerOptions& options)
       if (has_body) throw Refused(400, "a GET request has no body");
       handled = false;
     });
-    if (handled) CloseAfterResponse();
+    if (handled) CloseAfterResponse(req);
     return handled ? httplib::Server::HandlerResponse::Handled
                    : httplib::Server::HandlerResponse::Unhandled;
   });
@@ -560,7 +570,7 @@ Server::Server(const fs::path& root, const ServerOptions& options)
         });
         if (res.status >= 400) {
           status = res.status;
-          CloseAfterResponse();
+          CloseAfterResponse(req);
         }
         return status;
       });

@@ -17,8 +17,9 @@
 //   - after the headers, before any body byte is read: the path and every query parameter must
 //     be clean text (text.h; 400); a Content-Encoding other than identity is refused (415);
 //     only POST .../submissions may have a body (a body elsewhere: 400; other POST/PUT/...:
-//     404/405); the connection is closed after every error and every POST, so an unread body
-//     is never taken for the next request;
+//     404/405); the connection is closed (and the response says "Connection: close") after
+//     every request refused there and every upload, so an unread body is never taken for the
+//     next request and a proxy never reuses such a connection;
 //   - POST .../submissions: the token (401), the declared Content-Length (413 above max_body),
 //     the dataset (404) and the rate limit (429; Submissions::Begin records the attempt) are
 //     checked before the body is read; the body (raw, chunked or without a length; a multipart

@@ -52,12 +52,24 @@ inline int Connect(int port, const char* from = "127.0.0.1") {
 // Sends `request` verbatim (no client-side normalisation of the path) and returns the whole
 // response.
 // Sends `head`, then the pieces `next(bytes sent so far)` returns (until it returns ""), and
-// stops sending as soon as the server answers or closes; returns the response (read until the
-// server closes, at most 10 s) and how many body bytes were sent.
+// stops sending as soon as the server answers or closes; returns the response (read until it
+// is complete or the server closes, at most 10 s) and how many body bytes were sent.
 struct Streamed {
   std::string response;
   size_t sent = 0;
 };
+// Whether `response` holds a whole response with a Content-Length.
+inline bool ResponseComplete(const std::string& response) {
+  const size_t end = response.find("\r\n\r\n");
+  if (end == std::string::npos) return false;
+  std::string head = response.substr(0, end);
+  for (char& c : head) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const size_t at = head.find("\r\ncontent-length: ");
+  if (at == std::string::npos) return false;
+  const size_t length = std::stoul(head.substr(at + 18));
+  return response.size() >= end + 4 + length;
+}
+
 inline Streamed SendStreaming(int port, const std::string& head,
                               const std::function<std::string(size_t)>& next) {
   Streamed result;
@@ -82,6 +94,7 @@ inline Streamed SendStreaming(int port, const std::string& head,
     const ssize_t n = recv(fd, buffer, sizeof(buffer), 0);
     if (n <= 0) break;
     result.response.append(buffer, static_cast<size_t>(n));
+    if (ResponseComplete(result.response)) break;  // a kept-alive connection stays open
   }
   close(fd);
   return result;
