@@ -386,6 +386,11 @@ class GuardedHttpServer : public httplib::Server {
       std::function<void(const std::string&, int, size_t, const std::string&)> log_connection)
       : options_(options), log_connection_(std::move(log_connection)) {}
 
+ public:
+  // cpp-httplib 0.11 listens with a backlog of 5: a burst of connections overflows it and
+  // their SYNs are retried a second later. Linux takes a new backlog from a second listen().
+  void SetBacklog(int backlog) { ::listen(svr_sock_, backlog); }
+
  private:
   bool process_and_close_socket(socket_t sock) override {
     const std::string address = PeerAddress(sock);
@@ -772,6 +777,7 @@ int Server::Bind() {
                                : std::string("bind failed"));
     port_ = options_.port;
   }
+  static_cast<GuardedHttpServer&>(*http_).SetBacklog(1024);
   submissions_.Start();
   return port_;
 }
