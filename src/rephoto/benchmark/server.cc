@@ -713,10 +713,8 @@ void Server::ReceiveSubmission(const httplib::Request& req, httplib::Response& r
           std::string* text = field == "method"        ? &method
                               : field == "description" ? &description
                                                        : nullptr;
-          if (text && text->size() + n <= 10001)
-            text->append(data, n);  // longer: refused below
-          else if (text)
-            text->append(data, std::min<size_t>(n, 10001 - std::min<size_t>(text->size(), 10001)));
+          // Kept up to 10001 bytes: longer is refused by Finish (the limit is 10000).
+          if (text) text->append(data, std::min(n, 10001 - std::min<size_t>(text->size(), 10001)));
           return true;
         });
     if (ok && archives != 1) throw Refused(400, "multipart field 'archive' missing or repeated");

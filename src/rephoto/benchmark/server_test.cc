@@ -312,6 +312,16 @@ TEST_F(ServerTest, MultipartUploadsWorkAsCurlSendsThem) {
       Json("/api/submissions/" + nlohmann::json::parse(res->body)["id"].get<std::string>());
   EXPECT_EQ(submission["method"], "form method");
   EXPECT_EQ(submission["description"], "sent as a form");
+  // A form field longer than its limit, or with a control character, is refused.
+  for (const std::string& description : {std::string(20000, 'd'), std::string("a\x01b")}) {
+    httplib::MultipartFormDataItems bad = {{"archive", good, "renders.tar", "application/x-tar"},
+                                           {"method", "form method", "", ""},
+                                           {"description", description, "", ""}};
+    const auto refused = client_->Post("/api/datasets/tiny/submissions",
+                                       {{"Authorization", "Bearer " + alice_}}, bad);
+    ASSERT_TRUE(refused);
+    EXPECT_EQ(refused->status, 400) << refused->body;
+  }
   ASSERT_TRUE(server_->submissions().WaitIdle(60));
 }
 
