@@ -37,6 +37,9 @@ struct Service {
     ServerOptions options;
     options.port = 0;
     options.limits.max_per_window = 1000000;
+    // 8 client threads from one address, as behind a proxy; no access log on stdout.
+    options.max_connections_per_address = 64;
+    options.access_log = "";
     server = std::make_unique<Server>(base / "root", options);
     testing::AddTinyDataset(server->store(), base / "scene", "tiny");
     token = server->store().AddParticipant("load");

@@ -19,6 +19,7 @@ packages=(
   chromium
   slurmctld slurmd slurm-client munge
   libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev python3-websocket
+  nginx-light openssl
 )
 
 missing=()

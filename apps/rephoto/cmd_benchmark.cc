@@ -2,8 +2,10 @@
 //                               --scheme every:N|fraction:F|lists:TRAIN,TEST [--shortcut PATH]...
 //                               [--description TEXT] [--metrics LIST] [--headline METRIC]
 //                               [--window N] [--eval-short-side PX] [--photo-masks DIR]
+//                               [--ranking filled|min-completeness:F] [--public-fraction F]
 // rephoto benchmark add-participant --root DIR --name NAME   (prints the token on the last line)
 // rephoto benchmark revoke --root DIR --name NAME
+// rephoto benchmark reveal --root DIR --name DATASET   (the private test photos rank)
 // rephoto benchmark list --root DIR
 // Administration of a benchmark folder (rephoto/benchmark/): safe while `rephoto serve` runs on
 // the same folder (SQLite WAL and busy timeout, see store.h).
@@ -17,6 +19,7 @@
 #include "command.h"
 #include "rephoto/benchmark/dataset.h"
 #include "rephoto/benchmark/store.h"
+#include "rephoto/benchmark/text.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/metrics/metrics.h"
@@ -38,6 +41,8 @@ struct BenchmarkArguments {
   int window = 9;
   int eval_short_side = 0;
   std::string photo_masks;
+  std::string ranking = "filled";
+  double public_fraction = 1;
 };
 
 void AddRootAndName(CLI::App* app, BenchmarkArguments* args, const std::string& what) {
@@ -58,6 +63,10 @@ int RunAddDataset(const BenchmarkArguments& args) {
   options.metrics = metrics::ParseMetricList(args.metrics);
   options.headline = args.headline;
   options.window = args.window;
+  options.ranking = args.ranking;
+  options.public_fraction = args.public_fraction;
+  REPHOTO_CHECK_USAGE(benchmark::IsCleanText(args.description, benchmark::TextPolicy::kMultiLine),
+                      "--description: not UTF-8 text without control characters");
   options.eval_short_side = args.eval_short_side;
   options.photo_masks = args.photo_masks;
   benchmark::AddDataset(store, options);
@@ -107,24 +116,44 @@ CommandRunner SetupBenchmark(CLI::App& app) {
   add->add_option("--photo-masks", args->photo_masks,
                   "Folder of test-photo masks by stem (0 = ignore the pixel); default: the "
                   "scene's own mask paths, if any");
+  add->add_option("--ranking", args->ranking,
+                  "How the leaderboard ranks: filled (the headline metric with every pixel not "
+                  "rendered counted at its worst value) or min-completeness:F (the headline "
+                  "mean among submissions of completeness >= F; the others listed apart)")
+      ->capture_default_str();
+  add->add_option("--public-fraction", args->public_fraction,
+                  "< 1: this random fraction of the test photos ranks the public leaderboard; "
+                  "the rest is scored but hidden until 'rephoto benchmark reveal'")
+      ->capture_default_str();
   CLI::App* participant =
       app.add_subcommand("add-participant", "Add a participant; prints its API token (last line)");
   AddRootAndName(participant, args.get(), "Participant name");
   CLI::App* revoke = app.add_subcommand("revoke", "Disable a participant's token");
   AddRootAndName(revoke, args.get(), "Participant name");
+  CLI::App* reveal = app.add_subcommand(
+      "reveal", "Show a dataset's private scores; its leaderboard ranks by the private photos");
+  AddRootAndName(reveal, args.get(), "Dataset name");
   CLI::App* list = app.add_subcommand("list", "List datasets and participants");
   list->add_option("--root", args->root, "The benchmark folder")->required();
-  return [args, add, participant, revoke, list]() {
+  return [args, add, participant, revoke, reveal, list]() {
     if (add->parsed()) return RunAddDataset(*args);
     if (list->parsed()) return RunList(*args);
     REPHOTO_CHECK_USAGE(std::filesystem::is_directory(args->root), "--root {}: not a folder",
                         args->root);
     benchmark::Store store(args->root);
+    if (reveal->parsed()) {
+      benchmark::RevealDataset(store, args->name);
+      LogInfo(fmt::format("dataset '{}' revealed", args->name));
+      return static_cast<int>(ExitCode::kOk);
+    }
     if (revoke->parsed()) {
       store.RevokeParticipant(args->name);
       LogInfo(fmt::format("participant '{}' revoked", args->name));
       return static_cast<int>(ExitCode::kOk);
     }
+    REPHOTO_CHECK_USAGE(
+        benchmark::IsCleanText(args->name) && !args->name.empty() && args->name.size() <= 100,
+        "--name: 1 to 100 bytes of UTF-8 text without control characters");
     const std::string token = store.AddParticipant(args->name);
     fmt::print("participant '{}' added; its API token (shown only now):\n{}\n", args->name, token);
     return static_cast<int>(ExitCode::kOk);

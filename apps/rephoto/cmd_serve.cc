@@ -1,6 +1,9 @@
 // rephoto serve --root DIR [--listen HOST:PORT] [--threads N] [--scoring-workers N]
 //               [--max-body BYTES] [--max-extracted BYTES] [--max-files N]
-//               [--rate-limit N] [--rate-window SECONDS]
+//               [--rate-limit N] [--rate-window SECONDS] [--header-timeout SECONDS]
+//               [--request-timeout SECONDS]
+//               [--keep-alive-timeout SECONDS] [--max-connections-per-address N]
+//               [--access-log FILE|-]
 // Serves the benchmark folder DIR over HTTP (rephoto/benchmark/server.h; API in
 // docs/benchmark.md) until SIGINT or SIGTERM. Scores submissions in the background; on start,
 // re-queues the submissions a previous run left queued or half-scored.
@@ -88,9 +91,29 @@ CommandRunner SetupServe(CLI::App& app) {
   app.add_option("--max-files", o.limits.archive.max_files, "Most files in one archive (413)")
       ->capture_default_str();
   app.add_option("--rate-limit", o.limits.max_per_window,
-                 "Submissions per participant per --rate-window (429 above)")
+                 "Submission attempts (accepted or refused) per participant per --rate-window "
+                 "(429 above)")
       ->capture_default_str();
   app.add_option("--rate-window", o.limits.window_seconds, "Rate-limit window in seconds")
+      ->capture_default_str();
+  app.add_option("--header-timeout", o.header_timeout,
+                 "Seconds for a request's line and headers (408 after)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--request-timeout", o.request_timeout,
+                 "Seconds one request (line, headers, body) may take (408 after)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--keep-alive-timeout", o.keep_alive_timeout,
+                 "Seconds an idle connection stays open")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-connections-per-address", o.max_connections_per_address,
+                 "Connections at once from one client address (503 above)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--access-log", o.access_log,
+                 "Access log in common log format: a file (appended), - for stdout, '' for none")
       ->capture_default_str();
   return [args]() { return RunServe(*args); };
 }

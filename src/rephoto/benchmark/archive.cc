@@ -11,6 +11,7 @@
 #include <fstream>
 #include <memory>
 
+#include "rephoto/benchmark/text.h"
 #include "rephoto/core/file.h"
 #include "rephoto/scene/image_name.h"
 
@@ -20,6 +21,12 @@ namespace {
 using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
 
 [[noreturn]] void Refuse(int status, const std::string& message) { throw Refused(status, message); }
+
+// libarchive's reason, which may be null (found by fuzz_benchmark_upload).
+std::string ReaderError(struct archive* reader) {
+  const char* text = archive_error_string(reader);
+  return text ? Printable(text) : "unknown error";
+}
 
 std::string Lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(),
@@ -50,7 +57,7 @@ void CopyEntryData(struct archive* reader, int fd, const std::string& name,
     const int rc = archive_read_data_block(reader, &block, &size, &offset);
     if (rc == ARCHIVE_EOF) return;
     if (rc != ARCHIVE_OK) {
-      Refuse(400, fmt::format("archive entry '{}': {}", name, archive_error_string(reader)));
+      Refuse(400, fmt::format("archive entry '{}': {}", name, ReaderError(reader)));
     }
     *total += static_cast<int64_t>(size);
     if (*total > limits.max_bytes) {
@@ -91,37 +98,35 @@ std::pair<std::string, std::string> CheckEntryName(const std::string& raw,
   return {stem, extension};
 }
 
-}  // namespace
-
-std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
-                                          const std::set<std::string>& stems,
-                                          const ArchiveLimits& limits,
-                                          const std::filesystem::path& out_dir) {
+ArchivePtr NewReader() {
   ArchivePtr reader(archive_read_new(), archive_read_free);
   REPHOTO_CHECK(reader, "libarchive: out of memory");
   archive_read_support_format_tar(reader.get());
   archive_read_support_format_zip(reader.get());
   archive_read_support_filter_gzip(reader.get());
-  if (archive.empty() ||
-      archive_read_open_memory(reader.get(), archive.data(), archive.size()) != ARCHIVE_OK) {
-    Refuse(400,
-           fmt::format("not a tar or zip archive: {}",
-                       archive.empty() ? "the body is empty" : archive_error_string(reader.get())));
-  }
+  return reader;
+}
+
+// Extraction from an opened reader (see ExtractRenders).
+std::vector<ExtractedFile> ExtractFromReader(struct archive* reader,
+                                             const std::set<std::string>& stems,
+                                             const ArchiveLimits& limits,
+                                             const std::filesystem::path& out_dir) {
   std::vector<ExtractedFile> files;
   std::set<std::string> seen;
   int64_t total = 0;
   size_t entries = 0;
   for (;;) {
     struct archive_entry* entry = nullptr;
-    const int rc = archive_read_next_header(reader.get(), &entry);
+    const int rc = archive_read_next_header(reader, &entry);
     if (rc == ARCHIVE_EOF) break;
     if (rc != ARCHIVE_OK && rc != ARCHIVE_WARN) {
       Refuse(400, fmt::format("malformed archive after {} entries: {}", files.size(),
-                              archive_error_string(reader.get())));
+                              ReaderError(reader)));
     }
     const char* raw_name = archive_entry_pathname(entry);
-    const std::string raw = raw_name ? raw_name : "";
+    // Names appear in messages only in printable form (the raw bytes may be anything).
+    const std::string raw = Printable(raw_name ? raw_name : "");
     if (++entries > limits.max_files) {
       Refuse(413, fmt::format("archive entry '{}': more than {} entries", raw, limits.max_files));
     }
@@ -132,7 +137,12 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
                               "FIFOs are refused)",
                               raw));
     }
-    const auto [stem, extension] = CheckEntryName(raw, stems);
+    if (!raw_name || !IsCleanText(raw_name)) {
+      Refuse(400, fmt::format("archive entry '{}': the name is not UTF-8 text without control "
+                              "characters",
+                              raw));
+    }
+    const auto [stem, extension] = CheckEntryName(raw_name, stems);
     if (!seen.insert(stem).second) {
       Refuse(400, fmt::format("archive entry '{}': a second render of '{}'", raw, stem));
     }
@@ -140,7 +150,7 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
     FileDescriptor fd(
         open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
     REPHOTO_CHECK(fd.fd >= 0, "{}: cannot create the render", path.string());
-    CopyEntryData(reader.get(), fd.fd, raw, limits, &total);
+    CopyEntryData(reader, fd.fd, raw, limits, &total);
     files.push_back({stem, path, 0});
     struct stat info {};
     if (fstat(fd.fd, &info) == 0) files.back().size = info.st_size;
@@ -148,6 +158,36 @@ std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
   std::sort(files.begin(), files.end(),
             [](const ExtractedFile& a, const ExtractedFile& b) { return a.stem < b.stem; });
   return files;
+}
+
+}  // namespace
+
+std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
+                                          const std::set<std::string>& stems,
+                                          const ArchiveLimits& limits,
+                                          const std::filesystem::path& out_dir) {
+  ArchivePtr reader = NewReader();
+  if (archive.empty() ||
+      archive_read_open_memory(reader.get(), archive.data(), archive.size()) != ARCHIVE_OK) {
+    Refuse(400, fmt::format("not a tar or zip archive: {}", archive.empty()
+                                                                ? std::string("the body is empty")
+                                                                : ReaderError(reader.get())));
+  }
+  return ExtractFromReader(reader.get(), stems, limits, out_dir);
+}
+
+std::vector<ExtractedFile> ExtractRendersFromFile(const std::filesystem::path& archive,
+                                                  const std::set<std::string>& stems,
+                                                  const ArchiveLimits& limits,
+                                                  const std::filesystem::path& out_dir) {
+  std::error_code error;
+  const auto size = std::filesystem::file_size(archive, error);
+  if (error || size == 0) Refuse(400, "not a tar or zip archive: the body is empty");
+  ArchivePtr reader = NewReader();
+  if (archive_read_open_filename(reader.get(), archive.c_str(), 1 << 16) != ARCHIVE_OK) {
+    Refuse(400, fmt::format("not a tar or zip archive: {}", ReaderError(reader.get())));
+  }
+  return ExtractFromReader(reader.get(), stems, limits, out_dir);
 }
 
 void WriteTar(const std::filesystem::path& path, const std::vector<TarMember>& members) {

@@ -1,7 +1,7 @@
 // Reading submitted archives and writing the tar files a dataset publishes (libarchive).
 //
-// ExtractRenders reads a .tar (optionally gzip-compressed) or .zip from memory, entry by entry,
-// and writes nothing but regular files named <stem><ext> directly inside `out_dir`:
+// ExtractRenders reads a .tar (optionally gzip-compressed) or .zip from memory or a file, entry
+// by entry, and writes nothing but regular files named <stem><ext> directly inside `out_dir`:
 //   - directory entries are skipped; every other entry must be a regular file: a symbolic or
 //     hard link, device, FIFO or socket is refused (400);
 //   - the entry's name must pass scene::CheckedImageName (no "..", no absolute path, no
@@ -48,11 +48,17 @@ struct ExtractedFile {
   int64_t size = 0;
 };
 
-// See above. Returns the files sorted by stem.
+// See above. Returns the files sorted by stem. Entry names that are not clean text (text.h:
+// invalid UTF-8, control characters) are refused (400); messages show names by Printable.
 std::vector<ExtractedFile> ExtractRenders(std::string_view archive,
                                           const std::set<std::string>& stems,
                                           const ArchiveLimits& limits,
                                           const std::filesystem::path& out_dir);
+// The same, reading the archive from a file (an upload streamed to disk), 64 KiB at a time.
+std::vector<ExtractedFile> ExtractRendersFromFile(const std::filesystem::path& archive,
+                                                  const std::set<std::string>& stems,
+                                                  const ArchiveLimits& limits,
+                                                  const std::filesystem::path& out_dir);
 
 struct TarMember {
   std::string name;              // the name inside the archive ('/'-separated, relative)

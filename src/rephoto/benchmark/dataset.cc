@@ -1,6 +1,7 @@
 #include "rephoto/benchmark/dataset.h"
 
 #include <fmt/format.h>
+#include <openssl/rand.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "rephoto/benchmark/api.h"
 #include "rephoto/benchmark/archive.h"
 #include "rephoto/compare/pairing.h"
 #include "rephoto/compare/resample.h"
@@ -175,13 +177,33 @@ nlohmann::json Settings(const DatasetOptions& options) {
       "--headline '{}': not one of the dataset's metrics", options.headline);
   REPHOTO_CHECK_USAGE(options.eval_short_side >= 0, "--eval-short-side {}: must be >= 0",
                       options.eval_short_side);
+  REPHOTO_CHECK_USAGE(options.public_fraction > 0 && options.public_fraction <= 1,
+                      "--public-fraction {}: must be in (0, 1]", options.public_fraction);
   REPHOTO_CHECK_USAGE(options.window >= 3 && options.window <= 101 && options.window % 2 == 1,
                       "--window {}: must be odd, 3..101", options.window);
   return {{"metrics", metric_names},
           {"headline", options.headline},
           {"higher_is_better", metrics::HigherIsBetter(*headline)},
           {"window", options.window},
-          {"eval_short_side", options.eval_short_side}};
+          {"eval_short_side", options.eval_short_side},
+          {"ranking", ParseRankingRule(options.ranking).text}};
+}
+
+// A random `fraction` of the test stems (at least one, and at least one left private when
+// fraction < 1): the public test photos. Random from OpenSSL, so nobody can tell which they are.
+nlohmann::json PublicStems(std::vector<std::string> stems, double fraction) {
+  const size_t count = std::clamp<size_t>(
+      static_cast<size_t>(std::llround(fraction * static_cast<double>(stems.size()))), 1,
+      stems.size() - 1);
+  for (size_t i = stems.size() - 1; i > 0; --i) {  // Fisher-Yates
+    uint64_t random = 0;
+    REPHOTO_CHECK(RAND_bytes(reinterpret_cast<unsigned char*>(&random), sizeof(random)) == 1,
+                  "OpenSSL RAND_bytes failed");
+    std::swap(stems[i], stems[random % (i + 1)]);
+  }
+  stems.resize(count);
+  std::sort(stems.begin(), stems.end());
+  return stems;
 }
 
 }  // namespace
@@ -194,6 +216,13 @@ void CheckDatasetName(const std::string& name) {
       });
   REPHOTO_CHECK_USAGE(valid, "dataset name '{}': use 1 to 64 of A-Z a-z 0-9 _ - . (not first)",
                       name);
+}
+
+void RevealDataset(Store& store, const std::string& name) {
+  std::optional<DatasetRecord> dataset = store.FindDataset(name);
+  REPHOTO_CHECK(dataset, "no dataset named '{}'", name);
+  dataset->info["revealed"] = true;
+  store.SetDatasetInfo(name, dataset->info);
 }
 
 fs::path SecretPhotoFolder(const fs::path& root, const std::string& name) {
@@ -283,6 +312,13 @@ int64_t AddDataset(Store& store, const DatasetOptions& options) {
   const std::string scheme_text = split.scheme.kind == split::SchemeKind::kLists
                                       ? std::string("lists")
                                       : split.scheme.ToString();
+  if (options.public_fraction < 1) {
+    REPHOTO_CHECK_USAGE(stems.size() >= 2,
+                        "--public-fraction {}: a split needs at least 2 test photos, the scheme "
+                        "gives {}",
+                        options.public_fraction, stems.size());
+    settings["public_stems"] = PublicStems(stems, options.public_fraction);
+  }
   const nlohmann::json info = {{"scheme", scheme_text},
                                {"settings", settings},
                                {"training_images", ImageList(train, nullptr)},

@@ -19,7 +19,8 @@
 // test stems need subfolders is refused (renders are uploaded as one flat folder).
 // Evaluation settings are fixed per dataset and recorded in DatasetRecord::info["settings"]:
 // metrics, the headline metric (leaderboard order), the metric window, eval_short_side and
-// whether photo masks apply ("masks").
+// whether photo masks apply ("masks"), the ranking rule ("ranking") and the public test photos
+// ("public_stems", with a split).
 // Failure: throws Error (UsageError for bad settings); a failure leaves no dataset behind
 // (files are staged in hidden folders and the database row is written last).
 // Thread safety: not for concurrent calls with the same name.
@@ -53,7 +54,17 @@ struct DatasetOptions {
   // every test photo has a mask or none.
   std::filesystem::path photo_masks;
   int window = 9;  // metric and completeness window (odd, 3..101), compare's default
+  // The leaderboard's ranking rule (api.h RankingRule): "filled" or "min-completeness:F".
+  std::string ranking = "filled";
+  // < 1: a public/private split of the test photos: this fraction of them, chosen at random
+  // and kept secret (settings "public_stems"), ranks the leaderboard until `rephoto benchmark
+  // reveal`; the others are scored but shown only after it.
+  double public_fraction = 1;
 };
+
+// `rephoto benchmark reveal`: the dataset's private test photos' scores become public and rank
+// its leaderboard (info "revealed"). Throws Error for an unknown dataset.
+void RevealDataset(Store& store, const std::string& name);
 
 // Throws UsageError unless `name` is a valid dataset name (see DatasetOptions::name).
 void CheckDatasetName(const std::string& name);

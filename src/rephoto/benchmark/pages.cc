@@ -9,7 +9,6 @@
 #include "rephoto/benchmark/submissions.h"
 #include "rephoto/compare/compare.h"
 #include "rephoto/metrics/metrics.h"
-#include "rephoto/report/boxplot.h"
 #include "rephoto/report/html.h"
 
 namespace rephoto::benchmark {
@@ -140,7 +139,8 @@ std::optional<std::string> DatasetPage(Store& store, const std::string& name) {
       "(COLMAP text or transforms.json) as an RGBA PNG (alpha = rendered), JPEG or EXR named by "
       "its stem (<code>test_images.txt</code>), at the camera's size, pack them in a .tar or "
       ".zip and post it with your token:</p><pre>tar cf renders.tar -C renders .\n"
-      "curl -H 'Authorization: Bearer TOKEN' --data-binary @renders.tar \\\n"
+      "curl -H 'Authorization: Bearer TOKEN' -H 'Content-Type: application/x-tar' \\\n"
+      "  --data-binary @renders.tar \\\n"
       "  'http://HOST/api/datasets/{}/submissions?method=MyMethod'\n"
       "curl http://HOST/api/submissions/ID</pre>",
       url_name);
@@ -161,39 +161,43 @@ std::optional<std::string> LeaderboardPage(Store& store, const std::string& name
   const auto board = LeaderboardJson(store, name);
   if (!board) return std::nullopt;
   const std::string headline = board->at("headline");
+  const auto& photos = board->at("photos");
   std::string body = fmt::format(
-      "<p>Ordered by the mean of <b>{}</b> over the test photos ({}); completeness is over all "
-      "test photos (a missing render counts as not covered).</p>"
+      "<p id=\"ranking\">Ranking rule <b>{}</b>: {} ({}). Scores over {} {} test photos; "
+      "completeness is over those photos (a missing render counts as not covered). Each "
+      "participant's best submission per method is shown.</p>"
       "<table class=\"sortable\" id=\"leaderboard\"><thead><tr><th>rank</th><th>method</th>"
-      "<th>participant</th><th>{} mean</th><th>{} median</th><th>completeness</th>{}</tr>"
-      "</thead><tbody>",
-      HtmlEscape(headline), board->at("higher_is_better") ? "higher is better" : "lower is better",
+      "<th>participant</th><th>{} filled</th><th>{} mean (covered)</th><th>completeness</th>{}"
+      "</tr></thead><tbody>",
+      HtmlEscape(board->at("ranking").at("rule").get<std::string>()),
+      HtmlEscape(board->at("ranking").at("text").get<std::string>()),
+      board->at("higher_is_better") ? "higher is better" : "lower is better",
+      photos.at("count").get<size_t>(),
+      photos.at("subset") == "all" ? "" : HtmlEscape(photos.at("subset").get<std::string>()),
       HtmlEscape(headline), HtmlEscape(headline), OtherMetricHeaders(store, name, headline));
-  report::BoxPlot plot{.title = headline + " per test photo", .y_label = headline};
-  for (const auto& entry : board->at("entries")) {
+  const auto row = [&](const nlohmann::json& entry, const std::string& rank) {
     const std::string id = entry.at("id");
     std::string others;
     for (const auto& [metric, mean] : entry.at("metrics").items()) {
       if (metric != headline) others += NumberCell(mean);
     }
-    body += fmt::format(
+    return fmt::format(
         "<tr data-id=\"{}\"><td class=\"num\" data-value=\"{}\">{}</td>"
         "<td><a href=\"/submissions/{}\">{}</a></td><td>{}</td>{}{}{}{}</tr>",
-        id, entry.at("rank").get<int>(), entry.at("rank").get<int>(), id,
-        HtmlEscape(entry.at("method").get<std::string>()),
+        id, rank, rank, id, HtmlEscape(entry.at("method").get<std::string>()),
         HtmlEscape(entry.at("participant").get<std::string>()),
-        NumberCell(entry.at("headline").at("mean")), NumberCell(entry.at("headline").at("median")),
+        NumberCell(entry.at("headline").at("filled")), NumberCell(entry.at("headline").at("mean")),
         NumberCell(entry.at("completeness")), others);
-    const auto submission = SubmissionJson(store, id);
-    report::BoxPlotBox box{.category = static_cast<int>(plot.categories.size())};
-    for (const auto& row : submission->at("images")) {
-      if (row.contains(headline)) box.values.push_back(JsonNumber(row.at(headline)));
-    }
-    plot.categories.push_back(entry.at("method").get<std::string>());
-    plot.boxes.push_back(std::move(box));
+  };
+  for (const auto& entry : board->at("entries")) {
+    body += row(entry, std::to_string(entry.at("rank").get<int>()));
   }
   body += "</tbody></table>";
-  if (!plot.boxes.empty()) body += "<h2>Per-photo errors</h2>" + report::BoxPlotSvg(plot);
+  if (!board->at("unranked").empty()) {
+    body += "<h2>Below the minimum completeness (not ranked)</h2><table id=\"unranked\"><tbody>";
+    for (const auto& entry : board->at("unranked")) body += row(entry, "-");
+    body += "</tbody></table>";
+  }
   return Page("Leaderboard " + name, body);
 }
 
@@ -211,62 +215,25 @@ std::optional<std::string> SubmissionPage(Store& store, const std::string& id) {
       HtmlEscape(submission->at("participant").get<std::string>()), HtmlEscape(status),
       HtmlEscape(submission->at("reason").get<std::string>()),
       HtmlEscape(submission->at("description").get<std::string>()));
-  if (status != "done") return Page("Submission " + id, body);
-  const auto dataset = store.FindDataset(submission->at("dataset"));
-  const nlohmann::json& settings = dataset->info.at("settings");
-  const std::string headline = settings.at("headline");
+  if (status != "done" || !submission->contains("scores")) return Page("Submission " + id, body);
+  // Aggregates only: per-photo numbers are for the participant, through the API with its token.
   body +=
-      "<h2>Per test photo</h2><table class=\"sortable\" id=\"images\"><thead><tr>"
-      "<th>name</th><th>status</th><th>completeness</th>";
-  for (const auto& metric : settings.at("metrics")) {
-    body += "<th>" + HtmlEscape(metric.get<std::string>()) + "</th>";
-  }
-  body += "<th>" + HtmlEscape(headline) + " error</th></tr></thead><tbody>";
-  const auto [low, high] = compare::ErrorColourRange(*metrics::ParseMetric(headline));
-  for (const auto& row : submission->at("images")) {
-    const std::string name = row.at("name");
-    body += "<tr><td>" + HtmlEscape(name) + "</td><td>" +
-            HtmlEscape(row.at("status").get<std::string>()) + "</td>" +
-            NumberCell(row.value("completeness", nlohmann::json()));
-    for (const auto& metric : settings.at("metrics")) {
-      body += NumberCell(row.value(metric.get<std::string>(), nlohmann::json()));
+      "<h2>Scores</h2><table id=\"scores\"><thead><tr><th>photos</th><th>count</th>"
+      "<th>completeness</th><th>metric</th><th>mean (covered)</th><th>filled</th></tr></thead>"
+      "<tbody>";
+  for (const auto& [subset, scores] : submission->at("scores").items()) {
+    for (const auto& [metric, mean] : scores.at("means").items()) {
+      body +=
+          fmt::format("<tr><td>{}</td><td class=\"num\">{}</td>{}<td>{}</td>{}{}</tr>",
+                      HtmlEscape(subset), scores.at("photos").get<size_t>(),
+                      NumberCell(scores.at("completeness")), HtmlEscape(metric), NumberCell(mean),
+                      NumberCell(scores.at("filled").value(metric, nlohmann::json())));
     }
-    const bool has_error_image = ErrorImagePath(store, id, name + "." + headline).has_value();
-    body += has_error_image ? fmt::format(
-                                  "<td><img class=\"err\" alt=\"{0} error of {1}\" "
-                                  "src=\"/api/submissions/{2}/errors/{3}.{4}.png\"></td></tr>",
-                                  HtmlEscape(headline), HtmlEscape(name), id, UrlComponent(name),
-                                  UrlComponent(headline))
-                            : "<td></td></tr>";
   }
-  body += "</tbody></table><p>Error images: " + report::JetColourBarSvg(low, high, headline) +
-          " (transparent: not evaluated). They show the error of the uploaded renders against "
-          "the secret photos, never the photos.</p>";
+  body += "</tbody></table>";
   return Page("Submission " + id, body);
 }
 
 std::string NotFoundPage() { return Page("Not found", "<p>There is no such page.</p>"); }
-
-std::optional<std::filesystem::path> ErrorImagePath(Store& store, const std::string& id,
-                                                    const std::string& stem_and_metric) {
-  if (!IsSubmissionId(id)) return std::nullopt;
-  const size_t dot = stem_and_metric.rfind('.');
-  if (dot == std::string::npos) return std::nullopt;
-  const std::string stem = stem_and_metric.substr(0, dot);
-  const std::string metric = stem_and_metric.substr(dot + 1);
-  const auto submission = store.FindSubmission(id);
-  if (!submission || submission->status != SubmissionStatus::kDone) return std::nullopt;
-  const auto dataset = store.FindDataset(submission->dataset);
-  if (!dataset) return std::nullopt;
-  bool known_stem = false, known_metric = false;
-  for (const auto& image : dataset->info.at("test_images")) known_stem |= image.at("stem") == stem;
-  for (const auto& name : dataset->info.at("settings").at("metrics"))
-    known_metric |= name == metric;
-  if (!known_stem || !known_metric) return std::nullopt;
-  const std::filesystem::path path =
-      SubmissionRunFolder(store.root(), id) / "errors" / (stem + "." + metric + ".png");
-  if (!std::filesystem::is_regular_file(path)) return std::nullopt;
-  return path;
-}
 
 }  // namespace rephoto::benchmark

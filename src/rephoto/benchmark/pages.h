@@ -1,16 +1,14 @@
 // The benchmark's web pages: server-rendered HTML that works without JavaScript (a small inline
 // script only adds sorting by a column header). Every text from the database or a participant
-// goes through report::HtmlEscape. Pages link only to other pages, to published files and to a
-// submission's error images (never to a photo: the secret test photos are not reachable).
+// goes through report::HtmlEscape. Pages link only to other pages and to published files; they
+// show aggregates only (nothing per test photo, nothing derived from a photo's pixels).
 //   DatasetListPage    /                          the datasets, links to their pages
 //   DatasetPage        /datasets/NAME             description, downloads, settings, how to
 //                                                 submit with curl, the test images
-//   LeaderboardPage    /datasets/NAME/leaderboard ranked table (headline metric, completeness
-//                                                 over all test photos, every metric's mean)
-//                                                 and boxplots of the per-image headline values
-//   SubmissionPage     /submissions/ID            status, summary, per-image table with the
-//                                                 error images (jet colours) of the headline
-//                                                 metric: errors of what the submitter uploaded
+//   LeaderboardPage    /datasets/NAME/leaderboard the ranking rule, the ranked table (headline
+//                                                 filled and mean, completeness, every metric's
+//                                                 mean) and the unranked submissions
+//   SubmissionPage     /submissions/ID            status, reason, the scores per subset
 // Each returns std::nullopt when the dataset or submission does not exist.
 // Thread safety: as the Store.
 #pragma once
@@ -28,10 +26,5 @@ std::optional<std::string> DatasetPage(Store& store, const std::string& name);
 std::optional<std::string> LeaderboardPage(Store& store, const std::string& name);
 std::optional<std::string> SubmissionPage(Store& store, const std::string& id);
 std::string NotFoundPage();
-
-// The error PNG "<stem>.<metric>" of a done submission, when id, stem and metric are those of
-// the submission and its dataset and the file exists; else std::nullopt.
-std::optional<std::filesystem::path> ErrorImagePath(Store& store, const std::string& id,
-                                                    const std::string& stem_and_metric);
 
 }  // namespace rephoto::benchmark

@@ -3,113 +3,19 @@
 // photo, and that a submission's scores are exactly `rephoto compare`'s on the same files.
 #include "rephoto/benchmark/server.h"
 
-#include <gtest/gtest.h>
-
-#include <thread>
-
-#include "rephoto/benchmark/api.h"
-#include "rephoto/benchmark/dataset.h"
-#include "rephoto/benchmark/test_fixture.h"
 #include "rephoto/compare/compare.h"
-#include "rephoto/core/file.h"
 #include "rephoto/io/image_io.h"
-#include "rephoto/testing/testing.h"
-
-// After Eigen (through the rephoto headers): <resolv.h>, which httplib includes, defines a
-// macro `_res` that Eigen uses as a parameter name.
-#include <arpa/inet.h>
-#include <httplib.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
+// Last: it includes httplib (see there).
+#include "rephoto/benchmark/server_fixture.h"
 
 namespace rephoto::benchmark {
 namespace {
 namespace fs = std::filesystem;
 using testing::ArchiveFormat;
 using testing::MakeArchive;
+using testing::RawHttp;
+using testing::ServerTest;
 using Type = testing::TestEntry::Type;
-
-// Sends `request` verbatim (no client-side normalisation of the path) and returns the whole
-// response.
-std::string RawHttp(int port, const std::string& request) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<uint16_t>(port));
-  inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
-  EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
-  EXPECT_EQ(write(fd, request.data(), request.size()), static_cast<ssize_t>(request.size()));
-  std::string response;
-  char buffer[65536];
-  for (ssize_t n; (n = read(fd, buffer, sizeof(buffer))) > 0;) response.append(buffer, n);
-  close(fd);
-  return response;
-}
-
-class ServerTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    rng_ = rephoto::testing::MakeRng();
-    const fs::path base = rephoto::testing::MakeTempDir();
-    root_ = base / "root";
-    fs::create_directories(root_);
-    testing::MakeTinyScene(base / "scene", 6, 64, 48, rng_);
-    {
-      Store store(root_);
-      testing::AddTinyDataset(store, base / "scene", "tiny");
-      alice_ = store.AddParticipant("alice");
-      bob_ = store.AddParticipant("bob");
-      revoked_ = store.AddParticipant("mallory");
-      store.RevokeParticipant("mallory");
-    }
-    ServerOptions options;
-    options.host = "127.0.0.1";
-    options.port = 0;
-    options.http_threads = 4;
-    options.max_body = 300000;
-    options.limits.archive = {.max_bytes = 200000, .max_files = 4};
-    options.limits.max_per_window = 3;
-    server_ = std::make_unique<Server>(root_, options);
-    port_ = server_->Bind();
-    thread_ = std::thread([this] { server_->Run(); });
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-    client_->set_read_timeout(60);
-  }
-  void TearDown() override {
-    server_->Stop();
-    thread_.join();
-    server_.reset();
-  }
-  httplib::Result Submit(const std::string& token, const std::string& archive,
-                         const std::string& method = "m") {
-    httplib::Headers headers;
-    if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
-    return client_->Post(("/api/datasets/tiny/submissions?method=" + method).c_str(), headers,
-                         archive, "application/x-tar");
-  }
-  nlohmann::json Json(const std::string& path) {
-    const auto res = client_->Get(path.c_str());
-    EXPECT_TRUE(res);
-    EXPECT_EQ(res->status, 200) << path;
-    return nlohmann::json::parse(res->body);
-  }
-  std::vector<std::string> SecretPhotos() const {
-    std::vector<std::string> photos;
-    for (const auto& entry : fs::directory_iterator(SecretPhotoFolder(root_, "tiny"))) {
-      photos.push_back(ReadFileToString(entry.path()));
-    }
-    return photos;
-  }
-
-  std::mt19937_64 rng_;
-  fs::path root_;
-  std::string alice_, bob_, revoked_;
-  std::unique_ptr<Server> server_;
-  std::thread thread_;
-  int port_ = 0;
-  std::unique_ptr<httplib::Client> client_;
-};
 
 TEST_F(ServerTest, ListsDatasetsAndPublishesTrainingAndTestCameras) {
   const nlohmann::json list = Json("/api/datasets");
@@ -210,8 +116,10 @@ TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
   const std::string noisy_id = nlohmann::json::parse(noisy->body)["id"];
   ASSERT_TRUE(server_->submissions().WaitIdle(120));
 
-  for (const std::string& id : {perfect_id, noisy_id}) {
-    const nlohmann::json submission = Json("/api/submissions/" + id);
+  for (const auto& [id, token] : {std::pair{perfect_id, alice_}, std::pair{noisy_id, bob_}}) {
+    // Per-photo numbers go to the submission's own participant only.
+    EXPECT_FALSE(Json("/api/submissions/" + id).contains("images"));
+    const nlohmann::json submission = Json("/api/submissions/" + id, token);
     ASSERT_EQ(submission["status"], "done") << submission.dump();
     // `rephoto compare` on the same photos and renders, with the dataset's settings.
     compare::CompareOptions options;
@@ -220,9 +128,11 @@ TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
     options.out = rephoto::testing::MakeTempDir() / "compare";
     options.metrics = metrics::ParseMetricList("1-ncc,cb+cr,psnr");
     options.metric_options.window = 5;
+    options.write_error_images = false;
     compare::RunCompare(options);
     EXPECT_EQ(submission["summary"],
-              nlohmann::json::parse(ReadFileToString(options.out / "summary.json")));
+              PublicSummary(nlohmann::json::parse(ReadFileToString(options.out / "summary.json"))));
+    EXPECT_FALSE(submission["summary"]["parameters"].contains("photos"));  // no server paths
     ASSERT_EQ(submission["images"].size(), 2u);
     EXPECT_FALSE(submission["images"][0].contains("photo"));  // no server paths
   }
@@ -234,6 +144,7 @@ TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
 
   const nlohmann::json board = Json("/api/datasets/tiny/leaderboard");
   EXPECT_EQ(board["headline"], "1-ncc");
+  EXPECT_EQ(board["ranking"]["rule"], "filled");
   ASSERT_EQ(board["entries"].size(), 2u);
   EXPECT_EQ(board["entries"][0]["id"], perfect_id);
   EXPECT_EQ(board["entries"][0]["rank"], 1);
@@ -243,7 +154,7 @@ TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
   EXPECT_EQ(board["entries"][1]["metrics"]["cb+cr"],
             Json("/api/submissions/" + noisy_id)["summary"]["metrics"]["cb+cr"]["mean"]);
 
-  // Pages: 200 and the method names; the error image of a done submission is a PNG.
+  // Pages: 200 and the method names.
   for (const std::string& path : std::vector<std::string>{
            "/", "/datasets/tiny", "/datasets/tiny/leaderboard", "/submissions/" + noisy_id}) {
     const auto res = client_->Get(path.c_str());
@@ -251,12 +162,6 @@ TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
     EXPECT_NE(res->body.find("<!DOCTYPE html>"), std::string::npos);
   }
   EXPECT_NE(client_->Get("/datasets/tiny/leaderboard")->body.find("noisy"), std::string::npos);
-  const auto error_png =
-      client_->Get(("/api/submissions/" + noisy_id + "/errors/03.1-ncc.png").c_str());
-  ASSERT_TRUE(error_png && error_png->status == 200);
-  EXPECT_EQ(error_png->body.substr(1, 3), "PNG");
-  EXPECT_EQ(client_->Get(("/api/submissions/" + noisy_id + "/errors/03.ssim.png").c_str())->status,
-            404);  // not a metric of the dataset
   EXPECT_EQ(client_->Get("/submissions/nonexistent")->status, 404);
 }
 
@@ -345,8 +250,11 @@ TEST_F(ServerTest, ARenderThatCannotBeDecodedIsScoredAsFailedWithTheReason) {
   const nlohmann::json submission =
       Json("/api/submissions/" + nlohmann::json::parse(res->body)["id"].get<std::string>());
   EXPECT_EQ(submission["status"], "failed");
-  EXPECT_NE(submission["reason"].get<std::string>().find("00.png"), std::string::npos)
-      << submission["reason"];
+  // Named relative to the submission: no server path (issue 27, observation 7).
+  const std::string reason = submission["reason"];
+  EXPECT_EQ(reason.rfind("00.png: ", 0), 0u) << reason;
+  EXPECT_EQ(reason.find(root_.string()), std::string::npos) << reason;
+  EXPECT_EQ(reason.find("/submissions/"), std::string::npos) << reason;
   EXPECT_FALSE(submission.contains("summary"));
   EXPECT_TRUE(Json("/api/datasets/tiny/leaderboard")["entries"].empty());
 }
@@ -379,11 +287,15 @@ TEST_F(ServerTest, OneServerPerRootAndUnacceptedUploadsAreRemovedOnStart) {
 }
 
 TEST_F(ServerTest, RateLimitsEachParticipantWith429) {
+  StopServer();
+  ServerOptions options = DefaultOptions();
+  options.limits.max_per_window = 3;
+  StartServer(options);
   const std::string good = testing::RendersFromPhotos(root_, "tiny", 0.0, rng_);
   for (int i = 0; i < 3; ++i) EXPECT_EQ(Submit(bob_, good)->status, 202);
   const auto refused = Submit(bob_, good);
   EXPECT_EQ(refused->status, 429);
-  EXPECT_NE(refused->body.find("at most 3 submissions"), std::string::npos);
+  EXPECT_NE(refused->body.find("at most 3 submission attempts"), std::string::npos);
   EXPECT_EQ(Submit(alice_, good)->status, 202);  // others are not affected
   ASSERT_TRUE(server_->submissions().WaitIdle(120));
 }
@@ -400,6 +312,16 @@ TEST_F(ServerTest, MultipartUploadsWorkAsCurlSendsThem) {
       Json("/api/submissions/" + nlohmann::json::parse(res->body)["id"].get<std::string>());
   EXPECT_EQ(submission["method"], "form method");
   EXPECT_EQ(submission["description"], "sent as a form");
+  // A form field longer than its limit, or with a control character, is refused.
+  for (const std::string& description : {std::string(20000, 'd'), std::string("a\x01b")}) {
+    httplib::MultipartFormDataItems bad = {{"archive", good, "renders.tar", "application/x-tar"},
+                                           {"method", "form method", "", ""},
+                                           {"description", description, "", ""}};
+    const auto refused = client_->Post("/api/datasets/tiny/submissions",
+                                       {{"Authorization", "Bearer " + alice_}}, bad);
+    ASSERT_TRUE(refused);
+    EXPECT_EQ(refused->status, 400) << refused->body;
+  }
   ASSERT_TRUE(server_->submissions().WaitIdle(60));
 }
 

@@ -51,6 +51,16 @@ CREATE TABLE submissions (
 CREATE INDEX submissions_by_participant ON submissions(participant_id, created);
 CREATE INDEX submissions_by_status ON submissions(status, created);
 )sql",
+    // Every submission attempt past authentication, accepted or refused (the rate limit counts
+    // these), and the leaderboard scores computed at scoring time (submissions.h Scores).
+    R"sql(
+CREATE TABLE attempts (
+  id INTEGER PRIMARY KEY,
+  participant_id INTEGER NOT NULL REFERENCES participants(id),
+  created REAL NOT NULL);
+CREATE INDEX attempts_by_participant ON attempts(participant_id, created);
+ALTER TABLE submissions ADD COLUMN scores TEXT;
+)sql",
 };
 
 std::string Hex(const unsigned char* bytes, size_t size) {
@@ -396,6 +406,34 @@ bool Store::AddSubmission(const SubmissionRecord& record, int max_per_window,
   }
 }
 
+bool Store::RecordAttempt(int64_t participant_id, int max_per_window, double window_seconds) {
+  std::lock_guard lock(mutex_);
+  Execute("BEGIN IMMEDIATE");
+  try {
+    const double now = NowSeconds();
+    Statement count(this, "SELECT COUNT(*) FROM attempts WHERE participant_id = ? AND created > ?");
+    count.Bind(participant_id).Bind(now - window_seconds).Step();
+    if (count.Int(0) >= max_per_window) {
+      Execute("ROLLBACK");
+      return false;
+    }
+    Statement insert(this, "INSERT INTO attempts (participant_id, created) VALUES (?, ?)");
+    insert.Bind(participant_id).Bind(now).Step();
+    Execute("COMMIT");
+    return true;
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
+int Store::RecentAttempts(int64_t participant_id, double window_seconds) {
+  std::lock_guard lock(mutex_);
+  Statement count(this, "SELECT COUNT(*) FROM attempts WHERE participant_id = ? AND created > ?");
+  count.Bind(participant_id).Bind(NowSeconds() - window_seconds).Step();
+  return static_cast<int>(count.Int(0));
+}
+
 int Store::RecentSubmissions(int64_t participant_id, double window_seconds) {
   std::lock_guard lock(mutex_);
   Statement count(this,
@@ -405,16 +443,19 @@ int Store::RecentSubmissions(int64_t participant_id, double window_seconds) {
 }
 
 void Store::SetStatus(const std::string& id, SubmissionStatus status, const std::string& reason,
-                      const nlohmann::json& summary) {
+                      const nlohmann::json& summary, const nlohmann::json& scores) {
   std::lock_guard lock(mutex_);
   Statement statement(this,
-                      "UPDATE submissions SET status = ?, reason = ?, summary = ?, updated = ? "
-                      "WHERE id = ?");
+                      "UPDATE submissions SET status = ?, reason = ?, summary = ?, scores = ?, "
+                      "updated = ? WHERE id = ?");
+  // Invalid UTF-8 (from a file name in an exception's message) is replaced, never thrown.
   statement.Bind(StatusName(status)).Bind(reason);
-  if (summary.is_null()) {
-    statement.BindNull();
-  } else {
-    statement.Bind(summary.dump());
+  for (const nlohmann::json* json : {&summary, &scores}) {
+    if (json->is_null()) {
+      statement.BindNull();
+    } else {
+      statement.Bind(json->dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+    }
   }
   statement.Bind(NowSeconds()).Bind(id).Step();
   REPHOTO_CHECK(sqlite3_changes(db_) == 1, "{}: no submission '{}'", db_path_.string(), id);
@@ -426,7 +467,8 @@ std::vector<SubmissionRecord> Store::QuerySubmissions(const std::string& where,
   Statement statement(
       this,
       "SELECT s.id, s.dataset_id, d.name, s.participant_id, p.name, s.method, s.description, "
-      "s.status, s.reason, s.summary, s.created FROM submissions s JOIN datasets d ON d.id = "
+      "s.status, s.reason, s.summary, s.created, s.scores FROM submissions s JOIN datasets d ON "
+      "d.id = "
       "s.dataset_id JOIN participants p ON p.id = s.participant_id " +
           where);
   for (const std::string& arg : args) statement.Bind(arg);
@@ -442,8 +484,16 @@ std::vector<SubmissionRecord> Store::QuerySubmissions(const std::string& where,
     record.description = statement.Text(6);
     record.status = ParseStatus(statement.Text(7)).value_or(SubmissionStatus::kFailed);
     record.reason = statement.Text(8);
-    if (!statement.IsNull(9)) record.summary = nlohmann::json::parse(statement.Text(9));
+    // A row that does not parse (edited by hand) reads as no summary, never as an exception.
+    if (!statement.IsNull(9)) {
+      record.summary = nlohmann::json::parse(statement.Text(9), nullptr, false);
+      if (record.summary.is_discarded()) record.summary = nullptr;
+    }
     record.created = statement.Real(10);
+    if (!statement.IsNull(11)) {
+      record.scores = nlohmann::json::parse(statement.Text(11), nullptr, false);
+      if (record.scores.is_discarded()) record.scores = nullptr;
+    }
     out.push_back(std::move(record));
   }
   return out;
@@ -469,6 +519,18 @@ std::vector<SubmissionRecord> Store::SubmissionsWithStatus(
 std::vector<SubmissionRecord> Store::DatasetSubmissions(int64_t dataset_id) {
   return QuerySubmissions("WHERE s.dataset_id = ? ORDER BY s.created DESC, s.id",
                           {std::to_string(dataset_id)});
+}
+
+std::vector<SubmissionRecord> Store::ParticipantSubmissions(int64_t participant_id) {
+  return QuerySubmissions("WHERE s.participant_id = ? ORDER BY s.created DESC, s.id",
+                          {std::to_string(participant_id)});
+}
+
+void Store::SetDatasetInfo(const std::string& name, const nlohmann::json& info) {
+  std::lock_guard lock(mutex_);
+  Statement statement(this, "UPDATE datasets SET info = ? WHERE name = ?");
+  statement.Bind(info.dump()).Bind(name).Step();
+  REPHOTO_CHECK(sqlite3_changes(db_) == 1, "{}: no dataset '{}'", db_path_.string(), name);
 }
 
 }  // namespace rephoto::benchmark

@@ -69,6 +69,7 @@ struct SubmissionRecord {
   SubmissionStatus status = SubmissionStatus::kQueued;
   std::string reason;      // why it failed ("" otherwise)
   nlohmann::json summary;  // the run's summary.json when done, else null
+  nlohmann::json scores;   // the leaderboard scores when done (submissions.h ComputeScores)
   double created = 0;
 };
 
@@ -108,13 +109,24 @@ class Store {
   bool AddSubmission(const SubmissionRecord& record, int max_per_window, double window_seconds);
   // How many submissions the participant made in the last `window_seconds`.
   int RecentSubmissions(int64_t participant_id, double window_seconds);
+  // Records one submission attempt (accepted or not) unless the participant made
+  // `max_per_window` or more in the last `window_seconds`: then returns false and records
+  // nothing (one transaction). RecentAttempts counts them.
+  bool RecordAttempt(int64_t participant_id, int max_per_window, double window_seconds);
+  int RecentAttempts(int64_t participant_id, double window_seconds);
+  // Text that is not UTF-8 in `reason` is stored as is; JSON is stored with invalid UTF-8
+  // replaced (U+FFFD).
   void SetStatus(const std::string& id, SubmissionStatus status, const std::string& reason,
-                 const nlohmann::json& summary);
+                 const nlohmann::json& summary, const nlohmann::json& scores = nullptr);
   std::optional<SubmissionRecord> FindSubmission(const std::string& id);
   // Submissions with one of these statuses, oldest first.
   std::vector<SubmissionRecord> SubmissionsWithStatus(const std::vector<SubmissionStatus>& any);
   // A dataset's submissions, newest first.
   std::vector<SubmissionRecord> DatasetSubmissions(int64_t dataset_id);
+  // A participant's submissions, newest first.
+  std::vector<SubmissionRecord> ParticipantSubmissions(int64_t participant_id);
+  // Replaces a dataset's info (`rephoto benchmark reveal`); throws Error for an unknown name.
+  void SetDatasetInfo(const std::string& name, const nlohmann::json& info);
 
  private:
   struct Statement;

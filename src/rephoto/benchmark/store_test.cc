@@ -46,15 +46,15 @@ TEST(StoreTest, MigratesOnceInWalModeWithForeignKeys) {
   const fs::path root = rephoto::testing::MakeTempDir();
   {
     Store store(root);
-    EXPECT_EQ(store.SchemaVersion(), 1);
+    EXPECT_EQ(store.SchemaVersion(), 2);
   }
   Store again(root);  // reopening applies nothing twice
-  EXPECT_EQ(again.SchemaVersion(), 1);
+  EXPECT_EQ(again.SchemaVersion(), 2);
   EXPECT_EQ(RawQuery(root / "benchmark.sqlite", "PRAGMA journal_mode"), "wal");
   EXPECT_EQ(RawQuery(root / "benchmark.sqlite",
                      "SELECT COUNT(*) FROM sqlite_master WHERE "
                      "type = 'table'"),
-            "4");
+            "5");  // datasets, files, participants, submissions, attempts
   // Foreign keys are enforced: a submission of an unknown dataset is refused.
   const std::string token = again.AddParticipant("p");
   EXPECT_NE(rephoto::testing::ErrorOf([&] {

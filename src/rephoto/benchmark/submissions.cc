@@ -9,9 +9,11 @@
 #include <set>
 
 #include "rephoto/benchmark/dataset.h"
+#include "rephoto/benchmark/text.h"
 #include "rephoto/compare/compare.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
+#include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 
 namespace rephoto::benchmark {
@@ -72,7 +74,42 @@ compare::CompareOptions ScoringOptions(const fs::path& root, const DatasetRecord
   }
   options.metric_options.window = settings.at("window").get<int>();
   if (settings.value("masks", false)) options.photo_masks = SecretMaskFolder(root, dataset.name);
+  // Error images are the secret photos pixel by pixel (a flat grey render's psnr error image
+  // is (photo - 0.5)^2): none is ever made.
+  options.write_error_images = false;
   return options;
+}
+
+std::vector<std::string> TestStems(const DatasetRecord& dataset) {
+  std::vector<std::string> stems;
+  for (const auto& image : dataset.info.at("test_images")) stems.push_back(image.at("stem"));
+  return stems;
+}
+
+// The leaderboard scores of every subset: "all", and with a public/private split "public" and
+// "private" (without one, every photo is public).
+nlohmann::json AllScores(const fs::path& per_image_csv, const DatasetRecord& dataset) {
+  const nlohmann::json& settings = dataset.info.at("settings");
+  std::vector<metrics::Metric> metric_list;
+  for (const auto& name : settings.at("metrics")) {
+    metric_list.push_back(*metrics::ParseMetric(name.get<std::string>()));
+  }
+  const std::vector<std::string> all = TestStems(dataset);
+  std::vector<std::string> public_stems = all, private_stems;
+  if (settings.contains("public_stems")) {
+    public_stems = settings.at("public_stems").get<std::vector<std::string>>();
+    for (const std::string& stem : all) {
+      if (std::find(public_stems.begin(), public_stems.end(), stem) == public_stems.end()) {
+        private_stems.push_back(stem);
+      }
+    }
+  }
+  nlohmann::json scores = {{"all", ComputeScores(per_image_csv, all, metric_list)},
+                           {"public", ComputeScores(per_image_csv, public_stems, metric_list)}};
+  if (!private_stems.empty()) {
+    scores["private"] = ComputeScores(per_image_csv, private_stems, metric_list);
+  }
+  return scores;
 }
 
 }  // namespace
@@ -99,6 +136,125 @@ double LeaderboardCompleteness(const nlohmann::json& summary) {
   const double photos = summary.at("counts").at("photos").get<double>();
   if (!completeness.at("mean").is_number() || photos <= 0) return 0;
   return completeness.at("mean").get<double>() * completeness.at("images").get<double>() / photos;
+}
+
+double WorstValue(metrics::Metric metric) {
+  switch (metric) {
+    case metrics::Metric::kOneMinusNcc:
+    case metrics::Metric::kCbCr:
+      return 2;
+    case metrics::Metric::kZssd:
+      return 4;
+    case metrics::Metric::kDssim:
+    case metrics::Metric::kCensus:
+    case metrics::Metric::kIcid:
+      return 1;
+    case metrics::Metric::kPsnr:
+      return 0;
+    case metrics::Metric::kSsim:
+      return -1;
+  }
+  return NAN;
+}
+
+nlohmann::json ComputeScores(const fs::path& per_image_csv, const std::vector<std::string>& stems,
+                             const std::vector<metrics::Metric>& metric_list) {
+  const auto table = io::ParseCsv(ReadFileToString(per_image_csv), per_image_csv.string());
+  REPHOTO_CHECK(!table.empty(), "{}: empty", per_image_csv.string());
+  const std::vector<std::string>& header = table.front();
+  const auto column = [&](const std::string& name) -> size_t {
+    const auto it = std::find(header.begin(), header.end(), name);
+    REPHOTO_CHECK(it != header.end(), "{}: no column '{}'", per_image_csv.string(), name);
+    return static_cast<size_t>(it - header.begin());
+  };
+  const auto number = [](const std::string& text) -> double {
+    if (text == "inf") return INFINITY;
+    if (text == "-inf") return -INFINITY;
+    char* end = nullptr;
+    const double value = std::strtod(text.c_str(), &end);
+    return text.empty() || end != text.c_str() + text.size() ? NAN : value;
+  };
+  std::map<std::string, const std::vector<std::string>*> rows;
+  const size_t name_column = column("name");
+  for (size_t r = 1; r < table.size(); ++r) {
+    if (table[r].size() == header.size()) rows[table[r][name_column]] = &table[r];
+  }
+  const size_t completeness_column = column("completeness");
+  const double photos = static_cast<double>(stems.size());
+  double completeness_sum = 0;
+  for (const std::string& stem : stems) {
+    const auto row = rows.find(stem);
+    const double c = row == rows.end() ? NAN : number((*row->second)[completeness_column]);
+    if (std::isfinite(c)) completeness_sum += std::clamp(c, 0.0, 1.0);
+  }
+  nlohmann::json means = nlohmann::json::object(), filled = nlohmann::json::object();
+  const auto json_number = [](double value) -> nlohmann::json {
+    if (std::isnan(value)) return nullptr;
+    if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+    return value;
+  };
+  for (const metrics::Metric metric : metric_list) {
+    const std::string name(metrics::MetricName(metric));
+    const size_t metric_column = column(name);
+    const bool psnr = metric == metrics::Metric::kPsnr;
+    // psnr is filled in its squared error, whose worst is 1.
+    const double worst = psnr ? 1.0 : WorstValue(metric);
+    double sum = 0, filled_sum = 0;
+    int count = 0;
+    for (const std::string& stem : stems) {
+      const auto row = rows.find(stem);
+      double c = 0, v = NAN;
+      if (row != rows.end()) {
+        c = number((*row->second)[completeness_column]);
+        v = number((*row->second)[metric_column]);
+      }
+      if (!std::isnan(v)) {
+        sum += v;
+        ++count;
+      }
+      if (std::isnan(v) || !std::isfinite(c)) c = 0;
+      c = std::clamp(c, 0.0, 1.0);
+      if (psnr) v = std::isnan(v) ? 1.0 : std::pow(10.0, -v / 10.0);
+      filled_sum += c > 0 ? c * v + (1 - c) * worst : worst;
+    }
+    means[name] = json_number(count > 0 ? sum / count : NAN);
+    const double mean_filled = photos > 0 ? filled_sum / photos : NAN;
+    filled[name] = json_number(psnr ? -10.0 * std::log10(mean_filled) : mean_filled);
+  }
+  return {{"photos", stems.size()},
+          {"completeness", json_number(photos > 0 ? completeness_sum / photos : NAN)},
+          {"means", means},
+          {"filled", filled}};
+}
+
+int64_t LargestRenders(const nlohmann::json& test_images) {
+  int64_t total = 0;
+  for (const auto& image : test_images) {
+    total += int64_t{20} * image.at("width").get<int64_t>() * image.at("height").get<int64_t>() +
+             (int64_t{1} << 20);
+  }
+  return total;
+}
+
+std::string RelativeReason(const std::string& text, const fs::path& root, const std::string& id) {
+  std::string out = text;
+  const auto replace_all = [&](const std::string& from, const std::string& to) {
+    if (from.empty()) return;
+    for (size_t at = out.find(from); at != std::string::npos; at = out.find(from, at + to.size())) {
+      out.replace(at, from.size(), to);
+    }
+  };
+  const fs::path folder = SubmissionFolder(root, id);
+  for (const fs::path& base : {fs::absolute(folder), folder}) {
+    replace_all((base / "renders").string() + "/", "");
+    replace_all((base / "run").string() + "/", "");
+    replace_all(base.string() + "/", "");
+  }
+  for (const fs::path& base : {fs::absolute(root), root}) {
+    replace_all(base.string() + "/", "<server>/");
+    replace_all(base.string(), "<server>");
+  }
+  return out;
 }
 
 Submissions::Submissions(Store& store, SubmissionLimits limits, int workers)
@@ -133,6 +289,20 @@ void RemoveUnacceptedUploads(Store& store) {
 
 void Submissions::Start() {
   RemoveUnacceptedUploads(store_);
+  // Submissions scored by a server without leaderboard scores: computed from their run folder.
+  for (const SubmissionRecord& record : store_.SubmissionsWithStatus({SubmissionStatus::kDone})) {
+    if (!record.scores.is_null()) continue;
+    try {
+      const auto dataset = store_.FindDataset(record.dataset);
+      REPHOTO_CHECK(dataset, "dataset '{}' is gone", record.dataset);
+      store_.SetStatus(
+          record.id, SubmissionStatus::kDone, "", record.summary,
+          AllScores(SubmissionRunFolder(store_.root(), record.id) / "per_image.csv", *dataset));
+    } catch (const std::exception& error) {
+      LogWarning(fmt::format("submission {}: no leaderboard scores: {}", record.id,
+                             Printable(error.what(), 1000)));
+    }
+  }
   for (const SubmissionRecord& record :
        store_.SubmissionsWithStatus({SubmissionStatus::kQueued, SubmissionStatus::kScoring})) {
     LogInfo(fmt::format("re-queueing submission {} ({})", record.id, StatusName(record.status)));
@@ -141,50 +311,93 @@ void Submissions::Start() {
   for (int i = 0; i < worker_count_; ++i) workers_.emplace_back([this] { Work(); });
 }
 
-std::string Submissions::Submit(const ParticipantRecord& participant, const std::string& dataset,
-                                std::string_view archive, const std::string& method,
+Submissions::Upload& Submissions::Upload::operator=(Upload&& other) noexcept {
+  if (this != &other) {
+    this->~Upload();
+    id_ = std::move(other.id_);
+    folder_ = std::move(other.folder_);
+    archive_ = std::move(other.archive_);
+    other.folder_.clear();
+  }
+  return *this;
+}
+
+Submissions::Upload::~Upload() {
+  std::error_code ignored;
+  if (!folder_.empty()) fs::remove_all(folder_, ignored);
+  folder_.clear();
+}
+
+nlohmann::json Submissions::Quota(const ParticipantRecord& participant) {
+  const int used = store_.RecentAttempts(participant.id, limits_.window_seconds);
+  return {{"limit", limits_.max_per_window},
+          {"window_seconds", limits_.window_seconds},
+          {"used", used},
+          {"remaining", std::max(0, limits_.max_per_window - used)}};
+}
+
+Submissions::Upload Submissions::Begin(const ParticipantRecord& participant,
+                                       const std::string& dataset) {
+  if (!store_.FindDataset(dataset)) {
+    throw Refused(404, fmt::format("no dataset named '{}'", Printable(dataset)));
+  }
+  if (!store_.RecordAttempt(participant.id, limits_.max_per_window, limits_.window_seconds)) {
+    throw Refused(429, fmt::format("rate limit: at most {} submission attempts per {} s",
+                                   limits_.max_per_window, limits_.window_seconds));
+  }
+  Upload upload;
+  upload.id_ = NewSubmissionId();
+  upload.folder_ = store_.root() / "submissions" / (".incoming-" + upload.id_);
+  fs::create_directories(upload.folder_ / "renders");
+  upload.archive_ = upload.folder_ / "archive";
+  return upload;
+}
+
+std::string Submissions::Finish(const ParticipantRecord& participant, const std::string& dataset,
+                                Upload upload, const std::string& method,
                                 const std::string& description) {
   const std::optional<DatasetRecord> record = store_.FindDataset(dataset);
-  if (!record) throw Refused(404, fmt::format("no dataset named '{}'", dataset));
-  if (method.empty() || method.size() > 100) {
-    throw Refused(400, "the method name must be 1 to 100 bytes (query parameter 'method')");
-  }
-  if (description.size() > 10000) throw Refused(400, "the description exceeds 10000 bytes");
-  const auto too_many = [&] {
-    return Refused(429, fmt::format("rate limit: at most {} submissions per {} s",
-                                    limits_.max_per_window, limits_.window_seconds));
-  };
-  if (store_.RecentSubmissions(participant.id, limits_.window_seconds) >= limits_.max_per_window) {
-    throw too_many();
-  }
-  const std::string id = NewSubmissionId();
-  FolderGuard incoming{store_.root() / "submissions" / (".incoming-" + id)};
-  fs::create_directories(incoming.path / "renders");
+  if (!record) throw Refused(404, fmt::format("no dataset named '{}'", Printable(dataset)));
+  CheckRequestText(method, "the method name (query parameter or field 'method')", 1, 100);
+  CheckRequestText(description, "the description", 0, 10000, TextPolicy::kMultiLine);
   std::set<std::string> stems;
   for (const auto& image : record->info.at("test_images")) {
     stems.insert(image.at("stem").get<std::string>());
   }
+  ArchiveLimits archive_limits = limits_.archive;
+  archive_limits.max_bytes =
+      std::min(archive_limits.max_bytes, LargestRenders(record->info.at("test_images")));
   const std::vector<ExtractedFile> files =
-      ExtractRenders(archive, stems, limits_.archive, incoming.path / "renders");
+      ExtractRendersFromFile(upload.archive(), stems, archive_limits, upload.folder_ / "renders");
   if (files.empty()) throw Refused(400, "the archive holds no render");
   CheckRenderSizes(files, record->info.at("test_images"));
+  fs::remove(upload.archive());
 
   SubmissionRecord submission;
-  submission.id = id;
+  submission.id = upload.id();
   submission.dataset_id = record->id;
   submission.participant_id = participant.id;
   submission.method = method;
   submission.description = description;
-  const fs::path folder = SubmissionFolder(store_.root(), id);
-  fs::rename(incoming.path, folder);
-  incoming.path.clear();
+  const fs::path folder = SubmissionFolder(store_.root(), submission.id);
+  fs::rename(upload.folder_, folder);
+  upload.folder_.clear();
   FolderGuard accepted{folder};
-  if (!store_.AddSubmission(submission, limits_.max_per_window, limits_.window_seconds)) {
-    throw too_many();
+  // The attempt was counted by Begin; the row is inserted whatever the count is now.
+  if (!store_.AddSubmission(submission, std::numeric_limits<int>::max(), limits_.window_seconds)) {
+    ThrowError("submission {} could not be recorded", submission.id);
   }
   accepted.path.clear();
-  Enqueue(id);
-  return id;
+  Enqueue(submission.id);
+  return submission.id;
+}
+
+std::string Submissions::Submit(const ParticipantRecord& participant, const std::string& dataset,
+                                std::string_view archive, const std::string& method,
+                                const std::string& description) {
+  Upload upload = Begin(participant, dataset);
+  WriteTextFileAtomically(upload.archive(), archive);
+  return Finish(participant, dataset, std::move(upload), method, description);
 }
 
 void Submissions::Enqueue(const std::string& id) {
@@ -226,12 +439,14 @@ void Submissions::Score(const std::string& id) {
     compare::RunCompare(options);
     const nlohmann::json summary =
         nlohmann::json::parse(ReadFileToString(options.out / "summary.json"));
-    store_.SetStatus(id, SubmissionStatus::kDone, "", summary);
+    const nlohmann::json scores = AllScores(options.out / "per_image.csv", *dataset);
+    store_.SetStatus(id, SubmissionStatus::kDone, "", summary, scores);
     LogInfo(fmt::format("submission {} scored", id));
   } catch (const std::exception& error) {
-    LogWarning(fmt::format("submission {} failed: {}", id, error.what()));
+    LogWarning(fmt::format("submission {} failed: {}", id, Printable(error.what(), 1000)));
     try {
-      store_.SetStatus(id, SubmissionStatus::kFailed, error.what(), nullptr);
+      store_.SetStatus(id, SubmissionStatus::kFailed,
+                       Printable(RelativeReason(error.what(), store_.root(), id), 1000), nullptr);
     } catch (const std::exception& again) {
       LogWarning(fmt::format("submission {}: cannot record the failure: {}", id, again.what()));
     }

@@ -34,13 +34,17 @@ std::string ReadFile(const std::filesystem::path& path);
 std::filesystem::path MakeTinyScene(const std::filesystem::path& folder, int count, int width,
                                     int height, std::mt19937_64& rng);
 
-// Adds the tiny scene as dataset `name` (scheme every:3, metrics 1-ncc,cb+cr,psnr, window 5).
+// Adds the tiny scene as dataset `name` (scheme every:3, metrics 1-ncc,cb+cr,psnr, window 5)
+// with the ranking rule and public fraction given.
 void AddTinyDataset(Store& store, const std::filesystem::path& scene_folder,
-                    const std::string& name);
+                    const std::string& name, const std::string& ranking = "filled",
+                    double public_fraction = 1);
 
 // A tar of the dataset's secret photos re-encoded as RGBA PNG (alpha 1), each with `noise`
 // (uniform in [-noise, noise], clamped to [0, 1]) added: a perfect submission for noise 0.
+// With `coverage` < 1 only the top-left block of about that fraction of the pixels is rendered
+// (alpha 1); the rest has alpha 0 (not rendered).
 std::string RendersFromPhotos(const std::filesystem::path& root, const std::string& dataset,
-                              double noise, std::mt19937_64& rng);
+                              double noise, std::mt19937_64& rng, double coverage = 1);
 
 }  // namespace rephoto::benchmark::testing
