@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,6 +33,7 @@
 #include "rephoto/compare/compare.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/isa.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/core/image.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/eval/evaluate.h"
@@ -90,14 +92,25 @@ ArrayView ViewImage(const py::handle& object, const char* what, bool is_mask = f
     throw UsageError(fmt::format("{}: expected {} array, got {} dimensions", what,
                                  is_mask ? "an H x W" : "an H x W or H x W x C", ndim));
   }
-  v.height = static_cast<int>(array.shape(0));
-  v.width = static_cast<int>(array.shape(1));
-  v.channels = ndim == 3 ? static_cast<int>(array.shape(2)) : 1;
-  if (v.channels < 1 || v.channels > 4) {
+  // The shape as numpy gives it (64-bit), checked before it is narrowed: a side of 2^32 + 16
+  // must not become 16, and the pixel count obeys the limit image files obey (core/limits.h).
+  const py::ssize_t height = array.shape(0), width = array.shape(1);
+  const py::ssize_t channels = ndim == 3 ? array.shape(2) : 1;
+  if (channels < 1 || channels > 4) {
     throw UsageError(fmt::format("{}: {} channels (1 to 4 supported: grey, grey+alpha, RGB, RGBA)",
-                                 what, v.channels));
+                                 what, channels));
   }
-  if (v.height == 0 || v.width == 0) throw UsageError(fmt::format("{}: empty image", what));
+  if (height == 0 || width == 0) throw UsageError(fmt::format("{}: empty image", what));
+  if (static_cast<uint64_t>(width) > static_cast<uint64_t>(std::numeric_limits<int>::max()) ||
+      static_cast<uint64_t>(height) > static_cast<uint64_t>(std::numeric_limits<int>::max()) ||
+      static_cast<uint64_t>(width) * static_cast<uint64_t>(height) > MaxPixels()) {
+    throw Error(fmt::format("{}: image of {}x{} pixels is larger than the limit of {} pixels "
+                            "(rephoto's --max-pixels)",
+                            what, width, height, MaxPixels()));
+  }
+  v.height = static_cast<int>(height);
+  v.width = static_cast<int>(width);
+  v.channels = static_cast<int>(channels);
   v.data = static_cast<const char*>(array.data());
   v.stride_y = array.strides(0);
   v.stride_x = array.strides(1);

@@ -206,3 +206,15 @@ def test_isa_path_is_reported_and_a_bad_one_fails_the_import(tmp_path):
                          text=True)
     assert bad.returncode != 0
     assert "REPHOTO_ISA=bogus: must be baseline, avx2 or avx512" in bad.stderr
+
+
+def test_huge_shapes_are_refused_before_narrowing_or_allocating():
+    """Sides beyond 32 bits are not truncated (2^32 + 16 must not become 16), and an image over
+    the pixel limit is an Error naming the limit, not a MemoryError."""
+    from numpy.lib.stride_tricks import as_strided
+    base = np.zeros(3, np.uint8)
+    small = np.zeros((16, 16, 3), np.uint8)
+    for shape in [(2**32 + 16, 16, 3), (2**33, 1, 3), (100000, 100000, 3)]:
+        huge = as_strided(base, shape=shape, strides=(0, 0, 1))
+        with pytest.raises(rephoto.Error, match="larger than the limit"):
+            rephoto.compare(huge, small if shape[0] != 100000 else huge)

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/limits.h"
 
 namespace rephoto::camera {
 namespace {
@@ -397,6 +398,11 @@ void Camera::Validate(std::string_view context) const {
                 static_cast<int>(model));
   REPHOTO_CHECK(width > 0 && height > 0, "{}: image size {}x{} is not positive", context, width,
                 height);
+  // Every image rendered or read for this camera has its size: the same limit as image files
+  // (core/limits.h), checked before anything the size drives is allocated.
+  REPHOTO_CHECK(static_cast<uint64_t>(width) * static_cast<uint64_t>(height) <= MaxPixels(),
+                "{}: image size {}x{} is more than --max-pixels ({} pixels)", context, width,
+                height, MaxPixels());
   REPHOTO_CHECK(static_cast<int>(params.size()) == info->num_params,
                 "{}: {} camera has {} parameters, expected {}", context, info->name, params.size(),
                 info->num_params);

@@ -480,3 +480,24 @@ TEST(UsableField, RejectsPointsTheDistortionFoldsIntoTheImage) {
 
 }  // namespace
 }  // namespace rephoto::camera
+
+namespace rephoto::camera {
+namespace {
+
+// A camera larger than --max-pixels is refused by Validate, which every reader and the renderer
+// call, naming the context: not an out-of-memory failure later.
+TEST(Camera, SizeAboveMaxPixelsIsAnError) {
+  const Camera huge{CameraModel::kPinhole, 1000000000, 1000000000, {1e9, 1e9, 5e8, 5e8}};
+  try {
+    huge.Validate("cameras.txt:3");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "cameras.txt:3: image size 1000000000x1000000000 is more than --max-pixels"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace rephoto::camera

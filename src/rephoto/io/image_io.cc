@@ -428,7 +428,14 @@ void DecodeExr(std::span<const uint8_t> bytes, const std::string& name, Image* i
   // fuzz_image under LeakSanitizer). It sets the same value itself when it succeeds.
   exr.image.num_channels = h.num_channels;
   const char* err = nullptr;
-  const int r = LoadEXRImageFromMemory(&exr.image, &h, bytes.data(), bytes.size(), &err);
+  // tinyexr 1.0.1 checks where each 4-byte value of an uncompressed chunk starts, not where it
+  // ends: a file whose last chunk is cut short makes it read up to 3 bytes past the buffer
+  // (fuzz_image under AddressSanitizer). It decodes from a copy with zeroed slack after the
+  // data; the size it is told stays the file's, so its checks are unchanged.
+  constexpr size_t kSlack = 16;
+  std::vector<uint8_t> padded(bytes.size() + kSlack, 0);
+  std::copy(bytes.begin(), bytes.end(), padded.begin());
+  const int r = LoadEXRImageFromMemory(&exr.image, &h, padded.data(), bytes.size(), &err);
   if (r != 0) {
     // tinyexr frees the image itself when decoding fails but leaves the pointers dangling.
     InitEXRImage(&exr.image);

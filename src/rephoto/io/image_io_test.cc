@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <tinyexr.h>
 #include <zlib.h>
 
 #include <cmath>
@@ -634,6 +635,48 @@ TEST(ImageIo, ShortExrAttributesAreErrors) {
     Image image;
     const std::vector<uint8_t> prefix(exr.begin(), exr.begin() + static_cast<ptrdiff_t>(n));
     EXPECT_THROW(DecodeImage(prefix, "prefix.exr", &image), Error) << n;
+  }
+}
+
+// An uncompressed EXR (tinyexr's writer, compression NONE) cut short inside its last chunk:
+// tinyexr 1.0.1 read up to 3 bytes past the buffer (fuzz_image, AddressSanitizer); DecodeExr
+// gives it zeroed slack. Every cut is an error naming the file (the sanitizer build runs this).
+TEST(ImageIo, UncompressedExrCutInsideItsLastChunkIsAnError) {
+  const int width = 7, height = 5;
+  std::vector<float> values(static_cast<size_t>(width) * height);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = 0.25f * static_cast<float>(i);
+  EXRHeader header;
+  InitEXRHeader(&header);
+  EXRImage image;
+  InitEXRImage(&image);
+  float* planes[1] = {values.data()};
+  image.images = reinterpret_cast<unsigned char**>(planes);
+  image.num_channels = 1;
+  image.width = width;
+  image.height = height;
+  EXRChannelInfo channel{};
+  std::strcpy(channel.name, "Y");
+  int pixel_type = TINYEXR_PIXELTYPE_FLOAT;
+  header.num_channels = 1;
+  header.channels = &channel;
+  header.pixel_types = &pixel_type;
+  header.requested_pixel_types = &pixel_type;
+  header.compression_type = TINYEXR_COMPRESSIONTYPE_NONE;
+  unsigned char* memory = nullptr;
+  const char* err = nullptr;
+  const size_t size = SaveEXRImageToMemory(&image, &header, &memory, &err);
+  ASSERT_GT(size, 0u) << (err ? err : "");
+  const std::vector<uint8_t> exr(memory, memory + size);
+  std::free(memory);
+  Image decoded;
+  DecodeImage(exr, "whole.exr", &decoded);
+  ASSERT_EQ(decoded.width(), width);
+  EXPECT_EQ(decoded.at(6, 4, 0), values.back());
+  for (size_t cut = 1; cut <= 40 && cut < exr.size(); ++cut) {
+    const std::vector<uint8_t> prefix(exr.begin(), exr.end() - static_cast<ptrdiff_t>(cut));
+    EXPECT_THAT(testing::ErrorOf([&] { DecodeImage(prefix, "cut.exr", &decoded); }),
+                ::testing::HasSubstr("cut.exr"))
+        << cut;
   }
 }
 

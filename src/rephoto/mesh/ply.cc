@@ -24,7 +24,6 @@ namespace {
 
 // PLY scalar types: io/ply_types.h.
 using Type = io::PlyType;
-inline std::optional<Type> ParseType(std::string_view name) { return io::ParsePlyType(name); }
 inline int TypeSize(Type type) { return io::PlyTypeSize(type); }
 
 // Scale that maps an integer colour channel to [0,1]; 1 for floating-point types.
