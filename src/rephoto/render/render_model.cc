@@ -127,6 +127,28 @@ void CheckDevice(RTCDevice device, std::string_view name, const char* step) {
                 static_cast<int>(error), step);
 }
 
+// A triangle geometry of `positions` and `triangles` (copied into Embree's buffers), set up by
+// `configure` (filters), committed and attached to `scene` as `id`.
+template <typename Configure = void (*)(RTCGeometry)>
+void AttachTriangles(
+    RTCDevice device, RTCScene scene, const std::vector<Eigen::Vector3f>& positions,
+    const std::vector<mesh::Triangle>& triangles, unsigned id, std::string_view name,
+    Configure configure = [](RTCGeometry) {}) {
+  RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), positions.size()));
+  auto* indices = static_cast<uint32_t*>(
+      rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                              3 * sizeof(uint32_t), triangles.size()));
+  CheckDevice(device, name, "allocating buffers");
+  std::memcpy(vertices, positions.data(), positions.size() * 3 * sizeof(float));
+  std::memcpy(indices, triangles.data(), triangles.size() * 3 * sizeof(uint32_t));
+  configure(geometry);
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometryByID(scene, geometry, id);
+  rtcReleaseGeometry(geometry);
+}
+
 }  // namespace
 
 RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::string_view name)
@@ -202,39 +224,15 @@ RenderModel::RenderModel(mesh::Mesh mesh, const ModelOptions& options, std::stri
     rtcAttachGeometryByID(scene_, geometry, 0);
     rtcReleaseGeometry(geometry);
   } else {
-    RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(
-        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                3 * sizeof(float), mesh_.positions.size()));
-    auto* indices = static_cast<uint32_t*>(
-        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                3 * sizeof(uint32_t), mesh_.faces.size()));
-    CheckDevice(device_, name, "allocating buffers");
-    std::memcpy(vertices, mesh_.positions.data(), mesh_.positions.size() * 3 * sizeof(float));
-    std::memcpy(indices, mesh_.faces.data(), mesh_.faces.size() * 3 * sizeof(uint32_t));
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometryByID(scene_, geometry, kMeshGeometry);
-    rtcReleaseGeometry(geometry);
+    AttachTriangles(device_, scene_, mesh_.positions, mesh_.faces, kMeshGeometry, name);
     // The border strips (nearest_hit.h), seen only by the renderer's nearest-hit queries.
     skirts_ = MakeBorderSkirts(mesh_);
     if (!skirts_.triangles.empty()) {
-      RTCGeometry strips = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-      auto* strip_vertices = static_cast<float*>(
-          rtcSetNewGeometryBuffer(strips, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                  3 * sizeof(float), skirts_.positions.size()));
-      auto* strip_indices = static_cast<uint32_t*>(
-          rtcSetNewGeometryBuffer(strips, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                  3 * sizeof(uint32_t), skirts_.triangles.size()));
-      CheckDevice(device_, name, "allocating buffers");
-      std::memcpy(strip_vertices, skirts_.positions.data(),
-                  skirts_.positions.size() * 3 * sizeof(float));
-      std::memcpy(strip_indices, skirts_.triangles.data(),
-                  skirts_.triangles.size() * 3 * sizeof(uint32_t));
-      rtcSetGeometryIntersectFilterFunction(strips, SkirtIntersectGate);
-      rtcSetGeometryOccludedFilterFunction(strips, SkirtOcclusionGate);
-      rtcCommitGeometry(strips);
-      rtcAttachGeometryByID(scene_, strips, kSkirtGeometry);
-      rtcReleaseGeometry(strips);
+      AttachTriangles(device_, scene_, skirts_.positions, skirts_.triangles, kSkirtGeometry, name,
+                      [](RTCGeometry g) {
+                        rtcSetGeometryIntersectFilterFunction(g, SkirtIntersectGate);
+                        rtcSetGeometryOccludedFilterFunction(g, SkirtOcclusionGate);
+                      });
     }
   }
   const auto start = std::chrono::steady_clock::now();
