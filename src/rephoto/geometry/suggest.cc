@@ -77,11 +77,14 @@ void SuggestOptions::Check() const {
 std::vector<uint8_t> VisibleVertices(const render::RenderModel& model,
                                      const std::vector<Eigen::Vector3f>& normals,
                                      const camera::Camera& camera,
-                                     const camera::Pose& cam_from_world) {
+                                     const camera::Pose& cam_from_world,
+                                     const camera::UsableField* field) {
   const mesh::Mesh& mesh = model.mesh();
   const size_t n = mesh.vertex_count();
   std::vector<uint8_t> visible(n, 0);
-  const render::ViewGeometry geometry(camera, cam_from_world);
+  const render::ViewGeometry geometry = field != nullptr
+                                            ? render::ViewGeometry(camera, cam_from_world, *field)
+                                            : render::ViewGeometry(camera, cam_from_world);
   const render::VisibilityRule rule;  // render/visibility.h, the defaults
   ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t begin, int64_t end) {
     render::OcclusionBatch batch(model.scene(), geometry.center, rule.occlusion_epsilon);
@@ -186,8 +189,10 @@ SuggestResult SuggestViews(const render::RenderModel& model, const scene::Scene&
                 candidates.size());
 
   std::vector<std::vector<uint32_t>> sees(candidates.size());
+  const camera::UsableField field(camera);  // one camera for every candidate
   for (size_t c = 0; c < candidates.size(); ++c) {
-    const std::vector<uint8_t> visible = VisibleVertices(model, normals, camera, candidates[c]);
+    const std::vector<uint8_t> visible =
+        VisibleVertices(model, normals, camera, candidates[c], &field);
     for (size_t i = 0; i < n; ++i) {
       if (visible[i]) sees[c].push_back(static_cast<uint32_t>(i));
     }

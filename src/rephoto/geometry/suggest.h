@@ -61,11 +61,13 @@ struct SuggestResult {
   std::vector<uint8_t> observed;                     // per vertex: 1 when some scene photo sees it
 };
 
-// Per vertex, whether `camera` at `cam_from_world` sees it (render/visibility.h).
+// Per vertex, whether `camera` at `cam_from_world` sees it (render/visibility.h). `field` is
+// camera::UsableField(camera) when the caller has it (it is the same for every pose), else null.
 std::vector<uint8_t> VisibleVertices(const render::RenderModel& model,
                                      const std::vector<Eigen::Vector3f>& normals,
                                      const camera::Camera& camera,
-                                     const camera::Pose& cam_from_world);
+                                     const camera::Pose& cam_from_world,
+                                     const camera::UsableField* field = nullptr);
 
 // See the file comment. `vertex_error` is empty or one value per model vertex (NaN = none).
 // `camera` gives the suggested views' intrinsics. Throws Error when the scene has no views,

@@ -116,9 +116,9 @@ Sample SampleVertex(const ViewContext& view, const Eigen::Vector3d& world, doubl
   // Steps 1-2 of render/visibility.h's rule (the usable field, inside the image); the depth test
   // below against the view's rendering stands for steps 3-4 (a surface facing away or hidden
   // lies behind the rendered one).
-  const std::optional<Eigen::Vector2d> pixel = render::ProjectInField(view.geometry, world);
+  Eigen::Vector3d cam;
+  const std::optional<Eigen::Vector2d> pixel = render::ProjectInField(view.geometry, world, &cam);
   if (!pixel) return sample;
-  const Eigen::Vector3d cam = view.geometry.cam_from_world.CamFromWorld(world);
   const double z = cam.z();
   const double px = pixel->x(), py = pixel->y();
   const int width = view.depth.width(), height = view.depth.height();

@@ -71,7 +71,7 @@ namespace {
 // A candidate face for one ray: its exact hit, or why not.
 struct Candidate {
   enum State { kOk, kCulled, kEdgeOn, kOutsideBorder } state = kCulled;
-  bool ok = false;
+  bool ok() const { return state == kOk; }
   ExactHit hit{};
   float b[3] = {};  // barycentric coordinate of each edge k (that of the opposite corner)
 };
@@ -106,7 +106,6 @@ Candidate Evaluate(const NearestHitContext& context, unsigned face, const float 
     }
   }
   c.state = Candidate::kOk;
-  c.ok = true;
   return c;
 }
 
@@ -126,7 +125,7 @@ void NearestHitFilter(const RTCFilterFunctionNArguments* args) {
     const float d[3] = {RTCRayN_dir_x(args->ray, n, i), RTCRayN_dir_y(args->ray, n, i),
                         RTCRayN_dir_z(args->ray, n, i)};
     Candidate c = Evaluate(*context, face, o, d);
-    if (!c.ok) {
+    if (!c.ok()) {
       if (c.state != Candidate::kEdgeOn || strip) {
         args->valid[i] = 0;
         continue;
@@ -144,7 +143,7 @@ void NearestHitFilter(const RTCFilterFunctionNArguments* args) {
       if (c.b[k] < kEdgeBand && across != BorderSkirts::kNoNeighbor) {
         const unsigned other = across / 3;
         const Candidate g = Evaluate(*context, other, o, d);
-        if (g.ok && (g.b[across % 3] > c.b[k] || (g.b[across % 3] == c.b[k] && other < face))) {
+        if (g.ok() && (g.b[across % 3] > c.b[k] || (g.b[across % 3] == c.b[k] && other < face))) {
           c = g;
           face = other;
         }

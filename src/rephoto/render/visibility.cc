@@ -6,13 +6,19 @@
 namespace rephoto::render {
 
 ViewGeometry::ViewGeometry(const camera::Camera& camera_in, const camera::Pose& pose)
-    : camera(camera_in), cam_from_world(pose), field(camera_in), center(pose.Center()) {}
+    : ViewGeometry(camera_in, pose, camera::UsableField(camera_in)) {}
+
+ViewGeometry::ViewGeometry(const camera::Camera& camera_in, const camera::Pose& pose,
+                           const camera::UsableField& field_in)
+    : camera(camera_in), cam_from_world(pose), field(field_in), center(pose.Center()) {}
 
 std::optional<Eigen::Vector2d> ProjectInField(const ViewGeometry& view,
-                                              const Eigen::Vector3d& point) {
-  const Eigen::Vector3d in_cam = view.cam_from_world.CamFromWorld(point);
-  if (!view.field.Contains(in_cam)) return std::nullopt;
-  return view.camera.ImgFromCam(in_cam);
+                                              const Eigen::Vector3d& point,
+                                              Eigen::Vector3d* in_cam) {
+  const Eigen::Vector3d cam = view.cam_from_world.CamFromWorld(point);
+  if (in_cam != nullptr) *in_cam = cam;
+  if (!view.field.Contains(cam)) return std::nullopt;
+  return view.camera.ImgFromCam(cam);
 }
 
 bool InsideImage(const camera::Camera& camera, const Eigen::Vector2d& pixel, double border_pixels) {

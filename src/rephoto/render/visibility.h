@@ -42,6 +42,10 @@ struct VisibilityRule {
 // One camera at one pose, as the visibility tests use it.
 struct ViewGeometry {
   ViewGeometry(const camera::Camera& camera, const camera::Pose& cam_from_world);
+  // With the camera's usable field already made (it costs a few ms: make it once for many poses
+  // of one camera).
+  ViewGeometry(const camera::Camera& camera, const camera::Pose& cam_from_world,
+               const camera::UsableField& field);
   camera::Camera camera;
   camera::Pose cam_from_world;
   camera::UsableField field;
@@ -61,8 +65,10 @@ std::optional<SightingResult> Sighting(const ViewGeometry& view, const Eigen::Ve
 
 // Step 1 and the projection: V's pixel when V lies in the usable field (possibly outside the
 // image), else nullopt.
+// `in_cam` (optional) receives V in camera coordinates.
 std::optional<Eigen::Vector2d> ProjectInField(const ViewGeometry& view,
-                                              const Eigen::Vector3d& point);
+                                              const Eigen::Vector3d& point,
+                                              Eigen::Vector3d* in_cam = nullptr);
 
 // Step 2 for a pixel.
 bool InsideImage(const camera::Camera& camera, const Eigen::Vector2d& pixel, double border_pixels);
