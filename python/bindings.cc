@@ -43,6 +43,7 @@
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/render/render.h"
 #include "rephoto/render/render_model.h"
+#include "rephoto/run/run_data.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/splat/gaussians.h"
 #include "rephoto/splat/rasterize.h"
@@ -531,6 +532,33 @@ std::filesystem::path Evaluate(const py::kwargs& kwargs) {
   return options.out;
 }
 
+// A run folder's tables as run::LoadRun reads them (run/run_table.h: one rule for C++ and
+// Python): {"layout": "evaluate"|"compare", "per_image": [row...], "per_fold": [row...]}, each row
+// a dict of column -> str | int | float (NaN where nothing was evaluated), in file order.
+py::dict LoadRunTables(const std::filesystem::path& dir) {
+  const run::RunData data = [&] {
+    py::gil_scoped_release release;
+    return run::LoadRun(dir);
+  }();
+  const auto rows = [](const run::RunTable& table) {
+    py::list list;
+    for (const std::vector<run::Cell>& cells : table.rows) {
+      py::dict row;
+      for (size_t c = 0; c < table.columns.size(); ++c) {
+        std::visit([&](const auto& value) { row[py::str(table.columns[c])] = py::cast(value); },
+                   cells[c]);
+      }
+      list.append(std::move(row));
+    }
+    return list;
+  };
+  py::dict out;
+  out["layout"] = data.layout == run::RunLayout::kEvaluate ? "evaluate" : "compare";
+  out["per_image"] = rows(data.image_table);
+  out["per_fold"] = rows(data.fold_table);
+  return out;
+}
+
 // For the timing comparison (python/bench/bench_compare.py): seconds per call of the CLI's
 // own per-pair function (compare::CompareInMemory = ComparePhotoAndRender without file paths,
 // no error images) on these arrays as a decoder would give them (uint8 as 8-bit samples, as the
@@ -719,6 +747,7 @@ PYBIND11_MODULE(_rephoto, m) {
            py::arg("gaussian_mode") = "classic");
   m.def("load_model", &LoadModel, py::arg("path"), py::arg("point_radius") = 0.0f);
   m.def("evaluate", &Evaluate);
+  m.def("_load_run_tables", &LoadRunTables, py::arg("path"));
   m.def("_decode_seconds", &DecodeSeconds, py::arg("array"), py::arg("repeats") = 5);
   m.def("_cli_pair_seconds", &CliPairSeconds, py::arg("photo"), py::arg("render"),
         py::arg("metrics") = py::none(), py::arg("repeats") = 3);

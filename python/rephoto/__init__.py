@@ -21,7 +21,6 @@ bad arguments raise :class:`rephoto.UsageError`, which is both a ``rephoto.Error
 """
 from __future__ import annotations
 
-import csv
 import json
 import os
 from dataclasses import dataclass, field
@@ -150,33 +149,17 @@ def load_model(path: PathLike, *, point_radius: float = 0.0) -> Model:
     return _rephoto.load_model(os.fspath(path), point_radius)
 
 
-def _read_csv(path: str) -> List[Dict[str, Any]]:
-    def value(text: str) -> Any:
-        if text == "":
-            return None
-        try:
-            return int(text)
-        except ValueError:
-            pass
-        try:
-            return float(text)
-        except ValueError:
-            return text
-
-    if not os.path.exists(path):
-        return []
-    with open(path, newline="") as f:
-        return [{k: value(v) for k, v in row.items()} for row in csv.DictReader(f)]
-
-
 @dataclass
 class Run:
     """A run folder of ``rephoto evaluate`` (or ``rephoto compare``).
 
     Attributes:
       path: the folder.
-      per_image: rows of per_image.csv as dicts (numbers converted, empty cells None).
-      per_fold: rows of per_fold.csv (empty for a compare run).
+      per_image: rows of per_image.csv as dicts, read by the C++ reader's rule (run/run_table.h,
+        the same for ``rephoto report`` and the benchmark service): text columns as str, counts
+        (width, height, *_evaluated, ...) as int, measurements (completeness, metrics) as float
+        with NaN where nothing was evaluated; columns this version does not know as str.
+      per_fold: rows of per_fold.csv likewise (empty for a compare run).
       summary: summary.json.
       run: run.json (empty for a compare run).
     """
@@ -198,12 +181,13 @@ class Run:
 
 
 def load_run(path: PathLike) -> Run:
-    """Reads a run folder's per_image.csv, per_fold.csv, summary.json and run.json."""
+    """Reads a run folder's per_image.csv, per_fold.csv, summary.json and run.json.
+
+    The tables are read by the C++ reader (``rephoto report`` reads them the same way); a
+    malformed table raises :class:`Error` naming the file, line and column.
+    """
     path = os.fspath(path)
-    if not os.path.isdir(path):
-        raise Error(f"{path}: run folder does not exist")
-    if not os.path.exists(os.path.join(path, "per_image.csv")):
-        raise Error(f"{path}: no per_image.csv (not a run folder, or the run did not finish)")
+    tables = _rephoto._load_run_tables(path)
 
     def read_json(name: str) -> Dict[str, Any]:
         file = os.path.join(path, name)
@@ -212,8 +196,7 @@ def load_run(path: PathLike) -> Run:
         with open(file) as f:
             return json.load(f)
 
-    return Run(path=path, per_image=_read_csv(os.path.join(path, "per_image.csv")),
-               per_fold=_read_csv(os.path.join(path, "per_fold.csv")),
+    return Run(path=path, per_image=tables["per_image"], per_fold=tables["per_fold"],
                summary=read_json("summary.json"), run=read_json("run.json"))
 
 

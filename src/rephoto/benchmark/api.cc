@@ -6,12 +6,13 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <variant>
 
 #include "rephoto/benchmark/submissions.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
-#include "rephoto/io/csv.h"
+#include "rephoto/run/run_table.h"
 
 namespace rephoto::benchmark {
 namespace {
@@ -32,30 +33,29 @@ nlohmann::json FilesJson(Store& store, const DatasetRecord& dataset) {
   return files;
 }
 
-// A CSV field as JSON: empty -> null, a whole number text -> number, else the text.
-nlohmann::json CsvValue(const std::string& field) {
-  if (field.empty()) return nullptr;
-  if (field == "inf" || field == "-inf") return field;
-  char* end = nullptr;
-  const double value = std::strtod(field.c_str(), &end);
-  if (end == field.c_str() + field.size()) return value;
-  return field;
-}
-
 nlohmann::json PerImageRows(const std::filesystem::path& csv_path) {
   nlohmann::json rows = nlohmann::json::array();
   if (!std::filesystem::exists(csv_path)) return rows;
-  const auto table = io::ParseCsv(ReadFileToString(csv_path), csv_path.string());
-  if (table.empty()) return rows;
-  const std::vector<std::string>& header = table.front();
-  for (size_t r = 1; r < table.size(); ++r) {
+  // per_image.csv by the run folder's one reading rule (run/run_table.h): text as text,
+  // counts as integers, measurements as numbers (NaN -> null, infinities as "inf"/"-inf").
+  const run::RunTable table = run::ReadRunTable(csv_path);
+  for (const std::vector<run::Cell>& cells : table.rows) {
     nlohmann::json row = nlohmann::json::object();
-    for (size_t c = 0; c < header.size() && c < table[r].size(); ++c) {
-      if (header[c] == "photo" || header[c] == "render") continue;  // server paths
-      row[header[c]] = header[c] == "name" || header[c] == "status" ? nlohmann::json(table[r][c])
-                                                                    : CsvValue(table[r][c]);
+    for (size_t c = 0; c < table.columns.size(); ++c) {
+      const std::string& column = table.columns[c];
+      if (column == "photo" || column == "render") continue;  // server paths
+      if (const auto* text = std::get_if<std::string>(&cells[c])) {
+        row[column] = *text;
+      } else if (const auto* integer = std::get_if<int64_t>(&cells[c])) {
+        row[column] = *integer;
+      } else {
+        const double value = std::get<double>(cells[c]);
+        row[column] = std::isnan(value)   ? nlohmann::json(nullptr)
+                      : std::isinf(value) ? nlohmann::json(value > 0 ? "inf" : "-inf")
+                                          : nlohmann::json(value);
+      }
     }
-    rows.push_back(row);
+    rows.push_back(std::move(row));
   }
   return rows;
 }

@@ -13,7 +13,7 @@
 #include "rephoto/compare/compare.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
-#include "rephoto/io/csv.h"
+#include "rephoto/run/run_table.h"
 #include "rephoto/io/image_io.h"
 
 namespace rephoto::benchmark {
@@ -159,32 +159,17 @@ double WorstValue(metrics::Metric metric) {
 
 nlohmann::json ComputeScores(const fs::path& per_image_csv, const std::vector<std::string>& stems,
                              const std::vector<metrics::Metric>& metric_list) {
-  const auto table = io::ParseCsv(ReadFileToString(per_image_csv), per_image_csv.string());
-  REPHOTO_CHECK(!table.empty(), "{}: empty", per_image_csv.string());
-  const std::vector<std::string>& header = table.front();
-  const auto column = [&](const std::string& name) -> size_t {
-    const auto it = std::find(header.begin(), header.end(), name);
-    REPHOTO_CHECK(it != header.end(), "{}: no column '{}'", per_image_csv.string(), name);
-    return static_cast<size_t>(it - header.begin());
-  };
-  const auto number = [](const std::string& text) -> double {
-    if (text == "inf") return INFINITY;
-    if (text == "-inf") return -INFINITY;
-    char* end = nullptr;
-    const double value = std::strtod(text.c_str(), &end);
-    return text.empty() || end != text.c_str() + text.size() ? NAN : value;
-  };
-  std::map<std::string, const std::vector<std::string>*> rows;
-  const size_t name_column = column("name");
-  for (size_t r = 1; r < table.size(); ++r) {
-    if (table[r].size() == header.size()) rows[table[r][name_column]] = &table[r];
-  }
-  const size_t completeness_column = column("completeness");
+  // per_image.csv by the run folder's one reading rule (run/run_table.h).
+  const run::RunTable table = run::ReadRunTable(per_image_csv);
+  std::map<std::string, size_t> rows;
+  const int name_column = table.Column("name");
+  for (size_t r = 0; r < table.rows.size(); ++r) rows[table.Text(r, name_column)] = r;
+  const int completeness_column = table.Column("completeness");
   const double photos = static_cast<double>(stems.size());
   double completeness_sum = 0;
   for (const std::string& stem : stems) {
     const auto row = rows.find(stem);
-    const double c = row == rows.end() ? NAN : number((*row->second)[completeness_column]);
+    const double c = row == rows.end() ? NAN : table.Number(row->second, completeness_column);
     if (std::isfinite(c)) completeness_sum += std::clamp(c, 0.0, 1.0);
   }
   nlohmann::json means = nlohmann::json::object(), filled = nlohmann::json::object();
@@ -195,7 +180,7 @@ nlohmann::json ComputeScores(const fs::path& per_image_csv, const std::vector<st
   };
   for (const metrics::Metric metric : metric_list) {
     const std::string name(metrics::MetricName(metric));
-    const size_t metric_column = column(name);
+    const int metric_column = table.Column(name);
     const bool psnr = metric == metrics::Metric::kPsnr;
     // psnr is filled in its squared error, whose worst is 1.
     const double worst = psnr ? 1.0 : WorstValue(metric);
@@ -205,8 +190,8 @@ nlohmann::json ComputeScores(const fs::path& per_image_csv, const std::vector<st
       const auto row = rows.find(stem);
       double c = 0, v = NAN;
       if (row != rows.end()) {
-        c = number((*row->second)[completeness_column]);
-        v = number((*row->second)[metric_column]);
+        c = table.Number(row->second, completeness_column);
+        v = table.Number(row->second, metric_column);
       }
       if (!std::isnan(v)) {
         sum += v;

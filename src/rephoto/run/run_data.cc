@@ -6,13 +6,12 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
-#include <map>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
-#include "rephoto/io/csv.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/run/records.h"
+#include "rephoto/run/run_table.h"
 
 namespace rephoto::run {
 namespace fs = std::filesystem;
@@ -20,50 +19,14 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A parsed CSV with named columns and the file name for messages.
-class Table {
- public:
-  Table(const fs::path& path) : name_(path.string()) {
-    rows_ = io::ReadCsvFile(path);
-    REPHOTO_CHECK(!rows_.empty(), "{}: empty file (no header line)", name_);
-    for (size_t i = 0; i < rows_[0].size(); ++i) columns_[rows_[0][i]] = static_cast<int>(i);
-  }
-  const std::vector<std::string>& header() const { return rows_[0]; }
-  size_t size() const { return rows_.size() - 1; }
-  bool Has(const std::string& column) const { return columns_.count(column) > 0; }
-  int Column(const std::string& column) const {
-    auto it = columns_.find(column);
-    REPHOTO_CHECK(it != columns_.end(), "{}: no column \"{}\"", name_, column);
-    return it->second;
-  }
-  // Field of data row `row` (0-based, without the header); "" when the row is short.
-  const std::string& Field(size_t row, int column) const {
-    static const std::string kEmpty;
-    const std::vector<std::string>& r = rows_[row + 1];
-    return column < static_cast<int>(r.size()) ? r[column] : kEmpty;
-  }
-  // A number; "" = NaN; "inf"/"-inf" accepted. Throws naming line and column otherwise.
-  double Number(size_t row, int column) const {
-    const std::string& text = Field(row, column);
-    const std::optional<double> value = run::ParseCsvNumber(text);
-    REPHOTO_CHECK(value.has_value(), "{}: line {}: column \"{}\": \"{}\" is not a number", name_,
-                  row + 2, header()[column], text);
-    return *value;
-  }
-  int Integer(size_t row, int column) const {
-    const double value = Number(row, column);
-    if (std::isnan(value)) return 0;
-    REPHOTO_CHECK(value == std::floor(value) && std::abs(value) < 2e9,
-                  "{}: line {}: column \"{}\": \"{}\" is not an integer", name_, row + 2,
-                  header()[column], Field(row, column));
-    return static_cast<int>(value);
-  }
-
- private:
-  std::string name_;
-  std::vector<std::vector<std::string>> rows_;
-  std::map<std::string, int> columns_;
-};
+// An integer cell narrowed to int; Error naming the file, line and column when it does not fit.
+int NarrowInteger(const RunTable& table, size_t row, int column) {
+  const int64_t value = table.Integer(row, column);
+  REPHOTO_CHECK(value >= -2000000000 && value <= 2000000000,
+                "{}: line {}: column \"{}\": {} is out of range", table.file.string(), row + 2,
+                table.columns[column], value);
+  return static_cast<int>(value);
+}
 
 nlohmann::ordered_json ReadJson(const fs::path& path) {
   const std::string text = ReadFileToString(path);
@@ -189,8 +152,9 @@ RunData LoadRun(const fs::path& dir) {
   if (fs::exists(dir / "summary.json", ec)) run.summary = ReadJson(dir / "summary.json");
   if (fs::exists(dir / "run.json", ec)) run.run = ReadJson(dir / "run.json");
 
-  const Table per_image(per_image_path);
-  const bool has_fold = !per_image.header().empty() && per_image.header()[0] == "fold";
+  run.image_table = ReadRunTable(per_image_path);
+  const RunTable& per_image = run.image_table;
+  const bool has_fold = !per_image.columns.empty() && per_image.columns[0] == "fold";
   const std::string schema = run.summary.is_object() && run.summary.contains("schema")
                                  ? JsonText(run.summary["schema"])
                                  : "";
@@ -198,8 +162,8 @@ RunData LoadRun(const fs::path& dir) {
                                                                     : RunLayout::kCompare;
 
   std::vector<int> metric_columns;
-  for (size_t i = 0; i < per_image.header().size(); ++i) {
-    const std::string& column = per_image.header()[i];
+  for (size_t i = 0; i < per_image.columns.size(); ++i) {
+    const std::string& column = per_image.columns[i];
     if (metrics::ParseMetric(column)) {
       run.metrics.push_back(column);
       metric_columns.push_back(static_cast<int>(i));
@@ -209,20 +173,20 @@ RunData LoadRun(const fs::path& dir) {
   const int status = per_image.Column("status");
   const int completeness = per_image.Column("completeness");
   const int fold = has_fold ? 0 : -1;
-  const int photo = per_image.Has("photo") ? per_image.Column("photo") : -1;
-  const int render = per_image.Has("render") ? per_image.Column("render") : -1;
-  const int width = per_image.Has("width") ? per_image.Column("width") : -1;
-  const int height = per_image.Has("height") ? per_image.Column("height") : -1;
-  for (size_t r = 0; r < per_image.size(); ++r) {
+  const int photo = per_image.Find("photo");
+  const int render = per_image.Find("render");
+  const int width = per_image.Find("width");
+  const int height = per_image.Find("height");
+  for (size_t r = 0; r < per_image.rows.size(); ++r) {
     ImageRow row;
-    if (fold >= 0) row.fold = per_image.Field(r, fold);
-    row.name = per_image.Field(r, name);
-    row.status = per_image.Field(r, status);
+    if (fold >= 0) row.fold = per_image.Text(r, fold);
+    row.name = per_image.Text(r, name);
+    row.status = per_image.Text(r, status);
     REPHOTO_CHECK(!row.name.empty(), "{}: line {}: empty name", per_image_path.string(), r + 2);
-    if (photo >= 0) row.photo = per_image.Field(r, photo);
-    if (render >= 0) row.render = per_image.Field(r, render);
-    if (width >= 0) row.width = per_image.Integer(r, width);
-    if (height >= 0) row.height = per_image.Integer(r, height);
+    if (photo >= 0) row.photo = per_image.Text(r, photo);
+    if (render >= 0) row.render = per_image.Text(r, render);
+    if (width >= 0) row.width = NarrowInteger(per_image, r, width);
+    if (height >= 0) row.height = NarrowInteger(per_image, r, height);
     row.completeness = per_image.Number(r, completeness);
     for (int column : metric_columns) row.metrics.push_back(per_image.Number(r, column));
     if (row.status != "ok") {
@@ -236,27 +200,25 @@ RunData LoadRun(const fs::path& dir) {
     const fs::path per_fold_path = dir / "per_fold.csv";
     REPHOTO_CHECK(fs::exists(per_fold_path, ec),
                   "{}: evaluate run without per_fold.csv (incomplete run directory)", dir.string());
-    const Table per_fold(per_fold_path);
+    run.fold_table = ReadRunTable(per_fold_path);
+    const RunTable& per_fold = run.fold_table;
     const int f_fold = per_fold.Column("fold");
     const int f_status = per_fold.Column("status");
     const int f_completeness = per_fold.Column("completeness");
-    const int f_test = per_fold.Has("test_images") ? per_fold.Column("test_images") : -1;
-    const int f_evaluated =
-        per_fold.Has("evaluated_images") ? per_fold.Column("evaluated_images") : -1;
-    const int f_seconds = per_fold.Has("seconds") ? per_fold.Column("seconds") : -1;
-    const int f_message = per_fold.Has("message") ? per_fold.Column("message") : -1;
+    const int f_test = per_fold.Find("test_images");
+    const int f_evaluated = per_fold.Find("evaluated_images");
+    const int f_seconds = per_fold.Find("seconds");
+    const int f_message = per_fold.Find("message");
     std::vector<int> f_metrics;
-    for (const std::string& metric : run.metrics) {
-      f_metrics.push_back(per_fold.Has(metric) ? per_fold.Column(metric) : -1);
-    }
-    for (size_t r = 0; r < per_fold.size(); ++r) {
+    for (const std::string& metric : run.metrics) f_metrics.push_back(per_fold.Find(metric));
+    for (size_t r = 0; r < per_fold.rows.size(); ++r) {
       FoldRow row;
-      row.fold = per_fold.Field(r, f_fold);
-      row.status = per_fold.Field(r, f_status);
-      if (f_test >= 0) row.test_images = per_fold.Integer(r, f_test);
-      if (f_evaluated >= 0) row.evaluated_images = per_fold.Integer(r, f_evaluated);
+      row.fold = per_fold.Text(r, f_fold);
+      row.status = per_fold.Text(r, f_status);
+      if (f_test >= 0) row.test_images = NarrowInteger(per_fold, r, f_test);
+      if (f_evaluated >= 0) row.evaluated_images = NarrowInteger(per_fold, r, f_evaluated);
       if (f_seconds >= 0) row.seconds = per_fold.Number(r, f_seconds);
-      if (f_message >= 0) row.message = per_fold.Field(r, f_message);
+      if (f_message >= 0) row.message = per_fold.Text(r, f_message);
       row.completeness = per_fold.Number(r, f_completeness);
       for (int column : f_metrics) {
         row.metrics.push_back(column >= 0 ? per_fold.Number(r, column) : kNaN);

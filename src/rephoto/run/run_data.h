@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "rephoto/core/stats.h"
+#include "rephoto/run/run_table.h"
 
 namespace rephoto::run {
 
@@ -63,6 +64,9 @@ struct RunData {
   std::vector<FoldRow> folds;            // per_fold.csv order (empty for compare runs)
   std::vector<FailedFold> failed_folds;  // from summary.json, else per_fold.csv status/message
   std::vector<std::string> missing;      // one line per missing/failed image or entry
+  // per_image.csv and per_fold.csv with every column, typed by run_table.h's rule (what
+  // Python's rephoto.load_run returns); fold_table is empty for compare runs.
+  RunTable image_table, fold_table;
 
   // Index of `metric` in `metrics`, or -1.
   int MetricIndex(const std::string& metric) const;

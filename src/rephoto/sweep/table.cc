@@ -5,24 +5,12 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/io/csv.h"
-#include "rephoto/run/records.h"
+#include "rephoto/run/run_table.h"
 
 namespace rephoto::sweep {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-double ParseNumber(const std::string& field, const std::filesystem::path& path, size_t line) {
-  const std::optional<double> value = run::ParseCsvNumber(field);
-  REPHOTO_CHECK(value.has_value(), "{}: line {}: '{}' is not a number", path.string(), line, field);
-  return *value;
-}
-
-// Columns of per_fold.csv that are not measurements.
-bool IsBookkeeping(const std::string& column) {
-  return column == "fold" || column == "status" || column == "test_images" ||
-         column == "evaluated_images" || column == "seconds" || column == "message";
-}
 
 }  // namespace
 
@@ -37,30 +25,25 @@ SweepTable ReadSweepTable(const std::vector<SweepSetting>& settings,
     rows.setting = settings[s];
     const auto path = run_dirs[s] / "per_fold.csv";
     if (std::filesystem::exists(path)) {
-      const auto csv = io::ReadCsvFile(path);
-      REPHOTO_CHECK(!csv.empty(), "{}: empty file", path.string());
-      const auto& header = csv[0];
-      auto find = [&](const std::string& name) {
-        const auto it = std::find(header.begin(), header.end(), name);
-        return it == header.end() ? -1 : static_cast<int>(it - header.begin());
-      };
-      const int fold_column = find("fold"), status_column = find("status");
-      REPHOTO_CHECK(fold_column >= 0 && status_column >= 0 && find("completeness") >= 0,
+      // per_fold.csv by the run folder's one reading rule (run/run_table.h); the measurements
+      // are its number columns (completeness and the metrics).
+      const run::RunTable csv = run::ReadRunTable(path);
+      const int fold_column = csv.Find("fold"), status_column = csv.Find("status");
+      REPHOTO_CHECK(fold_column >= 0 && status_column >= 0 && csv.Find("completeness") >= 0,
                     "{}: missing the fold, status or completeness column", path.string());
-      for (const auto& name : header) {
-        if (!IsBookkeeping(name) &&
+      for (const auto& name : csv.columns) {
+        if (run::KindOfColumn(name) == run::ColumnKind::kNumber && name != "seconds" &&
             std::find(table.columns.begin(), table.columns.end(), name) == table.columns.end()) {
           table.columns.push_back(name);
         }
       }
-      for (size_t line = 1; line < csv.size(); ++line) {
-        const auto& fields = csv[line];
-        REPHOTO_CHECK(fields.size() == header.size(), "{}: line {}: {} fields, header has {}",
-                      path.string(), line + 1, fields.size(), header.size());
-        FoldRow row{.fold = fields[fold_column], .status = fields[status_column], .values = {}};
+      for (size_t r = 0; r < csv.rows.size(); ++r) {
+        FoldRow row{.fold = csv.Text(r, fold_column),
+                    .status = csv.Text(r, status_column),
+                    .values = {}};
         for (const auto& column : table.columns) {
-          const int c = find(column);
-          row.values.push_back(c < 0 ? kNaN : ParseNumber(fields[c], path, line + 1));
+          const int c = csv.Find(column);
+          row.values.push_back(c < 0 ? kNaN : csv.Number(r, c));
         }
         rows.folds.push_back(std::move(row));
       }

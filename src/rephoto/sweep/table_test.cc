@@ -73,7 +73,8 @@ TEST(SweepTable, MalformedPerFoldCsvNamesTheFile) {
     ReadSweepTable(ExpandGrid({}), {dir / "a"});
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("per_fold.csv: line 2: 'abc' is not a number"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "per_fold.csv: line 2: column \"completeness\": \"abc\" is not a number"),
               std::string::npos)
         << e.what();
   }
