@@ -1,9 +1,14 @@
 // The HTTP service end to end on 127.0.0.1 (an in-process Server on a free port): the API, the
 // limits and refusals with their status codes, that no URL spelling returns a byte of a secret
-// photo, and that a submission's scores are exactly `rephoto compare`'s on the same files.
+// photo, and that a submission's scores (per photo, summary, leaderboard) are those of an
+// independent numpy computation written from the metric definitions
+// (testdata/make_expected_scores.py, which wrote testdata/expected_scores.json).
 #include "rephoto/benchmark/server.h"
 
-#include "rephoto/compare/compare.h"
+#include <cmath>
+#include <fstream>
+#include <map>
+
 #include "rephoto/io/image_io.h"
 // Last: it includes httplib (see there).
 #include "rephoto/benchmark/server_fixture.h"
@@ -16,6 +21,87 @@ using testing::MakeArchive;
 using testing::RawHttp;
 using testing::ServerTest;
 using Type = testing::TestEntry::Type;
+
+// The closed-form images of testdata/make_expected_scores.py (same formulas; see there), 8-bit,
+// interleaved, top row first: photos for the test stems "00" (s = 0) and "03" (s = 3).
+constexpr int kFixedWidth = 64, kFixedHeight = 48;
+const std::vector<std::pair<std::string, int>> kFixedStems = {{"00", 0}, {"03", 3}};
+
+std::vector<uint8_t> FixedPhoto(int s) {
+  std::vector<uint8_t> rgb(size_t{3} * kFixedWidth * kFixedHeight);
+  for (int y = 0; y < kFixedHeight; ++y) {
+    for (int x = 0; x < kFixedWidth; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        int v = 40 + 2 * ((x * x + 3 * y * y + 7 * x * y + 11 * x + 5 * y + 23 * c + 37 * s) % 97);
+        if (c == 0 && (7 * x + 3 * y + s) % 101 == 0) v = 255;  // saturated: invalid
+        rgb[3 * (static_cast<size_t>(y) * kFixedWidth + x) + c] = static_cast<uint8_t>(v);
+      }
+    }
+  }
+  return rgb;
+}
+
+// kind "exact", "offset" or "perturbed"; RGBA (alpha 255 rendered, 0 not rendered).
+std::vector<uint8_t> FixedRender(const std::string& kind, int s) {
+  const std::vector<uint8_t> photo = FixedPhoto(s);
+  std::vector<uint8_t> rgba(size_t{4} * kFixedWidth * kFixedHeight);
+  for (int y = 0; y < kFixedHeight; ++y) {
+    for (int x = 0; x < kFixedWidth; ++x) {
+      const size_t pixel = static_cast<size_t>(y) * kFixedWidth + x;
+      bool rendered = true;
+      for (int c = 0; c < 3; ++c) {
+        const int p = photo[3 * pixel + c];
+        int v = p;
+        if (kind == "offset") v = std::min(p + 12, 255);  // the saturated pixels stay 255
+        if (kind == "perturbed") {
+          v = p * 3 / 4 + 30 + (5 * x + 9 * y + 13 * c + s) % 61 - 30;
+          rendered = s == 0 ? x < 40 : y >= 12;
+        }
+        rgba[4 * pixel + c] = static_cast<uint8_t>(v);
+      }
+      rgba[4 * pixel + 3] = rendered ? 255 : 0;
+    }
+  }
+  return rgba;
+}
+
+void WriteFixedPng(const fs::path& path, const std::vector<uint8_t>& pixels, int channels) {
+  io::WritePng8(path, pixels, kFixedWidth, kFixedHeight, channels);
+}
+
+// A tar of the two renders of `kind`.
+std::string FixedRenders(const std::string& kind) {
+  const fs::path work = rephoto::testing::MakeTempDir();
+  std::vector<testing::TestEntry> entries;
+  for (const auto& [stem, s] : kFixedStems) {
+    const fs::path png = work / (stem + ".png");
+    WriteFixedPng(png, FixedRender(kind, s), 4);
+    entries.push_back({stem + ".png", ReadFileToString(png)});
+  }
+  return MakeArchive(entries, ArchiveFormat::kTar);
+}
+
+nlohmann::json LoadExpectedScores() {
+  std::ifstream in(rephoto::testing::SourceDir() /
+                   "src/rephoto/benchmark/testdata/expected_scores.json");
+  EXPECT_TRUE(in.good());
+  return nlohmann::json::parse(in);
+}
+
+// The reference computes in float64 from the same float32 pixel values (v / 255); rephoto sums
+// windows in double but forms per-pixel values in float, so the two differ by float rounding
+// (~1e-7 relative): 1e-6 on errors in [0, 2], 1e-5 dB on PSNR.
+double Tolerance(const std::string& metric) { return metric == "psnr" ? 1e-5 : 1e-6; }
+
+// `actual` as the service writes numbers (a number, or "inf") against the reference's.
+void ExpectScore(const nlohmann::json& actual, const nlohmann::json& expected, double tolerance) {
+  if (expected.is_string()) {
+    EXPECT_EQ(actual, expected);
+    return;
+  }
+  ASSERT_FALSE(actual.is_null()) << "expected " << expected;
+  EXPECT_NEAR(JsonNumber(actual), expected.get<double>(), tolerance);
+}
 
 TEST_F(ServerTest, ListsDatasetsAndPublishesTrainingAndTestCameras) {
   const nlohmann::json list = Json("/api/datasets");
@@ -105,63 +191,108 @@ TEST_F(ServerTest, NoUrlSpellingReturnsAByteOfASecretPhoto) {
   EXPECT_EQ(Json("/api/datasets").size(), 1u);
 }
 
-TEST_F(ServerTest, ScoresExactlyAsRephotoCompareAndRanksTheLeaderboard) {
-  const auto perfect =
-      Submit(alice_, testing::RendersFromPhotos(root_, "tiny", 0.0, rng_), "exact");
-  ASSERT_TRUE(perfect);
-  ASSERT_EQ(perfect->status, 202) << perfect->body;
-  const auto noisy = Submit(bob_, testing::RendersFromPhotos(root_, "tiny", 0.1, rng_), "noisy");
-  ASSERT_EQ(noisy->status, 202) << noisy->body;
-  const std::string perfect_id = nlohmann::json::parse(perfect->body)["id"];
-  const std::string noisy_id = nlohmann::json::parse(noisy->body)["id"];
+TEST_F(ServerTest, ScoresMatchAnIndependentNumpyReferenceAndRankTheLeaderboard) {
+  // A dataset of the same scene whose two test photos are the closed-form FixedPhoto images.
+  const fs::path scene = base_ / "fixed-scene";
+  fs::copy(base_ / "scene", scene, fs::copy_options::recursive);
+  for (const auto& [stem, s] : kFixedStems) {
+    WriteFixedPng(scene / "images" / (stem + ".png"), FixedPhoto(s), 3);
+  }
+  {
+    Store store(root_);
+    testing::AddTinyDataset(store, scene, "fixed");
+  }
+  dataset_ = "fixed";
+  const nlohmann::json reference = LoadExpectedScores();
+  std::map<std::string, std::string> ids;  // kind -> submission id
+  const std::map<std::string, std::string> owner = {
+      {"exact", alice_}, {"offset", bob_}, {"perturbed", alice_}};
+  for (const std::string kind : {"exact", "offset", "perturbed"}) {
+    ids[kind] = SubmitOk(owner.at(kind), FixedRenders(kind), kind);
+  }
   ASSERT_TRUE(server_->submissions().WaitIdle(120));
 
-  for (const auto& [id, token] : {std::pair{perfect_id, alice_}, std::pair{noisy_id, bob_}}) {
+  for (const std::string kind : {"exact", "offset", "perturbed"}) {
+    SCOPED_TRACE(kind);
+    const nlohmann::json& expected = reference["submissions"][kind];
     // Per-photo numbers go to the submission's own participant only.
-    EXPECT_FALSE(Json("/api/submissions/" + id).contains("images"));
-    const nlohmann::json submission = Json("/api/submissions/" + id, token);
+    EXPECT_FALSE(Json("/api/submissions/" + ids[kind]).contains("images"));
+    const nlohmann::json submission = Json("/api/submissions/" + ids[kind], owner.at(kind));
     ASSERT_EQ(submission["status"], "done") << submission.dump();
-    // `rephoto compare` on the same photos and renders, with the dataset's settings.
-    compare::CompareOptions options;
-    options.photos = SecretPhotoFolder(root_, "tiny");
-    options.renders = SubmissionFolder(root_, id) / "renders";
-    options.out = rephoto::testing::MakeTempDir() / "compare";
-    options.metrics = metrics::ParseMetricList("1-ncc,cb+cr,psnr");
-    options.metric_options.window = 5;
-    options.write_error_images = false;
-    compare::RunCompare(options);
-    EXPECT_EQ(submission["summary"],
-              PublicSummary(nlohmann::json::parse(ReadFileToString(options.out / "summary.json"))));
     EXPECT_FALSE(submission["summary"]["parameters"].contains("photos"));  // no server paths
     ASSERT_EQ(submission["images"].size(), 2u);
-    EXPECT_FALSE(submission["images"][0].contains("photo"));  // no server paths
+    for (const nlohmann::json& image : submission["images"]) {
+      EXPECT_FALSE(image.contains("photo"));  // no server paths
+      const std::string stem = image["name"];
+      SCOPED_TRACE(stem);
+      const nlohmann::json& want = expected["images"][stem];
+      ExpectScore(image["completeness"], want["completeness"], 1e-12);
+      for (const std::string metric : {"1-ncc", "cb+cr", "psnr"}) {
+        ExpectScore(image[metric], want[metric], Tolerance(metric));
+        EXPECT_EQ(JsonNumber(image[metric + "_evaluated"]),
+                  want[metric + "_evaluated"].get<double>())
+            << metric;
+      }
+    }
+    const nlohmann::json& summary = submission["summary"];
+    ExpectScore(summary["completeness"]["mean"], expected["summary"]["completeness"], 1e-12);
+    for (const std::string metric : {"1-ncc", "cb+cr", "psnr"}) {
+      SCOPED_TRACE(metric);
+      ExpectScore(summary["metrics"][metric]["mean"],
+                  expected["summary"]["metrics"][metric]["mean"], Tolerance(metric));
+      ExpectScore(summary["metrics"][metric]["pooled"],
+                  expected["summary"]["metrics"][metric]["pooled"], Tolerance(metric));
+      // The leaderboard's numbers (docs/benchmark.md): mean and filled score.
+      const nlohmann::json& scores = submission["scores"]["all"];
+      ExpectScore(scores["means"][metric], expected["summary"]["metrics"][metric]["mean"],
+                  Tolerance(metric));
+      ExpectScore(scores["filled"][metric], expected["filled"][metric], Tolerance(metric));
+    }
   }
-  // Renders equal to the photos: zero error, full coverage (by definition of the metrics).
-  const nlohmann::json exact = Json("/api/submissions/" + perfect_id)["summary"];
+  // Closed forms the reference must agree with (a check of the reference itself): renders equal
+  // to the photos give zero error and full coverage; a grey offset of 12/255 leaves 1-NCC and
+  // cb+cr at 0 and gives PSNR 20 log10(255/12).
+  const nlohmann::json& exact = reference["submissions"]["exact"]["summary"];
   EXPECT_EQ(exact["metrics"]["1-ncc"]["mean"], 0.0);
   EXPECT_EQ(exact["metrics"]["psnr"]["mean"], "inf");
-  EXPECT_EQ(exact["completeness"]["mean"], 1.0);
+  EXPECT_EQ(exact["completeness"], 1.0);
+  const nlohmann::json& offset = reference["submissions"]["offset"]["summary"]["metrics"];
+  EXPECT_NEAR(offset["1-ncc"]["mean"].get<double>(), 0.0, 1e-12);
+  EXPECT_NEAR(offset["cb+cr"]["mean"].get<double>(), 0.0, 1e-7);  // float32 inputs
+  EXPECT_NEAR(offset["psnr"]["mean"].get<double>(), 20 * std::log10(255.0 / 12), 1e-5);
+  const nlohmann::json served_exact = Json("/api/submissions/" + ids["exact"])["summary"];
+  EXPECT_EQ(served_exact["metrics"]["1-ncc"]["mean"], 0.0);
+  EXPECT_EQ(served_exact["metrics"]["psnr"]["mean"], "inf");
+  EXPECT_EQ(served_exact["completeness"]["mean"], 1.0);
 
-  const nlohmann::json board = Json("/api/datasets/tiny/leaderboard");
+  // Ranked by the filled 1-NCC: exact (0), offset (0 up to rounding; after exact by time),
+  // perturbed.
+  const nlohmann::json board = Json("/api/datasets/fixed/leaderboard");
   EXPECT_EQ(board["headline"], "1-ncc");
   EXPECT_EQ(board["ranking"]["rule"], "filled");
-  ASSERT_EQ(board["entries"].size(), 2u);
-  EXPECT_EQ(board["entries"][0]["id"], perfect_id);
+  ASSERT_EQ(board["entries"].size(), 3u);
+  EXPECT_EQ(board["entries"][0]["id"], ids["exact"]);
   EXPECT_EQ(board["entries"][0]["rank"], 1);
   EXPECT_EQ(board["entries"][0]["completeness"], 1.0);
-  EXPECT_EQ(board["entries"][1]["id"], noisy_id);
-  EXPECT_GT(JsonNumber(board["entries"][1]["headline"]["mean"]), 0.01);
-  EXPECT_EQ(board["entries"][1]["metrics"]["cb+cr"],
-            Json("/api/submissions/" + noisy_id)["summary"]["metrics"]["cb+cr"]["mean"]);
+  EXPECT_EQ(board["entries"][1]["id"], ids["offset"]);
+  EXPECT_EQ(board["entries"][2]["id"], ids["perturbed"]);
+  const nlohmann::json& perturbed = reference["submissions"]["perturbed"];
+  ExpectScore(board["entries"][2]["headline"]["filled"], perturbed["filled"]["1-ncc"], 1e-6);
+  ExpectScore(board["entries"][2]["headline"]["mean"],
+              perturbed["summary"]["metrics"]["1-ncc"]["mean"], 1e-6);
+  ExpectScore(board["entries"][2]["completeness"], perturbed["summary"]["completeness"], 1e-12);
+  ExpectScore(board["entries"][2]["metrics"]["cb+cr"],
+              perturbed["summary"]["metrics"]["cb+cr"]["mean"], 1e-6);
+  const std::string noisy_id = ids["perturbed"];
 
   // Pages: 200 and the method names.
   for (const std::string& path : std::vector<std::string>{
-           "/", "/datasets/tiny", "/datasets/tiny/leaderboard", "/submissions/" + noisy_id}) {
+           "/", "/datasets/fixed", "/datasets/fixed/leaderboard", "/submissions/" + noisy_id}) {
     const auto res = client_->Get(path.c_str());
     ASSERT_TRUE(res && res->status == 200) << path;
     EXPECT_NE(res->body.find("<!DOCTYPE html>"), std::string::npos);
   }
-  EXPECT_NE(client_->Get("/datasets/tiny/leaderboard")->body.find("noisy"), std::string::npos);
+  EXPECT_NE(client_->Get("/datasets/fixed/leaderboard")->body.find("perturbed"), std::string::npos);
   EXPECT_EQ(client_->Get("/submissions/nonexistent")->status, 404);
 }
 
