@@ -14,12 +14,12 @@
 #include <string>
 
 #include "command.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/cluster/slurm_settings.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/eval/evaluate.h"
 #include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/eval/slurm_executor.h"
-#include "rephoto/cluster/slurm_settings.h"
 #include "slurm_args.h"
 
 namespace rephoto::cli {
@@ -120,7 +120,7 @@ CommandRunner SetupEvaluate(CLI::App& app) {
       const std::optional<cluster::SlurmOptions> slurm =
           MakeSlurmOptions(args->executor, SlurmTable(tables, args->config));
       if (slurm) {
-        options.executor = "slurm";
+        options.executor = eval::Executor::kSlurm;
         options.slurm = *slurm;
       }
       options.Check();
@@ -129,8 +129,8 @@ CommandRunner SetupEvaluate(CLI::App& app) {
       return static_cast<int>(ExitCode::kUsage);
     }
     options.command_line = CommandLine();
-    if (options.executor == "slurm") {
-      const eval::SlurmRunOutcome outcome = eval::RunEvaluateOnSlurm(options);
+    if (options.executor == eval::Executor::kSlurm) {
+      const eval::SlurmRunOutcome outcome = eval::RunEvaluateOnSlurm(options, eval::PlanEvaluate);
       PrintSlurmOutcome(outcome.run, "rephoto evaluate ... (the same command)");
       if (!outcome.finished) {
         return static_cast<int>(outcome.run.finished ? ExitCode::kIncomplete : ExitCode::kOk);

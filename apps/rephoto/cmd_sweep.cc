@@ -50,11 +50,11 @@ CommandRunner SetupSweep(CLI::App& app) {
     const std::optional<cluster::SlurmOptions> slurm =
         MakeSlurmOptions(args->executor, options.base.slurm);
     if (slurm) {
-      options.base.executor = "slurm";
+      options.base.executor = eval::Executor::kSlurm;
       options.base.slurm = *slurm;
     }
     const sweep::SweepResult result = sweep::RunSweep(options);
-    if (options.base.executor == "slurm") {
+    if (options.base.executor == eval::Executor::kSlurm) {
       PrintSlurmOutcome(result.slurm, "rephoto sweep ... (the same command)");
       if (!result.slurm_finished) {
         return static_cast<int>(result.slurm.finished ? ExitCode::kIncomplete : ExitCode::kOk);

@@ -21,7 +21,7 @@ void KeepFreedMemory();
 
 // `value` as one POSIX shell word: 'value' with each ' written as '\'' (so paths with spaces,
 // quotes or $ reach a command as one literal word). The one quoting rule of the project: command
-// templates (eval/command.h) and Slurm batch scripts (cluster/slurm_text.h) use it.
+// templates (eval/command_template.h) and Slurm batch scripts (cluster/slurm_text.h) use it.
 std::string ShellQuote(std::string_view value);
 
 // User + system CPU seconds in a resource usage record (getrusage, wait4).

@@ -18,6 +18,7 @@
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/render/render.h"
+#include "rephoto/render/view_renderer.h"
 #include "rephoto/report/report.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/suggest/suggest_run.h"
@@ -63,7 +64,7 @@ mesh::Mesh PointCloudFrom(const mesh::Mesh& truth, size_t step) {
 struct Recipe {
   std::string name, description;
   mesh::Mesh model;
-  std::string representation = "auto";
+  render::ViewRepresentation representation = render::ViewRepresentation::kAuto;
 };
 
 // Photos: the ground truth, finely anti-aliased, with exposure differences and sensor noise,
@@ -118,7 +119,7 @@ std::vector<Recipe> MakeRecipes(const DemoOptions& options, const mesh::Mesh& tr
                      std::find_if(recipes.begin(), recipes.end(),
                                   [](const Recipe& r) { return r.name == "simplified"; })
                          ->model,
-                     "vdt"});
+                     render::ViewRepresentation::kVdt});
   return recipes;
 }
 
@@ -128,7 +129,7 @@ DemoReconstruction EvaluateRecipe(const DemoOptions& options, const Recipe& reci
                                   const fs::path& scene_dir, const fs::path& images_dir,
                                   const fs::path& masks_dir) {
   fs::path model_path = options.out / "models" / (recipe.name + ".ply");
-  if (recipe.representation == "auto") {
+  if (recipe.representation == render::ViewRepresentation::kAuto) {
     mesh::WritePly(model_path, recipe.model);
   } else {
     model_path = options.out / "models" / "simplified.ply";  // the proxy, written above

@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "rephoto/core/file.h"
-#include "rephoto/eval/records.h"
+#include "rephoto/eval/run_records.h"
 #include "rephoto/io/csv.h"
 
 namespace rephoto::eval {
@@ -41,22 +41,23 @@ Tables StartTables(const EvaluateOptions& o) {
 }
 
 // The fold's rows of per_image.csv and per_fold.csv, and its FoldResult.
-FoldResult AggregateFold(const RunState& s, const FoldState& fold, Tables& t) {
-  const size_t metric_count = s.o.metrics.size();
+FoldResult AggregateFold(const RunContext& ctx, const FoldPlan& plan, const FoldOutcome& fold,
+                         Tables& t) {
+  const size_t metric_count = ctx.options.metrics.size();
   FoldResult fr;
-  fr.index = fold.index;
-  fr.name = fold.name;
-  fr.test_images = fold.tests.size();
-  fr.external_seconds = fold.external_seconds;
+  fr.index = plan.index;
+  fr.name = plan.name;
+  fr.test_images = plan.tests.size();
+  fr.external_seconds = fold.command.external_seconds;
   std::vector<std::pair<std::string, std::vector<std::string>>> rows;
   std::vector<double> completeness;
   std::vector<std::vector<double>> means(metric_count);
   size_t failed_views = 0;
-  double seconds = fold.command_seconds + fold.colorize_seconds;
-  for (size_t i = 0; i < fold.tests.size(); ++i) {
-    const TestView& test = fold.tests[i];
+  double seconds = fold.command.seconds + fold.model.colorize_seconds;
+  for (size_t i = 0; i < plan.tests.size(); ++i) {
+    const TestView& test = plan.tests[i];
     const ViewOutcome* outcome = i < fold.views.size() ? &fold.views[i] : nullptr;
-    std::vector<std::string> row = {fold.name};
+    std::vector<std::string> row = {plan.name};
     if (fold.ok && outcome && outcome->ok) {
       for (std::string& field : compare::PerImageCsvRow(outcome->image)) row.push_back(field);
       // The photo by its scene name (relative to the scene's image root), not by a path into
@@ -83,7 +84,7 @@ FoldResult AggregateFold(const RunState& s, const FoldState& fold, Tables& t) {
     for (const ViewOutcome& v : fold.views) {
       if (!v.ok && !v.message.empty()) {
         fr.message = fmt::format("{} of {} views failed, first: {}", failed_views,
-                                 fold.tests.size(), v.message);
+                                 plan.tests.size(), v.message);
         break;
       }
     }
@@ -98,16 +99,16 @@ FoldResult AggregateFold(const RunState& s, const FoldState& fold, Tables& t) {
   }
   t.fold_completeness.push_back(fr.completeness);
   std::vector<std::string> fold_row = {
-      fold.name, fr.ok ? "ok" : "failed", std::to_string(fr.test_images),
+      plan.name, fr.ok ? "ok" : "failed", std::to_string(fr.test_images),
       std::to_string(fr.evaluated_images), io::CsvNumber(fr.completeness)};
   for (double v : fr.metric_means) fold_row.push_back(io::CsvNumber(v));
   fold_row.push_back(fr.message);
   t.per_fold.AddRow(fold_row);
-  if (!fr.ok) t.failed.push_back({{"fold", fold.name}, {"message", fr.message}});
+  if (!fr.ok) t.failed.push_back({{"fold", plan.name}, {"message", fr.message}});
   return fr;
 }
 
-Json SummaryJson(const RunState& s, const Tables& t, const EvaluateResult& result) {
+Json SummaryJson(const RunContext& s, size_t folds, const Tables& t, const EvaluateResult& result) {
   // Pooled completeness: all valid windows together.
   size_t valid_photo = 0, valid_both = 0;
   for (const compare::ImageResult& image : t.all_images) {
@@ -117,16 +118,16 @@ Json SummaryJson(const RunState& s, const Tables& t, const EvaluateResult& resul
   Json summary;
   summary["schema"] = kSchema;
   summary["tool_version"] = compare::ToolVersion();
-  summary["scene"] = fs::absolute(s.o.scene).lexically_normal().string();
+  summary["scene"] = fs::absolute(s.options.scene).lexically_normal().string();
   summary["scheme"] = s.split.scheme.ToString();
   // A fixed --model saw every photo, the test photos among them, whatever the split; image-based
   // rendering without a model uses only each fold's training photos.
   summary["cross_validated"] =
-      s.split.cross_validated && (s.source != ModelSource::kModel || s.o.model.empty());
+      s.split.cross_validated && (s.source != ModelSource::kModel || s.options.model.empty());
   summary["source"] = s.source == ModelSource::kModel         ? "model"
                       : s.source == ModelSource::kReconstruct ? "reconstruct"
                                                               : "render";
-  summary["folds"] = s.folds.size();
+  summary["folds"] = folds;
   summary["images"] = result.images;
   summary["evaluated_images"] = result.evaluated_images;
   summary["failed_folds"] = t.failed;
@@ -161,15 +162,17 @@ Json SummaryJson(const RunState& s, const Tables& t, const EvaluateResult& resul
 
 }  // namespace
 
-void Aggregate(RunState& s, EvaluateResult* result) {
+void Aggregate(const RunContext& s, const std::vector<FoldPlan>& plans,
+               const std::vector<FoldOutcome>& folds, Tally& tally, EvaluateResult* result) {
   const auto start = Clock::now();
-  Tables t = StartTables(s.o);
-  for (FoldState& fold : s.folds) {
-    FoldResult fr = AggregateFold(s, fold, t);
+  Tables t = StartTables(s.options);
+  for (size_t f = 0; f < plans.size(); ++f) {
+    const FoldOutcome& fold = folds[f];
+    FoldResult fr = AggregateFold(s, plans[f], fold, t);
     result->images += fr.test_images;
     result->evaluated_images += fr.evaluated_images;
     const bool all_views = fr.evaluated_images == fr.test_images;
-    WriteFoldJson(s, fold, fold.ok ? (all_views ? "ok" : "incomplete") : "failed");
+    WriteFoldJson(s, plans[f], fold, fold.ok ? (all_views ? "ok" : "incomplete") : "failed");
     result->folds.push_back(std::move(fr));
   }
   std::vector<double> image_completeness;
@@ -179,10 +182,10 @@ void Aggregate(RunState& s, EvaluateResult* result) {
   result->completeness_across_folds = Summarize(t.fold_completeness);
   result->completeness_over_images = Summarize(image_completeness);
   const std::vector<compare::MetricSummary> pooled =
-      compare::SummarizeMetrics(s.o.metrics, t.all_images);
-  for (size_t k = 0; k < s.o.metrics.size(); ++k) {
+      compare::SummarizeMetrics(s.options.metrics, t.all_images);
+  for (size_t k = 0; k < s.options.metrics.size(); ++k) {
     MetricAggregate a;
-    a.metric = s.o.metrics[k];
+    a.metric = s.options.metrics[k];
     a.across_folds = Summarize(t.fold_metric[k]);
     a.over_images = pooled[k].over_images;
     a.pooled = pooled[k].pooled;
@@ -190,8 +193,8 @@ void Aggregate(RunState& s, EvaluateResult* result) {
   }
   WriteTextFileAtomically(s.run / "per_image.csv", t.per_image.text());
   WriteTextFileAtomically(s.run / "per_fold.csv", t.per_fold.text());
-  run::WriteJsonRecord(s.run / "summary.json", SummaryJson(s, t, *result));
-  s.timings.aggregate += Seconds(start);
+  run::WriteJsonRecord(s.run / "summary.json", SummaryJson(s, plans.size(), t, *result));
+  tally.AddSeconds(&EvaluateTimings::aggregate, Seconds(start));
 }
 
 }  // namespace rephoto::eval

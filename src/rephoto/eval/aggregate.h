@@ -10,10 +10,14 @@
 // Thread safety: one thread.
 #pragma once
 
+#include <vector>
+
 #include "rephoto/eval/state.h"
 
 namespace rephoto::eval {
 
-void Aggregate(RunState& s, EvaluateResult* result);
+// `plans` and `folds` are the run's folds in index order.
+void Aggregate(const RunContext& s, const std::vector<FoldPlan>& plans,
+               const std::vector<FoldOutcome>& folds, Tally& tally, EvaluateResult* result);
 
 }  // namespace rephoto::eval

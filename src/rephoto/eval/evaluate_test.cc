@@ -13,8 +13,9 @@
 #include "rephoto/compare/compare.h"
 #include "rephoto/compare/resample.h"
 #include "rephoto/core/file.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/eval/evaluate_fixture.h"
+#include "rephoto/eval/settings.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
@@ -436,7 +437,7 @@ TEST(EvaluateTest, GaussianSplattingModelsAreRenderedComparedAndProjected) {
                         "a mesh"));
   EvaluateOptions forced = BaseOptions(dir / "forced");
   forced.model = Files().truth;
-  forced.representation = "gaussians";
+  forced.representation = render::ViewRepresentation::kGaussians;
   const EvaluateResult forced_result = RunEvaluate(forced);
   EXPECT_EQ(forced_result.exit_code, ExitCode::kIncomplete);
   EXPECT_THAT(forced_result.folds[0].message,
@@ -679,7 +680,7 @@ TEST(EvaluateTest, RendererWithTooFewOrWrongSizeImagesFailsItsFold) {
 TEST(EvaluateTest, ImageBasedRenderersUseOnlyTheFoldsTrainingPhotos) {
   EvaluateOptions o = BaseOptions(testing::MakeTempDir() / "vdt");
   o.model = Files().truth;
-  o.representation = "vdt";
+  o.representation = render::ViewRepresentation::kVdt;
   o.scheme = "kfold:3";
   o.error_images = false;
   const EvaluateResult held_out = RunEvaluate(o);
@@ -708,7 +709,7 @@ TEST(EvaluateTest, ImageBasedRenderersUseOnlyTheFoldsTrainingPhotos) {
   }
   const fs::path ibr_run = testing::MakeTempDir() / "ibr";
   EvaluateOptions i = BaseOptions(ibr_run);
-  i.representation = "ibr";
+  i.representation = render::ViewRepresentation::kIbr;
   i.depth_maps = depth_dir;
   i.scheme = "kfold:3";
   i.error_images = false;
@@ -725,7 +726,7 @@ TEST(EvaluateTest, ImageBasedRenderersUseOnlyTheFoldsTrainingPhotos) {
   // A resumed run reuses it; --depth-maps is only for ibr, and vdt needs a model.
   EXPECT_EQ(RunEvaluate(i).counters.views_rendered, 0u);
   EvaluateOptions bad = i;
-  bad.representation = "vdt";
+  bad.representation = render::ViewRepresentation::kVdt;
   EXPECT_THROW(RunEvaluate(bad), UsageError);
   bad = o;
   bad.depth_maps = "somewhere";
@@ -943,8 +944,9 @@ TEST(EvaluateTest, BadSettingsAreUsageErrors) {
   }
   o.reconstruct.clear();
   o.model = Files().truth;
-  o.representation = "bilinear";
-  EXPECT_THROW(RunEvaluate(o), UsageError);
+  // Settings parse the representation's name once, where it enters.
+  EXPECT_THROW(ApplySetting(&o, "representation", std::string("bilinear"), "--representation"),
+               UsageError);
 }
 
 }  // namespace

@@ -19,44 +19,45 @@ namespace {
 
 // The fold's model key from the file (read once per file content), and the derived model's key
 // with --colorize or defects.
-void ComputeModelKey(RunState& s, ModelCache& cache, FoldState& fold,
-                     std::optional<mesh::Mesh>* mesh) {
-  const std::string file_hash = s.hashes->Hash(fold.model_path);
-  const std::string cache_key = fold.model_path.string() + "\n" + file_hash;
+void ComputeModelKey(const RunContext& s, ModelCache& cache, const FoldPlan& fold,
+                     CommandOutcome& command, FoldModel& model, std::optional<mesh::Mesh>* mesh) {
+  const std::string file_hash = s.hashes->Hash(model.path);
+  const std::string cache_key = model.path.string() + "\n" + file_hash;
   const auto cached = cache.file_keys.find(cache_key);
   if (cached != cache.file_keys.end()) {
-    fold.model_key = cached->second;
+    model.model_key = cached->second;
   } else {
     try {
-      mesh->emplace(mesh::ReadMesh(fold.model_path));
+      mesh->emplace(mesh::ReadMesh(model.path));
     } catch (const Error& e) {
       if (s.source == ModelSource::kReconstruct) {
-        fold.command_status = "failed";  // rerun the command next time
+        command.status = "failed";  // rerun the command next time
         ThrowError("{}: reconstruct command '{}' wrote a model that cannot be read: {}; see {}",
                    fold.name, Shorten(s.CommandTemplate()), e.what(), s.Relative(fold.log_file));
       }
       throw;
     }
-    fold.model_key = ModelFileKey(*s.hashes, fold.model_path, **mesh);
-    cache.file_keys[cache_key] = fold.model_key;
+    model.model_key = ModelFileKey(*s.hashes, model.path, **mesh);
+    cache.file_keys[cache_key] = model.model_key;
   }
   if (s.DerivesModel()) {
     // The coloured and/or degraded model: its key covers what it was made from.
-    fold.colorize_key = DerivedModelKey(s.o, fold.model_key, fold.train_key);
-    fold.model_key = fold.colorize_key;
+    model.colorize_key = DerivedModelKey(s.options, model.model_key, fold.train_key);
+    model.model_key = model.colorize_key;
   }
 }
 
-std::string BaseKey(RunState& s, const FoldState& fold) {
+std::string BaseKey(const RunContext& s, const FoldPlan& fold, const FoldModel& model) {
+  const render::ViewRepresentation representation = s.options.representation;
   Hasher base;
-  base.Add(fold.model_key).Add(RenderSettingsKey(s.o));
+  base.Add(model.model_key).Add(RenderSettingsKey(s.options));
   // Image-based representations render from the fold's training photos (and depth maps).
-  if (render::IsImageBased(s.representation)) {
+  if (render::IsImageBased(representation)) {
     base.Add(fold.train_key);
-    if (s.representation == render::ViewRepresentation::kIbr && !s.o.depth_maps.empty()) {
-      base.Add(s.o.depth_maps.string());
+    if (representation == render::ViewRepresentation::kIbr && !s.options.depth_maps.empty()) {
+      base.Add(s.options.depth_maps.string());
       std::error_code ec;
-      for (const auto& entry : fs::directory_iterator(s.o.depth_maps, ec)) {
+      for (const auto& entry : fs::directory_iterator(s.options.depth_maps, ec)) {
         if (entry.is_regular_file(ec)) base.Add(s.hashes->Hash(entry.path()));
       }
     }
@@ -73,127 +74,139 @@ render::ModelOptions ModelOptions(const EvaluateOptions& o) {
 
 // Textures `mesh` from the fold's training photos (textured/model.obj, its atlases and
 // texture.json) and replaces it by the textured mesh as read back from the OBJ.
-void TextureFoldModel(RunState& s, FoldState& fold, mesh::Mesh& mesh) {
+void TextureFoldModel(const RunContext& s, const FoldPlan& fold, FoldModel& model,
+                      const scene::Scene& train, Tally& tally, mesh::Mesh& mesh) {
   REPHOTO_CHECK(!mesh.is_point_cloud(), "{}: --texture needs a mesh with faces",
-                fold.model_path.string());
+                model.path.string());
   const auto start = Clock::now();
   const fs::path out = fold.dir / "textured" / "model.obj";
   std::error_code ec;
   fs::remove(fold.dir / "model.key", ec);
-  const scene::Scene train = TrainingScene(s, fold);
   std::vector<size_t> views(train.views.size());
   for (size_t v = 0; v < views.size(); ++v) views[v] = v;
   const texture::TexturedMesh textured = texture::TextureMesh(mesh, train, views);
   texture::WriteTexturedObj(out, textured);
   texture::WriteTextureReport(fold.dir / "textured" / "texture.json", textured.report);
   mesh = mesh::ReadMesh(out);
-  if (!HasDefects(s.o.degrade)) WriteTextFileAtomically(fold.dir / "model.key", fold.colorize_key);
-  fold.colorize_seconds = Seconds(start);
-  s.timings.colorize += fold.colorize_seconds;
-  ++s.counters.models_colorized;
+  if (!HasDefects(s.options.degrade)) {
+    WriteTextFileAtomically(fold.dir / "model.key", model.colorize_key);
+  }
+  model.colorize_seconds = Seconds(start);
+  tally.AddSeconds(&EvaluateTimings::colorize, model.colorize_seconds);
+  tally.Count(&EvaluateCounters::models_colorized);
   const texture::TextureReport& r = textured.report;
   LogInfo(fmt::format(
       "{}: textured {} of {} faces from {} of {} training photos ({} filled) in {:.1f} s",
       fold.name, r.textured_faces, r.faces, r.views_used, r.views_given,
-      r.filled_faces + r.default_faces, fold.colorize_seconds));
+      r.filled_faces + r.default_faces, model.colorize_seconds));
 }
 
 // Colours (from the fold's training photos) and/or degrades `mesh`, writes model.ply and its
 // key. Returns the render model when colouring already built it (colours leave the BVH as it is).
-std::unique_ptr<render::RenderModel> DeriveModel(RunState& s, FoldState& fold, mesh::Mesh& mesh) {
+std::unique_ptr<render::RenderModel> DeriveModel(const RunContext& s, const FoldPlan& fold,
+                                                 FoldModel& model, FoldTrainingScene& training,
+                                                 Tally& tally, mesh::Mesh& mesh) {
   const fs::path coloured = fold.dir / "model.ply";
   const fs::path coloured_key = fold.dir / "model.key";
   std::error_code ec;
   std::unique_ptr<render::RenderModel> built;
-  if (s.o.colorize) {
+  if (s.options.colorize) {
     REPHOTO_CHECK(!mesh.is_point_cloud(), "{}: --colorize needs a mesh with faces",
-                  fold.model_path.string());
+                  model.path.string());
     const auto colorize_start = Clock::now();
-    const scene::Scene train = TrainingScene(s, fold);
+    const scene::Scene& train = training.Get();
     std::vector<size_t> views(train.views.size());
     for (size_t v = 0; v < views.size(); ++v) views[v] = v;
     render::ColorizeReport report;
     fs::remove(coloured_key, ec);
-    if (HasDefects(s.o.degrade)) {
+    if (HasDefects(s.options.degrade)) {
       // The defects change the geometry after colouring: two BVHs.
       mesh = render::ColorizeMesh(mesh, train, views, {}, &report);
     } else {
       // One BVH for colouring, rendering and projecting.
-      built = std::make_unique<render::RenderModel>(std::move(mesh), ModelOptions(s.o),
-                                                    fold.model_path.string());
+      built = std::make_unique<render::RenderModel>(std::move(mesh), ModelOptions(s.options),
+                                                    model.path.string());
       render::VertexColors colors = render::ColorizeVertices(*built, train, views, {}, &report);
       built->SetVertexColors(std::move(colors.colors));
       built->SetVertexScalar(std::move(colors.view_count));
     }
     mesh::WritePly(coloured, built ? built->mesh() : mesh);
-    WriteTextFileAtomically(coloured_key, fold.colorize_key);
-    fold.colorize_seconds = Seconds(colorize_start);
-    s.timings.colorize += fold.colorize_seconds;
-    ++s.counters.models_colorized;
+    WriteTextFileAtomically(coloured_key, model.colorize_key);
+    model.colorize_seconds = Seconds(colorize_start);
+    tally.AddSeconds(&EvaluateTimings::colorize, model.colorize_seconds);
+    tally.Count(&EvaluateCounters::models_colorized);
     LogInfo(fmt::format("{}: coloured {} of {} vertices from {} training photos in {:.1f} s",
                         fold.name, report.colored_vertices, report.vertices, train.views.size(),
-                        fold.colorize_seconds));
+                        model.colorize_seconds));
   }
-  if (s.o.texture) TextureFoldModel(s, fold, mesh);
-  if (HasDefects(s.o.degrade)) {
+  if (s.options.texture) TextureFoldModel(s, fold, model, training.Get(), tally, mesh);
+  if (HasDefects(s.options.degrade)) {
     const auto degrade_start = Clock::now();
     fs::remove(coloured_key, ec);
-    degrade::DegradeOptions d = s.o.degrade;
+    degrade::DegradeOptions d = s.options.degrade;
     d.texture_dir = fold.dir / "textures";
     d.texture_prefix = "model";
     degrade::DegradeReport report;
     mesh = degrade::Degrade(mesh, d, &report);
-    s.timings.prepare += Seconds(degrade_start);
+    tally.AddSeconds(&EvaluateTimings::prepare, Seconds(degrade_start));
     LogInfo(fmt::format("{}: degraded the model ({} -> {} vertices)", fold.name,
                         report.vertices_before, report.vertices_after));
     mesh::WritePly(coloured, mesh);
-    WriteTextFileAtomically(coloured_key, fold.colorize_key);
+    WriteTextFileAtomically(coloured_key, model.colorize_key);
   }
   return built;
 }
 
 }  // namespace
 
-fs::path DerivedModelPath(const RunState& s, const FoldState& fold) {
-  if (s.o.texture && !HasDefects(s.o.degrade)) return fold.dir / "textured" / "model.obj";
-  return fold.dir / "model.ply";
+FoldTrainingScene::FoldTrainingScene(const RunContext& s, const FoldPlan& fold)
+    : s_(s), fold_(fold) {}
+
+const scene::Scene& FoldTrainingScene::Get() {
+  if (!scene_) scene_ = TrainingScene(s_, fold_);
+  return *scene_;
 }
 
-bool IsGaussianModel(const RunState& s, ModelCache& cache, const fs::path& path) {
-  if (path.empty() || render::IsImageBased(s.representation)) return false;
-  if (s.representation == render::ViewRepresentation::kGaussians) return true;
+bool IsGaussianModel(const RunContext& s, ModelCache& cache, const fs::path& path) {
+  if (path.empty() || render::IsImageBased(s.options.representation)) return false;
+  if (s.options.representation == render::ViewRepresentation::kGaussians) return true;
   const auto [it, inserted] = cache.is_gaussian_file.emplace(path, false);
   if (inserted) it->second = splat::IsGaussianFile(path);
   return it->second;
 }
 
-void ResolveFoldModel(RunState& s, ModelCache& cache, FoldState& fold,
-                      std::optional<mesh::Mesh>* mesh) {
-  if (s.source == ModelSource::kModel && !s.o.model.empty()) {
-    fold.model_path = fs::absolute(s.o.model).lexically_normal();
+void ResolveFoldModel(const RunContext& s, const FoldPlan& fold, CommandOutcome& command,
+                      ModelCache& cache, std::optional<mesh::Mesh>* mesh, FoldModel* resolved) {
+  FoldModel& model = *resolved;
+  model = FoldModel();
+  if (s.source == ModelSource::kModel && !s.options.model.empty()) {
+    model.path = fs::absolute(s.options.model).lexically_normal();
+  } else if (s.source == ModelSource::kReconstruct) {
+    model.path = command.model_path;
   }
   if (s.source == ModelSource::kRender) {
-    fold.base_key = fold.command_key;
+    model.base_key = command.key;
     return;
   }
-  fold.gaussians = IsGaussianModel(s, cache, fold.model_path);
-  if (fold.model_path.empty()) {
-    fold.model_key = Hasher().Add(kKeyVersion).Add("no model").Hex();  // ibr from depth
-  } else if (fold.gaussians) {
+  model.gaussians = IsGaussianModel(s, cache, model.path);
+  if (model.path.empty()) {
+    model.model_key = Hasher().Add(kKeyVersion).Add("no model").Hex();  // ibr from depth
+  } else if (model.gaussians) {
     REPHOTO_CHECK(!s.DerivesModel(),
                   "{}: holds 3D Gaussians; --colorize and model defects need a mesh",
-                  fold.model_path.string());
+                  model.path.string());
     // Rendering and completeness settings of Gaussians are part of the model's key.
-    fold.model_key = GaussianModelKey(s.o, s.hashes->Hash(fold.model_path));
+    model.model_key = GaussianModelKey(s.options, s.hashes->Hash(model.path));
   } else {
-    ComputeModelKey(s, cache, fold, mesh);  // model_key = the colorize key when colouring
+    // model_key = the colorize key when colouring
+    ComputeModelKey(s, cache, fold, command, model, mesh);
   }
   // The recorded colouring time stays the fold's cost while its coloured model is reused.
   if (s.DerivesModel() && fold.previous &&
-      fold.previous->value("colorize_key", "") == fold.colorize_key) {
-    fold.colorize_seconds = fold.previous->value("/seconds/colorize"_json_pointer, 0.0);
+      fold.previous->value("colorize_key", "") == model.colorize_key) {
+    model.colorize_seconds = fold.previous->value("/seconds/colorize"_json_pointer, 0.0);
   }
-  fold.base_key = BaseKey(s, fold);
+  model.base_key = BaseKey(s, fold, model);
 }
 
 namespace {
@@ -201,14 +214,15 @@ namespace {
 // A fold whose degraded model is the one in memory (the same fixed model and defects as an
 // earlier fold) gets that fold's files as its own, hard-linked (or copied), so that its
 // model.ply (and the textures it names) exist as its fold.json says.
-void ShareDegradedModel(const RunState& s, const ModelCache& cache, const FoldState& fold) {
-  if (!HasDefects(s.o.degrade)) return;
-  const fs::path mine = DerivedModelPath(s, fold);
+void ShareDegradedModel(const RunContext& s, const ModelCache& cache, const FoldPlan& fold,
+                        const FoldModel& model) {
+  if (!HasDefects(s.options.degrade)) return;
+  const fs::path& mine = fold.derived_model;
   const fs::path key_file = fold.dir / "model.key";
   std::error_code ec;
   if (cache.model_path.empty() || cache.model_path == mine) return;
   if (fs::is_regular_file(mine, ec) && fs::is_regular_file(key_file, ec) &&
-      ReadFileToString(key_file) == fold.colorize_key) {
+      ReadFileToString(key_file) == model.colorize_key) {
     return;
   }
   fs::remove(key_file, ec);
@@ -219,21 +233,24 @@ void ShareDegradedModel(const RunState& s, const ModelCache& cache, const FoldSt
     }
   }
   LinkOrCopyFileAtomically(cache.model_path, mine);
-  WriteTextFileAtomically(key_file, fold.colorize_key);
+  WriteTextFileAtomically(key_file, model.colorize_key);
 }
 
 }  // namespace
 
-std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache& cache,
-                                                         FoldState& fold,
-                                                         std::optional<mesh::Mesh>* mesh) {
-  if (fold.model_path.empty()) return nullptr;  // image-based rendering from depth maps alone
-  if (cache.model && cache.model_key == fold.model_key) {
-    ShareDegradedModel(s, cache, fold);
+std::shared_ptr<const render::RenderModel> LoadFoldModel(const RunContext& s,
+                                                         const FoldPlan& fold, FoldModel& model,
+                                                         FoldTrainingScene& training,
+                                                         ModelCache& cache,
+                                                         std::optional<mesh::Mesh>* mesh,
+                                                         Tally& tally) {
+  if (model.path.empty()) return nullptr;  // image-based rendering from depth maps alone
+  if (cache.model && cache.model_key == model.model_key) {
+    ShareDegradedModel(s, cache, fold, model);
     return cache.model;
   }
   cache.model.reset();
-  const fs::path coloured = DerivedModelPath(s, fold);
+  const fs::path coloured = fold.derived_model;
   const fs::path coloured_key = fold.dir / "model.key";
   std::error_code ec;
   std::string previous_colorize;
@@ -242,12 +259,12 @@ std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache
     previous_colorize = ReadFileToString(coloured_key);
   }
   std::unique_ptr<render::RenderModel> built;  // set when colouring built it already
-  if (s.DerivesModel() && previous_colorize == fold.colorize_key) {
+  if (s.DerivesModel() && previous_colorize == model.colorize_key) {
     mesh->emplace(mesh::ReadMesh(coloured));
   } else {
-    if (!*mesh) mesh->emplace(mesh::ReadMesh(fold.model_path));
+    if (!*mesh) mesh->emplace(mesh::ReadMesh(model.path));
     if (s.DerivesModel()) {
-      built = DeriveModel(s, fold, **mesh);
+      built = DeriveModel(s, fold, model, training, tally, **mesh);
       // Rendered with the colours model.ply holds, so that a later run (or another process)
       // that reads model.ply renders the same pixels.
       if (built) {
@@ -259,19 +276,19 @@ std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache
       }
     }
   }
-  std::shared_ptr<const render::RenderModel> model;
+  std::shared_ptr<const render::RenderModel> render_model;
   if (built) {
-    model = std::move(built);
+    render_model = std::move(built);
   } else {
     const auto build_start = Clock::now();
-    model = std::make_shared<const render::RenderModel>(std::move(**mesh), ModelOptions(s.o),
-                                                        fold.model_path.string());
-    s.timings.render += Seconds(build_start);
+    render_model = std::make_shared<const render::RenderModel>(
+        std::move(**mesh), ModelOptions(s.options), model.path.string());
+    tally.AddSeconds(&EvaluateTimings::render, Seconds(build_start));
   }
-  cache.model = model;
-  cache.model_key = fold.model_key;
-  cache.model_path = HasDefects(s.o.degrade) ? coloured : fold.model_path;
-  return model;
+  cache.model = render_model;
+  cache.model_key = model.model_key;
+  cache.model_path = HasDefects(s.options.degrade) ? coloured : model.path;
+  return render_model;
 }
 
 std::shared_ptr<const splat::GaussianModel> LoadGaussians(ModelCache& cache, const fs::path& path,
@@ -292,37 +309,41 @@ std::shared_ptr<const splat::GaussianModel> LoadGaussians(ModelCache& cache, con
 
 splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o) {
   splat::GaussianRenderOptions options;
-  options.mode = o.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
-                                                  : splat::GaussianMode::kClassic;
+  options.mode = o.gaussian_mode;
   options.background = Eigen::Vector3f(o.background[0], o.background[1], o.background[2]);
   return options;
 }
 
-std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& cache,
-                                                       FoldState& fold,
-                                                       std::optional<mesh::Mesh>* mesh) {
-  if (fold.gaussians) {
+std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(const RunContext& s, const FoldPlan& fold,
+                                                       FoldModel& fold_model,
+                                                       FoldTrainingScene& training,
+                                                       ModelCache& cache,
+                                                       std::optional<mesh::Mesh>* mesh,
+                                                       Tally& tally) {
+  if (fold_model.gaussians) {
     return std::make_unique<render::GaussianViewRenderer>(
-        LoadGaussians(cache, fold.model_path, fold.model_key), GaussianOptions(s.o));
+        LoadGaussians(cache, fold_model.path, fold_model.model_key), GaussianOptions(s.options));
   }
-  std::shared_ptr<const render::RenderModel> model = LoadFoldModel(s, cache, fold, mesh);
+  std::shared_ptr<const render::RenderModel> model =
+      LoadFoldModel(s, fold, fold_model, training, cache, mesh, tally);
   render::RenderOptions render_options;
-  render_options.samples_per_pixel = s.o.samples_per_pixel;
-  render_options.backfaces = s.o.backfaces;
+  render_options.samples_per_pixel = s.options.samples_per_pixel;
+  render_options.backfaces = s.options.backfaces;
   const auto build_start = Clock::now();
   std::unique_ptr<render::ViewRenderer> renderer;
-  if (!render::IsImageBased(s.representation)) {
+  if (!render::IsImageBased(s.options.representation)) {
     renderer = std::make_unique<render::ModelViewRenderer>(std::move(model), render_options);
   } else {
     // The fold's training photos reprojected through the model (vdt) or through per-view depth
     // maps (ibr: --depth-maps, else plane-sweep stereo): never the test photo.
-    const scene::Scene train = TrainingScene(s, fold);
+    const scene::Scene& train = training.Get();
     std::vector<size_t> indices(train.views.size());
     for (size_t i = 0; i < indices.size(); ++i) indices[i] = i;
     ibr::ImageBasedOptions ibr_options;
     ibr_options.scene_points = ibr::ScenePoints(train);
-    const bool vdt = s.representation == render::ViewRepresentation::kVdt;
-    auto views = ibr::TrainingViewsFromScene(train, indices, vdt ? fs::path() : s.o.depth_maps);
+    const bool vdt = s.options.representation == render::ViewRepresentation::kVdt;
+    auto views =
+        ibr::TrainingViewsFromScene(train, indices, vdt ? fs::path() : s.options.depth_maps);
     if (vdt) {
       REPHOTO_CHECK(model && !model->mesh().is_point_cloud(),
                     "--representation vdt needs a mesh as geometry proxy (got a point cloud)");
@@ -331,7 +352,7 @@ std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& 
         vdt ? ibr::ImageBasedRenderer::Vdt(model->mesh(), std::move(views), ibr_options)
             : ibr::ImageBasedRenderer::Ibr(std::move(views), ibr_options));
   }
-  s.timings.render += Seconds(build_start);
+  tally.AddSeconds(&EvaluateTimings::render, Seconds(build_start));
   return renderer;
 }
 

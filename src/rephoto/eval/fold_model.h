@@ -10,8 +10,8 @@
 //                   else the model read and, with --colorize, coloured from the fold's training
 //                   photos only (render/colorize.h), or with --texture textured from them
 //                   (texture/texture_mesh.h: textured/model.obj, atlases, texture.json), with
-//                   defects degraded (degrade/degrade.h), written to DerivedModelPath +
-//                   model.key; then its BVH built. Colours and texels are rendered as the files
+//                   defects degraded (degrade/degrade.h), written to FoldPlan::derived_model
+//                   + model.key; then its BVH built. Colours and texels are rendered as the files
 //                   store them (8 bits), so a run that reads the files renders the same pixels.
 // MakeFoldRenderer  the renderer of the representation for the fold (render::ViewRenderer).
 //
@@ -43,32 +43,51 @@ struct ModelCache {
   std::map<std::filesystem::path, bool> is_gaussian_file;  // splat::IsGaussianFile, asked once
 };
 
+// The fold's training scene (prepare_fold.h TrainingScene), computed on first use and then kept
+// for the fold's colouring, texturing and image-based renderer.
+class FoldTrainingScene {
+ public:
+  FoldTrainingScene(const RunContext& s, const FoldPlan& fold);
+  const scene::Scene& Get();
+
+ private:
+  const RunContext& s_;
+  const FoldPlan& fold_;
+  std::optional<scene::Scene> scene_;
+};
+
 // Whether `path` is rendered as 3D Gaussians (representation gaussians, or auto and a file with
 // Gaussian properties).
-bool IsGaussianModel(const RunState& s, ModelCache& cache, const std::filesystem::path& path);
+bool IsGaussianModel(const RunContext& s, ModelCache& cache, const std::filesystem::path& path);
 
-// Sets fold.model_path (for --model), fold.gaussians, model_key, colorize_key, base_key and the
-// recorded colouring time. `mesh` receives the model when it had to be read for its key.
-void ResolveFoldModel(RunState& s, ModelCache& cache, FoldState& fold,
-                      std::optional<mesh::Mesh>* mesh);
+// The fold's model into *model: its path (--model, or the model `command` wrote), whether it
+// holds Gaussians, model_key, colorize_key, base_key and the recorded colouring time. `mesh`
+// receives the model when it had to be read for its key. Throws Error for a model that cannot be
+// read (*model then holds what was known before, its path first, as fold.json records it); for
+// a reconstruction it also marks `command` failed (its status in fold.json), so it runs again.
+void ResolveFoldModel(const RunContext& s, const FoldPlan& fold, CommandOutcome& command,
+                      ModelCache& cache, std::optional<mesh::Mesh>* mesh, FoldModel* model);
 
-// The fold's render model (see above); null for ibr without a model.
-std::shared_ptr<const render::RenderModel> LoadFoldModel(RunState& s, ModelCache& cache,
-                                                         FoldState& fold,
-                                                         std::optional<mesh::Mesh>* mesh);
+// The fold's render model (see above); null for ibr without a model. Sets
+// model.colorize_seconds when it colours or textures the model.
+std::shared_ptr<const render::RenderModel> LoadFoldModel(const RunContext& s,
+                                                         const FoldPlan& fold, FoldModel& model,
+                                                         FoldTrainingScene& training,
+                                                         ModelCache& cache,
+                                                         std::optional<mesh::Mesh>* mesh,
+                                                         Tally& tally);
 
 std::shared_ptr<const splat::GaussianModel> LoadGaussians(ModelCache& cache,
                                                           const std::filesystem::path& path,
                                                           const std::string& key);
 splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o);
 
-// Where the fold's derived model is written: RUN/folds/fold_XX/model.ply (colours, defects), or
-// textured/model.obj with --texture and no defects; its key is RUN/folds/fold_XX/model.key.
-std::filesystem::path DerivedModelPath(const RunState& s, const FoldState& fold);
-
 // The renderer of the fold's representation (loads the model as above).
-std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& cache,
-                                                       FoldState& fold,
-                                                       std::optional<mesh::Mesh>* mesh);
+std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(const RunContext& s, const FoldPlan& fold,
+                                                       FoldModel& fold_model,
+                                                       FoldTrainingScene& training,
+                                                       ModelCache& cache,
+                                                       std::optional<mesh::Mesh>* mesh,
+                                                       Tally& tally);
 
 }  // namespace rephoto::eval

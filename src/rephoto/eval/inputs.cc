@@ -4,7 +4,7 @@
 #include <set>
 
 #include "rephoto/core/progress.h"
-#include "rephoto/eval/records.h"
+#include "rephoto/eval/run_records.h"
 #include "rephoto/scene/image_name.h"
 #include "rephoto/split/split.h"
 #include "rephoto/split/split_writer.h"
@@ -12,17 +12,17 @@
 namespace rephoto::eval {
 namespace fs = std::filesystem;
 
-void ReadInputs(RunState& s) {
+void ReadInputs(RunContext& s) {
   scene::ReadSceneOptions read_options;
-  if (!s.o.format.empty()) {
-    read_options.format = scene::ParseSceneFormat(s.o.format);
+  if (!s.options.format.empty()) {
+    read_options.format = scene::ParseSceneFormat(s.options.format);
     if (!read_options.format) {
-      throw UsageError(fmt::format("--format '{}': unknown format (supported: {})", s.o.format,
+      throw UsageError(fmt::format("--format '{}': unknown format (supported: {})", s.options.format,
                                    scene::SceneFormatList()));
     }
   }
-  if (!s.o.image_root.empty()) read_options.image_root = s.o.image_root;
-  s.scene = scene::ReadScene(s.o.scene, read_options, &s.scene_source);
+  if (!s.options.image_root.empty()) read_options.image_root = s.options.image_root;
+  s.scene = scene::ReadScene(s.options.scene, read_options, &s.scene_source);
   s.missing_photos = scene::MissingImages(s.scene);
   const std::set<std::string> missing(s.missing_photos.begin(), s.missing_photos.end());
   for (size_t v = 0; v < s.scene.views.size(); ++v) {
@@ -31,23 +31,23 @@ void ReadInputs(RunState& s) {
     if (missing.count(view.name)) {
       if (!s.worker) {
         LogWarning(fmt::format("{}: photo {} not found: view '{}' left out of the evaluation",
-                               s.o.scene.string(), view.image_path.string(), view.name));
+                               s.options.scene.string(), view.image_path.string(), view.name));
       }
     } else {
       s.photo_names.push_back(view.name);
     }
   }
   REPHOTO_CHECK(!s.photo_names.empty(), "{}: none of the {} photos exists (image root {})",
-                s.o.scene.string(), s.scene.views.size(), s.scene.image_root.string());
+                s.options.scene.string(), s.scene.views.size(), s.scene.image_root.string());
   const std::vector<std::string> stems = scene::OutputStems(s.scene);
   for (size_t v = 0; v < s.scene.views.size(); ++v) s.stems[s.scene.views[v].name] = stems[v];
 }
 
-void OpenRun(RunState& s) {
+void OpenRun(RunContext& s, const Tally& tally, RunStatus& status) {
   // One writer, and only a folder that holds an evaluate run or nothing (run/run_folder.h);
   // folders from before the mark are recognised by their run.json.
   if (!s.worker) {
-    s.run_folder = run::OpenRunFolder(s.run, "evaluate", [](const fs::path& dir) {
+    status.run_folder = run::OpenRunFolder(s.run, "evaluate", [](const fs::path& dir) {
       std::error_code exists_ec;
       return fs::exists(dir / "run.json", exists_ec);
     });
@@ -75,25 +75,26 @@ void OpenRun(RunState& s) {
                   "{}: holds a run of another scene ({}, {} images; this scene {} has {} "
                   "images with other names); use another --out or delete it",
                   s.run.string(), old.value("scene", "?"), old.value("images", 0),
-                  s.o.scene.string(), names.size());
+                  s.options.scene.string(), names.size());
   }
-  s.scene_identity = {{"scene", fs::absolute(s.o.scene).lexically_normal().string()},
+  s.scene_identity = {{"scene", fs::absolute(s.options.scene).lexically_normal().string()},
                       {"format", std::string(scene::SceneFormatName(s.scene_source.format))},
                       {"images", names.size()},
                       {"names_hash", identity}};
   s.hashes = std::make_unique<FileHashCache>(s.CacheDir() / "file_hashes.json");
   if (s.worker) return;
-  WriteRunJson(s, nullptr, "running");  // marks the folder as this scene's run from now on
-  s.run_json_ours = true;
+  // Marks the folder as this scene's run from now on.
+  WriteRunJson(s, /*plans=*/{}, tally, status, nullptr, "running");
+  status.run_json_ours = true;
 }
 
-void MakeSplit(RunState& s) {
-  s.scheme_text = ResolvedScheme(s.o, s.photo_names.size());
+void MakeSplit(RunContext& s) {
+  s.scheme_text = ResolvedScheme(s.options, s.photo_names.size());
   const split::Scheme scheme = split::ParseScheme(s.scheme_text);  // UsageError when bad
   if (scheme.kind == split::SchemeKind::kLeaveOneOut || scheme.kind == split::SchemeKind::kKFold ||
       scheme.kind == split::SchemeKind::kInterleaved) {
     REPHOTO_CHECK(s.photo_names.size() >= 2, "{}: {} needs at least 2 photos, found {}",
-                  s.o.scene.string(), s.scheme_text, s.photo_names.size());
+                  s.options.scene.string(), s.scheme_text, s.photo_names.size());
   }
   s.split = split::MakeSplit(s.photo_names, scheme);
   if (s.worker) return;
@@ -101,7 +102,7 @@ void MakeSplit(RunState& s) {
       split::SubsetScene(s.scene, s.photo_names, /*keep_points=*/true);
   split::WriteSplit(
       with_photos, s.split,
-      {s.o.scene.string(), std::string(scene::SceneFormatName(s.scene_source.format))},
+      {s.options.scene.string(), std::string(scene::SceneFormatName(s.scene_source.format))},
       s.run / "split");
 }
 

@@ -57,7 +57,7 @@ std::string CompareSettingsKey(const EvaluateOptions& o) {
 
 std::string RenderSettingsKey(const EvaluateOptions& o) {
   Hasher h;
-  h.Add("render").Add(o.representation).AddInt(o.samples_per_pixel).AddInt(o.backfaces);
+  h.Add("render").Add(render::RepresentationName(o.representation)).AddInt(o.samples_per_pixel).AddInt(o.backfaces);
   h.AddDouble(o.point_radius).AddInt(o.point_neighbors);
   return h.Hex();
 }
@@ -96,7 +96,7 @@ std::string GaussianModelKey(const EvaluateOptions& o, const std::string& file_h
       .Add(kKeyVersion)
       .Add("gaussians")
       .Add(file_hash)
-      .Add(o.gaussian_mode)
+      .Add(GaussianModeName(o.gaussian_mode))
       .AddDouble(o.background[0])
       .AddDouble(o.background[1])
       .AddDouble(o.background[2])

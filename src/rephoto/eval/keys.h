@@ -26,7 +26,7 @@
 #include <string>
 
 #include "rephoto/camera/camera.h"
-#include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/options.h"
 #include "rephoto/eval/hash.h"
 #include "rephoto/mesh/mesh.h"
 #include "rephoto/scene/scene.h"

@@ -92,28 +92,29 @@ void WriteFoldScene(const scene::Scene& part, const fs::path& dir, const std::st
 }
 
 // The fold's training views: all, or a seeded subset of train_count.
-std::vector<std::string> TrainingViews(const RunState& s, const FoldState& fold,
+std::vector<std::string> TrainingViews(const RunContext& s, const FoldPlan& fold,
                                        const split::Fold& sf) {
   std::vector<std::string> names = sf.train;
-  if (s.o.train_count > 0 && static_cast<size_t>(s.o.train_count) < names.size()) {
-    split::SeededShuffle(names, s.o.train_seed + fold.index);
-    names.resize(static_cast<size_t>(s.o.train_count));
+  if (s.options.train_count > 0 && static_cast<size_t>(s.options.train_count) < names.size()) {
+    split::SeededShuffle(names, s.options.train_seed + fold.index);
+    names.resize(static_cast<size_t>(s.options.train_count));
     std::sort(names.begin(), names.end());
-  } else if (s.o.train_count > 0 && !s.worker) {
+  } else if (s.options.train_count > 0 && !s.worker) {
     LogWarning(fmt::format("{}: --train-count {} >= the fold's {} training views: using all",
-                           fold.name, s.o.train_count, names.size()));
+                           fold.name, s.options.train_count, names.size()));
   }
   return names;
 }
 
 // Downscaled photos as PNG in the fold's images/ folder (hard links to one shared cache, so a
 // photo is decoded and filtered once for all folds); cameras and observations scaled with them.
-void DownscaleTrainingPhotos(RunState& s, FoldState& fold, scene::Scene& train) {
+void DownscaleTrainingPhotos(const RunContext& s, Tally& tally, FoldPlan& fold,
+                             scene::Scene& train) {
   fold.images_dir = fold.train_dir / "images";
-  const fs::path cache_dir = s.CacheDir() / fmt::format("train_photos_s{}", s.o.train_short_side);
+  const fs::path cache_dir = s.CacheDir() / fmt::format("train_photos_s{}", s.options.train_short_side);
   std::map<int, std::pair<int, int>> new_sizes;
   for (const auto& [id, camera] : train.cameras) {
-    new_sizes[id] = rephoto::camera::ScaledSize(camera.width, camera.height, s.o.train_short_side);
+    new_sizes[id] = rephoto::camera::ScaledSize(camera.width, camera.height, s.options.train_short_side);
   }
   std::map<std::string, fs::path> links;
   const std::map<std::string, std::string> png_names = PngNames(s.scene);
@@ -143,7 +144,7 @@ void DownscaleTrainingPhotos(RunState& s, FoldState& fold, scene::Scene& train) 
       compare::ResizeImage(photo, w, h, &scaled);
       io::WritePng(cached, scaled, io::PngDepth::k8, io::PngCompression::kNone);
       WriteTextFileAtomically(cached_key, key);
-      ++s.counters.photos_downscaled;
+      tally.Count(&EvaluateCounters::photos_downscaled);
     }
     links[png_name] = cached;
     view.name = png_name;
@@ -167,13 +168,13 @@ void DownscaleTrainingPhotos(RunState& s, FoldState& fold, scene::Scene& train) 
 }
 
 // The fold's test views at the evaluation resolution, their scene folder and test key.
-void PrepareTestViews(RunState& s, FoldState& fold, const split::Fold& sf,
+void PrepareTestViews(const RunContext& s, FoldPlan& fold, const split::Fold& sf,
                       const fs::path& split_dir) {
   scene::Scene test = split::SubsetScene(s.scene, sf.test, /*keep_points=*/false);
   bool scaled_test = false;
   for (auto& [id, camera] : test.cameras) {
     const auto [w, h] =
-        rephoto::camera::ScaledSize(camera.width, camera.height, s.o.eval_short_side);
+        rephoto::camera::ScaledSize(camera.width, camera.height, s.options.eval_short_side);
     if (w != camera.width || h != camera.height) {
       camera = camera.Scaled(w, h);
       scaled_test = true;
@@ -198,10 +199,10 @@ void PrepareTestViews(RunState& s, FoldState& fold, const split::Fold& sf,
     t.pose = view.cam_from_world;
     t.photo = fs::absolute(view.image_path).lexically_normal();
     t.photo_hash = s.hashes->Hash(t.photo);
-    if (!s.o.photo_masks.empty()) {
-      t.mask = FindImageByStem(s.o.photo_masks, t.stem);
+    if (!s.options.photo_masks.empty()) {
+      t.mask = FindImageByStem(s.options.photo_masks, t.stem);
       REPHOTO_CHECK(!t.mask.empty(), "{}: no mask named '{}' for photo {}",
-                    s.o.photo_masks.string(), t.stem, t.photo.string());
+                    s.options.photo_masks.string(), t.stem, t.photo.string());
     } else if (view.mask_path) {
       t.mask = *view.mask_path;
     }
@@ -216,12 +217,18 @@ void PrepareTestViews(RunState& s, FoldState& fold, const split::Fold& sf,
 
 }  // namespace
 
-void PrepareFold(RunState& s, FoldState& fold) {
+FoldPlan PrepareFold(const RunContext& s, size_t index, Tally& tally) {
+  FoldPlan fold;
+  fold.index = index;
+  fold.name = split::FoldFolderName(index, s.split.folds.size());
   const split::Fold& sf = s.split.folds[fold.index];
   const fs::path split_dir = s.run / "split" / fold.name;
   fold.dir = s.run / "folds" / fold.name;
   fold.out_dir = fold.dir / "reconstruction";
   fold.log_file = s.run / "logs" / fmt::format("{}.{}.log", fold.name, s.CommandKind());
+  fold.derived_model = s.options.texture && !HasDefects(s.options.degrade)
+                           ? fold.dir / "textured" / "model.obj"
+                           : fold.dir / "model.ply";
   fold.previous = run::ReadJsonRecord(fold.dir / "fold.json");
   fold.train_names = TrainingViews(s, fold, sf);
 
@@ -233,9 +240,9 @@ void PrepareFold(RunState& s, FoldState& fold) {
   // Commands see a folder with only the fold's training photos (links), so that a pipeline
   // that takes every image of {images} cannot see a test photo.
   const bool commands = s.source != ModelSource::kModel;
-  const bool own_train = s.o.train_count > 0 || s.o.train_short_side > 0;  // else the split's
+  const bool own_train = s.options.train_count > 0 || s.options.train_short_side > 0;  // else the split's
   fold.images_dir = s.scene.image_root;
-  if (commands && s.o.train_short_side == 0) {
+  if (commands && s.options.train_short_side == 0) {
     fold.images_dir = fold.dir / "train" / "images";
     std::map<std::string, fs::path> links;
     for (scene::View& view : train.views) {
@@ -251,17 +258,18 @@ void PrepareFold(RunState& s, FoldState& fold) {
   } else {
     fold.train_dir = fold.dir / "train";
     fold.train_list = fold.train_dir / "train.txt";
-    if (s.o.train_short_side > 0) DownscaleTrainingPhotos(s, fold, train);
+    if (s.options.train_short_side > 0) DownscaleTrainingPhotos(s, tally, fold, train);
     std::vector<std::string> listed;
     for (const scene::View& view : train.views) listed.push_back(view.name);
     if (!s.worker) WriteFoldScene(train, fold.train_dir, "train.txt", listed);
   }
-  fold.train_key = Hasher().Add(TrainKey(train, s.o.train_short_side)).Add(photos.Hex()).Hex();
+  fold.train_key = Hasher().Add(TrainKey(train, s.options.train_short_side)).Add(photos.Hex()).Hex();
   PrepareTestViews(s, fold, sf, split_dir);
+  return fold;
 }
 
-scene::Scene TrainingScene(const RunState& s, const FoldState& fold) {
-  if (s.o.train_short_side > 0) {
+scene::Scene TrainingScene(const RunContext& s, const FoldPlan& fold) {
+  if (s.options.train_short_side > 0) {
     scene::ReadSceneOptions read;
     read.format = scene::SceneFormat::kColmap;
     read.image_root = fold.images_dir;
@@ -270,9 +278,9 @@ scene::Scene TrainingScene(const RunState& s, const FoldState& fold) {
   return split::SubsetScene(s.scene, fold.train_names, /*keep_points=*/true);
 }
 
-void RemoveStaleOutputs(const RunState& s) {
+void RemoveStaleOutputs(const RunContext& s, const std::vector<FoldPlan>& plans) {
   std::set<std::string> fold_names;
-  for (const FoldState& fold : s.folds) fold_names.insert(fold.name);
+  for (const FoldPlan& fold : plans) fold_names.insert(fold.name);
   std::error_code ec;
   for (const fs::path& parent : {s.run / "folds", s.run / "split"}) {
     std::vector<fs::path> stale;
@@ -290,7 +298,7 @@ void RemoveStaleOutputs(const RunState& s) {
     if (!fold_names.count(name.substr(0, name.find('.')))) stale_logs.push_back(it->path());
   }
   for (const fs::path& path : stale_logs) fs::remove(path, ec);
-  for (const FoldState& fold : s.folds) {
+  for (const FoldPlan& fold : plans) {
     std::set<fs::path> allowed;
     for (const TestView& test : fold.tests) {
       allowed.insert(fold.dir / "views" / (test.stem + ".json"));

@@ -15,7 +15,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-void ProjectOntoGaussians(RunState& s, ModelCache& cache, const fs::path& model_path,
+// A fold's plan and its views' outcomes, as the projection reads them.
+struct FoldViews {
+  const FoldPlan* plan;
+  const std::vector<ViewOutcome>* views;
+};
+
+void ProjectOntoGaussians(const RunContext& s, ModelCache& cache, const fs::path& model_path,
                           const std::string& model_key,
                           const std::vector<project::ProjectView>& views,
                           const std::string& metric_name, const fs::path& out) {
@@ -23,7 +29,7 @@ void ProjectOntoGaussians(RunState& s, ModelCache& cache, const fs::path& model_
       LoadGaussians(cache, model_path, model_key);
   size_t seen = 0;
   const std::vector<float> mean =
-      project::ProjectErrorsOntoGaussians(*model, views, GaussianOptions(s.o), {}, &seen);
+      project::ProjectErrorsOntoGaussians(*model, views, GaussianOptions(s.options), {}, &seen);
   splat::WriteGaussiansWithScalar(model_path, *model, "error", mean, out);
   LogInfo(fmt::format("projected {} of {} views onto {} Gaussians ({} seen) -> {}", metric_name,
                       views.size(), model->size(), seen, out.string()));
@@ -31,8 +37,8 @@ void ProjectOntoGaussians(RunState& s, ModelCache& cache, const fs::path& model_
 
 // Projects one metric's error images of `folds` onto `model_path` (or the cached render model
 // when it is that model) into `out`, unless `out` was written with the same key.
-void ProjectOnto(RunState& s, ModelCache& cache, const fs::path& model_path,
-                 const std::string& model_key, const std::vector<const FoldState*>& folds,
+void ProjectOnto(const RunContext& s, Tally& tally, ModelCache& cache, const fs::path& model_path,
+                 const std::string& model_key, const std::vector<FoldViews>& folds,
                  metrics::Metric metric, const fs::path& out) {
   const std::string metric_name(metrics::MetricName(metric));
   std::vector<project::ProjectView> views;
@@ -41,10 +47,10 @@ void ProjectOnto(RunState& s, ModelCache& cache, const fs::path& model_path,
       .Add("project/rendering-depth")
       .Add(model_key)
       .Add(metric_name)
-      .Add(RenderSettingsKey(s.o));
-  for (const FoldState* fold : folds) {
-    for (size_t i = 0; i < fold->tests.size() && i < fold->views.size(); ++i) {
-      if (!fold->views[i].ok) continue;
+      .Add(RenderSettingsKey(s.options));
+  for (const auto& [fold, fold_views] : folds) {
+    for (size_t i = 0; i < fold->tests.size() && i < fold_views->size(); ++i) {
+      if (!(*fold_views)[i].ok) continue;
       const TestView& test = fold->tests[i];
       project::ProjectView view;
       view.camera = test.camera;
@@ -52,13 +58,15 @@ void ProjectOnto(RunState& s, ModelCache& cache, const fs::path& model_path,
       view.error_image = fold->dir / "errors" / (test.stem + "." + metric_name + ".exr");
       const fs::path depth = fold->dir / "renders" / (test.stem + ".depth.exr");
       std::error_code exists_ec;
-      if (s.representation == render::ViewRepresentation::kAuto &&
+      if (s.options.representation == render::ViewRepresentation::kAuto &&
           fs::is_regular_file(depth, exists_ec)) {
         // The model's own rendering made these errors: its depth map needs no second render.
         view.depth_image = depth;
       }
       view.name = fold->name + "/" + test.stem;
-      key.Add(view.name).Add(fold->views[i].key).Add(view.depth_image.empty() ? "render" : "file");
+      key.Add(view.name)
+          .Add((*fold_views)[i].key)
+          .Add(view.depth_image.empty() ? "render" : "file");
       views.push_back(std::move(view));
     }
   }
@@ -74,10 +82,10 @@ void ProjectOnto(RunState& s, ModelCache& cache, const fs::path& model_path,
     ProjectOntoGaussians(s, cache, model_path, model_key, views, metric_name, out);
   } else {
     project::ProjectOptions options;
-    options.backfaces = s.o.backfaces;
+    options.backfaces = s.options.backfaces;
     options.higher_is_better = metrics::ErrorImageHigherIsBetter(metric);
-    options.model_options.point_radius = s.o.point_radius;
-    options.model_options.point_radius_neighbors = s.o.point_neighbors;
+    options.model_options.point_radius = s.options.point_radius;
+    options.model_options.point_radius_neighbors = s.options.point_neighbors;
     options.model_options.load_textures = false;
     project::ProjectResult projected;
     if (cache.model && cache.model->mesh().vertex_count() > 0 && cache.model_path == model_path) {
@@ -93,96 +101,103 @@ void ProjectOnto(RunState& s, ModelCache& cache, const fs::path& model_path,
                         out.string()));
   }
   WriteTextFileAtomically(key_file, key.Hex());
-  ++s.counters.projections;
+  tally.Count(&EvaluateCounters::projections);
 }
 
 // Runs `project`; a failure is a warning and run.json's projection_error, not the run's.
-void GuardProjection(RunState& s, const std::function<void()>& project) {
+void GuardProjection(RunStatus& status, const std::function<void()>& project) {
   try {
     project();
   } catch (const Error& e) {
     LogWarning(fmt::format("error projection failed: {}", e.what()));
-    s.projection_message = e.what();
+    status.projection_message = e.what();
   }
 }
 
 }  // namespace
 
-std::optional<metrics::Metric> ProjectionPlan::Metric(const RunState& s) {
+std::optional<metrics::Metric> ProjectionPlan::Metric(const RunContext& s) {
   if (checked_) return metric_;
   checked_ = true;
-  if (s.o.projection_metric == "none" || s.source == ModelSource::kRender ||
-      (s.source == ModelSource::kModel && s.o.model.empty())) {
+  if (s.options.projection_metric == "none" || s.source == ModelSource::kRender ||
+      (s.source == ModelSource::kModel && s.options.model.empty())) {
     return std::nullopt;
   }
-  const std::optional<metrics::Metric> metric = metrics::ParseMetric(s.o.projection_metric);
-  const bool have_metric =
-      metric && std::find(s.o.metrics.begin(), s.o.metrics.end(), *metric) != s.o.metrics.end();
-  if (!s.o.error_images) {
+  const std::optional<metrics::Metric> metric = metrics::ParseMetric(s.options.projection_metric);
+  const bool have_metric = metric && std::find(s.options.metrics.begin(), s.options.metrics.end(),
+                                               *metric) != s.options.metrics.end();
+  if (!s.options.error_images) {
     LogWarning("no error projection: error images are off (--no-error-images)");
   } else if (!have_metric) {
     LogWarning(fmt::format("no error projection: '{}' is not among the metrics evaluated",
-                           s.o.projection_metric));
+                           s.options.projection_metric));
   } else {
     metric_ = metric;
   }
   return metric_;
 }
 
-void ProjectFold(RunState& s, ModelCache& cache, ProjectionPlan& plan, const FoldState& fold) {
-  if (s.source == ModelSource::kModel || !fold.ok || fold.model_path.empty()) return;
+void ProjectFold(const RunContext& s, ModelCache& cache, ProjectionPlan& plan, const FoldPlan& fold,
+                 const FoldOutcome& outcome, size_t fold_count, Tally& tally, RunStatus& status) {
+  if (s.source == ModelSource::kModel || !outcome.ok || outcome.model.path.empty()) return;
   const std::optional<metrics::Metric> metric = plan.Metric(s);
   if (!metric) return;
   const auto start = Clock::now();
   const std::string name(metrics::MetricName(*metric));
   const fs::path out =
-      s.run / "projected" / (s.folds.size() == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
-  GuardProjection(s, [&] {
-    ProjectOnto(s, cache, HasDefects(s.o.degrade) ? fold.dir / "model.ply" : fold.model_path,
-                fold.model_key, {&fold}, *metric, out);
+      s.run / "projected" / (fold_count == 1 ? name + ".ply" : fold.name + "." + name + ".ply");
+  GuardProjection(status, [&] {
+    ProjectOnto(s, tally, cache,
+                HasDefects(s.options.degrade) ? fold.dir / "model.ply" : outcome.model.path,
+                outcome.model.model_key, {{&fold, &outcome.views}}, *metric, out);
   });
-  s.timings.project += Seconds(start);
+  tally.AddSeconds(&EvaluateTimings::project, Seconds(start));
 }
 
-void ProjectSharedModel(RunState& s, ModelCache& cache, ProjectionPlan& plan) {
+void ProjectSharedModel(const RunContext& s, ModelCache& cache, ProjectionPlan& plan,
+                        const std::vector<FoldPlan>& plans,
+                        const std::vector<FoldOutcome>& outcomes, Tally& tally, RunStatus& status) {
   const auto start = Clock::now();
   const std::optional<metrics::Metric> metric =
       s.source == ModelSource::kModel ? plan.Metric(s) : std::nullopt;
   if (metric) {
     const std::string name(metrics::MetricName(*metric));
-    GuardProjection(s, [&] {
-      std::vector<const FoldState*> folds;
-      for (const FoldState& fold : s.folds) {
-        if (fold.ok) folds.push_back(&fold);
+    GuardProjection(status, [&] {
+      std::vector<FoldViews> folds;
+      std::vector<const FoldOutcome*> ok_outcomes;
+      for (size_t f = 0; f < plans.size(); ++f) {
+        if (!outcomes[f].ok) continue;
+        folds.push_back({&plans[f], &outcomes[f].views});
+        ok_outcomes.push_back(&outcomes[f]);
       }
-      fs::path model = fs::absolute(s.o.model).lexically_normal();
+      fs::path model = fs::absolute(s.options.model).lexically_normal();
       std::string model_key = s.hashes->Hash(model);
-      if (HasDefects(s.o.degrade) && !folds.empty()) {
+      if (HasDefects(s.options.degrade) && !folds.empty()) {
         // Geometry noise and simplification change the geometry the errors belong to; it is
         // the same in every fold (the defects are deterministic).
-        model = folds.front()->dir / "model.ply";
-        model_key = folds.front()->model_key;
+        model = folds.front().plan->dir / "model.ply";
+        model_key = ok_outcomes.front()->model.model_key;
       }
-      ProjectOnto(s, cache, model, model_key, folds, *metric,
+      ProjectOnto(s, tally, cache, model, model_key, folds, *metric,
                   s.run / "projected" / (name + ".ply"));
     });
   }
-  s.timings.project += Seconds(start);
+  tally.AddSeconds(&EvaluateTimings::project, Seconds(start));
 }
 
-void WriteReport(RunState& s) {
+void WriteReport(const RunContext& s, Tally& tally, RunStatus& status) {
   const auto start = Clock::now();
-  if (s.o.report) {
+  if (s.options.report) {
     try {
       report::ReportOptions options;
       options.image_folders = {s.scene.image_root};  // the photos the user named
       report::WriteRunReport(s.run, s.run / "report.html", options);
     } catch (const Error& e) {
       LogWarning(fmt::format("report not written: {}", e.what()));
-      s.report_message = e.what();
+      status.report_message = e.what();
     }
   }
-  s.timings.report += Seconds(start);
+  tally.AddSeconds(&EvaluateTimings::report, Seconds(start));
 }
 
 }  // namespace rephoto::eval

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <optional>
+#include <vector>
 
 #include "rephoto/eval/fold_model.h"
 #include "rephoto/eval/state.h"
@@ -22,18 +23,27 @@
 namespace rephoto::eval {
 
 // The metric projected, or none (turned off, an external renderer, or it cannot be made: the
-// reason is logged once per RunState).
+// reason is logged once per plan).
 class ProjectionPlan {
  public:
-  std::optional<metrics::Metric> Metric(const RunState& s);
+  std::optional<metrics::Metric> Metric(const RunContext& s);
 
  private:
   bool checked_ = false;
   std::optional<metrics::Metric> metric_;
 };
 
-void ProjectFold(RunState& s, ModelCache& cache, ProjectionPlan& plan, const FoldState& fold);
-void ProjectSharedModel(RunState& s, ModelCache& cache, ProjectionPlan& plan);
-void WriteReport(RunState& s);
+// `fold_count`: the run's folds (one fold writes <metric>.ply). A failure goes to
+// status.projection_message.
+void ProjectFold(const RunContext& s, ModelCache& cache, ProjectionPlan& plan,
+                 const FoldPlan& fold, const FoldOutcome& outcome, size_t fold_count,
+                 Tally& tally, RunStatus& status);
+// `plans` and `outcomes` are the run's folds in index order.
+void ProjectSharedModel(const RunContext& s, ModelCache& cache, ProjectionPlan& plan,
+                        const std::vector<FoldPlan>& plans,
+                        const std::vector<FoldOutcome>& outcomes, Tally& tally,
+                        RunStatus& status);
+// A failure goes to status.report_message.
+void WriteReport(const RunContext& s, Tally& tally, RunStatus& status);
 
 }  // namespace rephoto::eval

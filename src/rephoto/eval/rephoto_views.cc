@@ -12,9 +12,9 @@
 #include "rephoto/core/file.h"
 #include "rephoto/core/limits.h"
 #include "rephoto/core/process.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/eval/keys.h"
-#include "rephoto/eval/records.h"
+#include "rephoto/eval/run_records.h"
 #include "rephoto/io/image_io.h"
 
 namespace rephoto::eval {
@@ -37,7 +37,8 @@ void RemoveStaleErrorImages(const fs::path& errors_dir, const std::string& stem)
 
 // The photo at the evaluation resolution: the original, or its downscaled copy, cached once as
 // 16-bit PNG (keeps the filtered values to 1/65535) and compared as read back.
-const Image& EvalPhoto(RunState& s, PreparedView& view, const TestView& test, fs::path* used_path) {
+const Image& EvalPhoto(const RunContext& s, Tally& tally, PreparedView& view, const TestView& test,
+                       fs::path* used_path) {
   Image* scratch = &view.eval_photo;
   const camera::Camera& full = s.scene.CameraOf(s.scene.views[test.view_index]);
   if (full.width == test.camera.width && full.height == test.camera.height) {
@@ -72,10 +73,7 @@ const Image& EvalPhoto(RunState& s, PreparedView& view, const TestView& test, fs
   compare::ResizeImage(photo, test.camera.width, test.camera.height, scratch);
   io::WritePngAndQuantize(cached, scratch, io::PngDepth::k16, io::PngCompression::kNone);
   WriteTextFileAtomically(key_file, key);
-  {
-    std::lock_guard<std::mutex> lock(s.timings_mutex);
-    ++s.counters.photos_downscaled;
-  }
+  tally.Count(&EvaluateCounters::photos_downscaled);
   *used_path = cached;
   return *scratch;
 }
@@ -116,8 +114,9 @@ compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
 }
 
 // The rendering of the view into view.render: reused from disk, rendered, or the external one.
-fs::path ObtainRendering(RunState& s, PreparedView& view, FoldState& fold, const TestView& test,
-                         render::ViewRenderer* renderer, const ViewOutcome& outcome) {
+fs::path ObtainRendering(Tally& tally, PreparedView& view, const FoldPlan& fold,
+                         const TestView& test, render::ViewRenderer* renderer,
+                         const ViewOutcome& outcome) {
   const fs::path renders_dir = fold.dir / "renders";
   if (outcome.reuse_render) {
     // Only compare settings changed: the rendering on disk is the one this view needs.
@@ -128,8 +127,7 @@ fs::path ObtainRendering(RunState& s, PreparedView& view, FoldState& fold, const
     renderer->Render(test.camera, test.pose, &view.rephoto);
     render::WriteRephoto(renders_dir, test.stem, &view.rephoto);  // compared as the PNG written
     std::swap(view.render, view.rephoto.color);  // the next view renders into the previous buffer
-    std::lock_guard<std::mutex> lock(s.timings_mutex);
-    ++s.counters.views_rendered;
+    tally.Count(&EvaluateCounters::views_rendered);
     return renders_dir / (test.stem + ".png");
   }
   const fs::path path = FindImageByStem(fold.out_dir, test.stem);
@@ -138,30 +136,26 @@ fs::path ObtainRendering(RunState& s, PreparedView& view, FoldState& fold, const
   return path;
 }
 
-void AddSeconds(RunState& s, double EvaluateTimings::*field, double seconds) {
-  std::lock_guard<std::mutex> lock(s.timings_mutex);
-  s.timings.*field += seconds;
-}
-
 // The preparer's step (any thread): the rendering, the photo at the evaluation resolution and
 // the masks of view `test` into `view`. An Error is kept in view.failure; others propagate.
-void PrepareView(RunState& s, PreparedView& view, FoldState& fold, const TestView& test,
-                 render::ViewRenderer* renderer, ViewOutcome& outcome) {
+void PrepareView(const RunContext& s, Tally& tally, PreparedView& view, const FoldPlan& fold,
+                 bool gaussians, const TestView& test, render::ViewRenderer* renderer,
+                 ViewOutcome& outcome) {
   view.failure.clear();
   try {
     auto start = Clock::now();
-    view.render_path = ObtainRendering(s, view, fold, test, renderer, outcome);
+    view.render_path = ObtainRendering(tally, view, fold, test, renderer, outcome);
     outcome.render_seconds = Seconds(start);
-    AddSeconds(s, &EvaluateTimings::render, outcome.render_seconds);
+    tally.AddSeconds(&EvaluateTimings::render, outcome.render_seconds);
     start = Clock::now();
-    EvalPhoto(s, view, test, &view.photo_path);
+    EvalPhoto(s, tally, view, test, &view.photo_path);
     view.mask = EvalMask(test);
     view.render_mask.reset();
-    if (fold.gaussians && (renderer != nullptr || outcome.reuse_render)) {
-      view.render_mask = AlphaMask(view.render, s.o.min_alpha);
+    if (gaussians && (renderer != nullptr || outcome.reuse_render)) {
+      view.render_mask = AlphaMask(view.render, s.options.min_alpha);
     }
     outcome.compare_seconds = Seconds(start);
-    AddSeconds(s, &EvaluateTimings::photos, outcome.compare_seconds);
+    tally.AddSeconds(&EvaluateTimings::photos, outcome.compare_seconds);
   } catch (const UsageError&) {
     throw;
   } catch (const Error& e) {
@@ -171,44 +165,45 @@ void PrepareView(RunState& s, PreparedView& view, FoldState& fold, const TestVie
 
 // The caller's step: compares the prepared view. Error images go to `error_images` when given
 // (the writer writes them), else they are written while compared.
-void CompareView(RunState& s, ViewWorkspace& ws, const PreparedView& view, FoldState& fold,
-                 const TestView& test, std::vector<Image>* error_images, ViewOutcome& outcome) {
+void CompareView(const RunContext& s, Tally& tally, ViewWorkspace& ws, const PreparedView& view,
+                 const FoldPlan& fold, const TestView& test, std::vector<Image>* error_images,
+                 ViewOutcome& outcome) {
   const auto start = Clock::now();
   const fs::path errors_dir = fold.dir / "errors";
-  if (s.o.error_images && error_images == nullptr) {
+  if (s.options.error_images && error_images == nullptr) {
     RemoveStaleErrorImages(errors_dir, test.stem);
     std::error_code ec;
     fs::create_directories((errors_dir / test.stem).parent_path(), ec);
   }
   outcome.image = compare::ComparePhotoAndRender(
-      CompareSettings(s.o), test.stem, view.photo_path, fs::path(s.Relative(view.render_path)),
-      view.eval_photo, view.render, view.mask ? &*view.mask : nullptr,
-      view.render_mask ? &*view.render_mask : nullptr, errors_dir, &ws.compare, error_images);
+      CompareSettings(s.options), test.stem, view.photo_path,
+      fs::path(s.Relative(view.render_path)), view.eval_photo, view.render,
+      view.mask ? &*view.mask : nullptr, view.render_mask ? &*view.render_mask : nullptr,
+      errors_dir, &ws.compare, error_images);
   const double seconds = Seconds(start);
   outcome.compare_seconds += seconds;
-  std::lock_guard<std::mutex> lock(s.timings_mutex);
-  s.timings.compare += seconds;
-  ++s.counters.views_compared;
+  tally.AddSeconds(&EvaluateTimings::compare, seconds);
+  tally.Count(&EvaluateCounters::views_compared);
 }
 
 // The writer's step: the error images handed over (if any), then the view record, last.
-void WriteView(RunState& s, ViewWorkspace& ws, FoldState& fold, const TestView& test,
-               const std::vector<Image>* error_images, ViewOutcome& outcome) {
+void WriteView(const RunContext& s, Tally& tally, ViewWorkspace& ws, const FoldPlan& fold,
+               const TestView& test, const std::vector<Image>* error_images, ViewOutcome& outcome) {
   const auto start = Clock::now();
   if (error_images != nullptr) {
     const fs::path errors_dir = fold.dir / "errors";
     RemoveStaleErrorImages(errors_dir, test.stem);
     std::error_code ec;
     fs::create_directories((errors_dir / test.stem).parent_path(), ec);
-    compare::WriteErrorImages(*error_images, s.o.metrics, errors_dir, test.stem, &ws.rgba,
-                              ErrorImageMetrics(s.o));
+    compare::WriteErrorImages(*error_images, s.options.metrics, errors_dir, test.stem, &ws.rgba,
+                              ErrorImageMetrics(s.options));
   }
   outcome.ok = true;
   WriteViewRecord(s, fold, outcome);
-  AddSeconds(s, &EvaluateTimings::write, Seconds(start));
+  tally.AddSeconds(&EvaluateTimings::write, Seconds(start));
 }
 
-void FailView(const FoldState& fold, const TestView& test, const std::string& why,
+void FailView(const FoldPlan& fold, const TestView& test, const std::string& why,
               ViewOutcome& outcome) {
   outcome.ok = false;
   outcome.message = fmt::format("{} {}: {}", fold.name, test.stem, why);
@@ -216,7 +211,7 @@ void FailView(const FoldState& fold, const TestView& test, const std::string& wh
 }
 
 // The largest view of `todo` in pixels.
-uint64_t LargestView(const FoldState& fold, const std::vector<size_t>& todo) {
+uint64_t LargestView(const FoldPlan& fold, const std::vector<size_t>& todo) {
   uint64_t pixels = 0;
   for (size_t i : todo) {
     const camera::Camera& camera = fold.tests[i].camera;
@@ -231,16 +226,17 @@ constexpr uint64_t kPreparedViewBytesPerPixel = 64;
 
 }  // namespace
 
-std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, size_t first,
-                              size_t count) {
+std::vector<size_t> PlanViews(const RunContext& s, const FoldPlan& fold, const FoldModel& model,
+                              std::vector<ViewOutcome>& views, Tally& tally, Progress* progress,
+                              size_t first, size_t count) {
   const bool external = s.source == ModelSource::kRender;
-  const std::string compare_key = CompareSettingsKey(s.o);
-  fold.views.resize(fold.tests.size());
+  const std::string compare_key = CompareSettingsKey(s.options);
+  views.resize(fold.tests.size());
   const size_t end = count == 0 ? fold.tests.size() : std::min(fold.tests.size(), first + count);
   std::vector<size_t> todo;
   for (size_t i = first; i < end; ++i) {
     const TestView& test = fold.tests[i];
-    ViewOutcome& outcome = fold.views[i];
+    ViewOutcome& outcome = views[i];
     outcome.stem = test.stem;
     outcome.name = test.name;
     outcome.record = fold.dir / "views" / (test.stem + ".json");
@@ -249,10 +245,10 @@ std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, 
       const fs::path image = FindImageByStem(fold.out_dir, test.stem);
       render_hash = image.empty() ? std::string() : s.hashes->Hash(image);
     }
-    outcome.key = ViewKey(test, fold.base_key, render_hash, compare_key);
+    outcome.key = ViewKey(test, model.base_key, render_hash, compare_key);
     const std::optional<Json> previous = run::ReadJsonRecord(outcome.record);  // read once
     if (!external) {
-      outcome.render_key = RenderKey(fold.base_key, test);
+      outcome.render_key = RenderKey(model.base_key, test);
       std::error_code ec;
       outcome.reuse_render =
           previous && previous->value("render_key", "") == outcome.render_key &&
@@ -263,7 +259,7 @@ std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, 
       outcome.ok = true;
       outcome.reused = true;
       outcome.image.name = test.stem;
-      ++s.counters.views_reused;
+      tally.Count(&EvaluateCounters::views_reused);
       Advance(progress, fmt::format("{} {} (done before)", fold.name, test.stem));
     } else {
       todo.push_back(i);
@@ -272,8 +268,10 @@ std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, 
   return todo;
 }
 
-void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::vector<size_t>& todo,
-                   render::ViewRenderer* renderer, Progress* progress) {
+void EvaluateViews(const RunContext& s, ViewWorkspace& ws, const FoldPlan& fold,
+                   const FoldModel& model, const std::vector<size_t>& todo,
+                   render::ViewRenderer* renderer, std::vector<ViewOutcome>& views, Tally& tally,
+                   Progress* progress) {
   if (todo.empty()) return;
   const auto start = Clock::now();
   // The pipeline holds a second view, and two views' error images, when each fits in a quarter
@@ -283,16 +281,19 @@ void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::v
       todo.size() > 1 &&
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism) > 1 &&
       kPreparedViewBytesPerPixel * pixels <= MaxMemoryBytes() / 4;
-  const bool errors_later = pipelined && s.o.error_images &&
-                            2 * s.o.metrics.size() * pixels * sizeof(float) <= MaxMemoryBytes() / 4;
+  const bool errors_later =
+      pipelined && s.options.error_images &&
+      2 * s.options.metrics.size() * pixels * sizeof(float) <= MaxMemoryBytes() / 4;
   const auto prepare = [&](size_t k) {
-    PrepareView(s, ws.views[k % 2], fold, fold.tests[todo[k]], renderer, fold.views[todo[k]]);
+    PrepareView(s, tally, ws.views[k % 2], fold, model.gaussians, fold.tests[todo[k]], renderer,
+                views[todo[k]]);
   };
   const auto write = [&](size_t k) {
     const TestView& test = fold.tests[todo[k]];
-    ViewOutcome& outcome = fold.views[todo[k]];
+    ViewOutcome& outcome = views[todo[k]];
     try {
-      WriteView(s, ws, fold, test, errors_later ? &ws.error_images[k % 2] : nullptr, outcome);
+      WriteView(s, tally, ws, fold, test, errors_later ? &ws.error_images[k % 2] : nullptr,
+                outcome);
     } catch (const Error& e) {
       FailView(fold, test, e.what(), outcome);
     }
@@ -304,7 +305,7 @@ void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::v
   const auto finish_write = [&] {  // waits for the write of view written_index, shows it done
     if (!written.valid()) return;
     written.get();
-    const ViewOutcome& outcome = fold.views[todo[written_index]];
+    const ViewOutcome& outcome = views[todo[written_index]];
     Advance(progress,
             fmt::format("{} {}{}", fold.name, outcome.stem, outcome.ok ? "" : " (failed)"));
   };
@@ -321,15 +322,15 @@ void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::v
       prepare(k);
     }
     const TestView& test = fold.tests[todo[k]];
-    ViewOutcome& outcome = fold.views[todo[k]];
+    ViewOutcome& outcome = views[todo[k]];
     const PreparedView& view = ws.views[k % 2];
     bool compared = false;
     if (!view.failure.empty()) {
       FailView(fold, test, view.failure, outcome);
     } else {
       try {
-        CompareView(s, ws, view, fold, test, errors_later ? &ws.error_images[k % 2] : nullptr,
-                    outcome);
+        CompareView(s, tally, ws, view, fold, test,
+                    errors_later ? &ws.error_images[k % 2] : nullptr, outcome);
         compared = true;
       } catch (const UsageError&) {
         throw;
@@ -351,7 +352,7 @@ void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::v
   }
   if (prepared.valid()) prepared.wait();  // interrupted: the prepared view stays unrecorded
   finish_write();
-  AddSeconds(s, &EvaluateTimings::views, Seconds(start));
+  tally.AddSeconds(&EvaluateTimings::views, Seconds(start));
 }
 
 }  // namespace rephoto::eval

@@ -2,8 +2,8 @@
 // with rephoto's renderer (or take the external renderer's images), compare them with the
 // photos at the evaluation resolution and write one record per view.
 //
-// PlanViews      for views [first, first + count) of the fold (in fold.tests order; count 0 =
-//                to the end): each view's record key and render key (keys.h); a view whose
+// PlanViews      for views [first, first + count) of the fold (in FoldPlan::tests order; count 0
+//                = to the end), into `views` (sized to the fold's tests): each view's record key and render key (keys.h); a view whose
 //                record (folds/fold_XX/views/<stem>.json) holds the same key with status "ok"
 //                and whose outputs exist is reused; a view whose rendering has the same render
 //                key is only compared again. Returns the indices of the views that need work.
@@ -31,7 +31,8 @@
 // seconds of each step (render, photos, compare, write) beside the wall time of the view
 // stage (views), so the overlap shows.
 //
-// Thread safety: one thread per fold and workspace; rendering and comparing are multi-threaded.
+// Thread safety: one thread per fold and workspace; rendering and comparing are multi-threaded
+// (the Tally locks).
 #pragma once
 
 #include <array>
@@ -71,10 +72,14 @@ struct ViewWorkspace {
   std::vector<uint8_t> rgba;  // the writer's PNG scratch
 };
 
-std::vector<size_t> PlanViews(RunState& s, FoldState& fold, Progress* progress, size_t first = 0,
-                              size_t count = 0);
+std::vector<size_t> PlanViews(const RunContext& s, const FoldPlan& fold, const FoldModel& model,
+                              std::vector<ViewOutcome>& views, Tally& tally, Progress* progress,
+                              size_t first = 0, size_t count = 0);
 
-void EvaluateViews(RunState& s, ViewWorkspace& ws, FoldState& fold, const std::vector<size_t>& todo,
-                   render::ViewRenderer* renderer, Progress* progress);
+// Fills views[i] for each i in `todo` (PlanViews' result).
+void EvaluateViews(const RunContext& s, ViewWorkspace& ws, const FoldPlan& fold,
+                   const FoldModel& model, const std::vector<size_t>& todo,
+                   render::ViewRenderer* renderer, std::vector<ViewOutcome>& views, Tally& tally,
+                   Progress* progress);
 
 }  // namespace rephoto::eval

@@ -13,7 +13,7 @@
 #include <filesystem>
 #include <string>
 
-#include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/options.h"
 
 namespace rephoto::eval {
 

@@ -8,7 +8,7 @@
 #include <sstream>
 
 #include "rephoto/core/file.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/splat/rasterize.h"
 
 namespace rephoto::eval {
@@ -245,7 +245,17 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
   } else if (n == "render") {
     o->render = AsString(value, source);
   } else if (n == "representation") {
-    o->representation = AsString(value, source);
+    const std::string name = AsString(value, source);
+    const std::optional<render::ViewRepresentation> representation =
+        render::ParseRepresentation(name);
+    if (!representation) {
+      throw UsageError(fmt::format(
+          "{}: '{}' is not one of auto (the model as it is), vdt (view-dependent texturing on "
+          "the model), ibr (image-based rendering with depth maps), gaussians (the model as 3D "
+          "Gaussian splats)",
+          source, name));
+    }
+    o->representation = *representation;
   } else if (n == "depth-maps") {
     o->depth_maps = AsPath(value, source, base_dir);
   } else if (n == "colorize") {
@@ -319,11 +329,12 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
   } else if (n == "point-neighbors") {
     o->point_neighbors = CheckedInt(value, source, 1, 100);
   } else if (n == "gaussian-mode") {
-    const std::string mode = AsString(value, source);
-    if (mode != "classic" && mode != "antialiased") {
-      throw UsageError(fmt::format("{}: '{}' is not classic or antialiased", source, mode));
+    const std::string name = AsString(value, source);
+    const std::optional<splat::GaussianMode> mode = splat::ParseGaussianMode(name);
+    if (!mode) {
+      throw UsageError(fmt::format("{}: '{}' is not classic or antialiased", source, name));
     }
-    o->gaussian_mode = mode;
+    o->gaussian_mode = *mode;
   } else if (n == "background") {
     const Eigen::Vector3f rgb = splat::ParseBackground(AsString(value, source), source);
     o->background = {rgb[0], rgb[1], rgb[2]};
@@ -484,7 +495,7 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["model"] = o.model.string();
   j["reconstruct"] = o.reconstruct;
   j["render"] = o.render;
-  j["representation"] = o.representation;
+  j["representation"] = std::string(render::RepresentationName(o.representation));
   j["depth-maps"] = o.depth_maps.string();
   j["colorize"] = o.colorize;
   j["texture"] = o.texture;
@@ -514,7 +525,7 @@ Json SettingsJson(const EvaluateOptions& o) {
   j["backfaces"] = o.backfaces;
   j["point-radius"] = o.point_radius;
   j["point-neighbors"] = o.point_neighbors;
-  j["gaussian-mode"] = o.gaussian_mode;
+  j["gaussian-mode"] = std::string(GaussianModeName(o.gaussian_mode));
   j["background"] =
       fmt::format("{:g},{:g},{:g}", o.background[0], o.background[1], o.background[2]);
   j["min-alpha"] = o.min_alpha;

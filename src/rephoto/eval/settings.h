@@ -23,7 +23,7 @@
 #include <variant>
 #include <vector>
 
-#include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/options.h"
 
 namespace rephoto::eval {
 

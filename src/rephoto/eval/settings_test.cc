@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "rephoto/core/file.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::eval {

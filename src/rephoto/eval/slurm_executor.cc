@@ -7,7 +7,7 @@
 #include "rephoto/cluster/slurm_settings.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/eval/hash.h"
 #include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
@@ -67,13 +67,14 @@ std::vector<cluster::TaskGroup> TaskGroups(const EvaluateOptions& o, const Evalu
 
 std::vector<cluster::TaskGroup> PrepareEvaluateTasks(const EvaluateOptions& options,
                                                      const std::string& prefix,
+                                                     const PlanFunction& plan_evaluate,
                                                      EvaluatePlan* plan) {
   options.Check();
   REPHOTO_CHECK_USAGE(options.views_per_task >= 1, "evaluate: --views-per-task must be >= 1");
   const fs::path program = options.program.empty() ? ThisExecutable() : options.program;
   REPHOTO_CHECK_USAGE(program.is_absolute(),
                       "evaluate: the rephoto program path {} is not absolute", program.string());
-  *plan = PlanEvaluate(options, static_cast<size_t>(options.views_per_task));
+  *plan = plan_evaluate(options, static_cast<size_t>(options.views_per_task));
   // The settings as a config file every task reads (absolute paths: nodes share the paths).
   EvaluateOptions task_options = options;
   task_options.out = plan->run;
@@ -84,9 +85,11 @@ std::vector<cluster::TaskGroup> PrepareEvaluateTasks(const EvaluateOptions& opti
   return TaskGroups(options, *plan, program, config, config_key, prefix);
 }
 
-SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options) {
+SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options,
+                                   const PlanFunction& plan_evaluate) {
   EvaluatePlan plan;
-  const std::vector<cluster::TaskGroup> groups = PrepareEvaluateTasks(options, "", &plan);
+  const std::vector<cluster::TaskGroup> groups =
+      PrepareEvaluateTasks(options, "", plan_evaluate, &plan);
   SlurmRunOutcome outcome;
   outcome.tasks = plan.tasks.size();
   for (const EvaluateTask& task : plan.tasks) outcome.tasks_done_before += task.done ? 1 : 0;

@@ -2,7 +2,8 @@
 // arrays through cluster/slurm.h; docs/cluster.md is the user's guide.
 //
 // What runs where:
-//   the submitting process  PlanEvaluate: reads the scene, splits, prepares the fold folders
+//   the submitting process  PlanEvaluate (evaluate.h; passed in by the caller, which sits above
+//                           this executor): reads the scene, splits, prepares the fold folders
 //                           and run.json (the run folder on a filesystem every node sees),
 //                           writes the settings to RUN/evaluate-settings.json, submits, follows
 //   array "fold"            one task per fold: its --reconstruct/--render command (with the
@@ -20,10 +21,11 @@
 // Thread safety: one call per run folder at a time (the run folder and RUN/slurm are locked).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
-#include "rephoto/eval/evaluate.h"
+#include "rephoto/eval/options.h"
 
 namespace rephoto::eval {
 
@@ -36,14 +38,21 @@ struct SlurmRunOutcome {
   cluster::RunOutcome run;  // what became of each submitted task
 };
 
-SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options);
+// How the run is planned: eval::PlanEvaluate (evaluate.h), passed in so that the executor does
+// not depend on the sequencer that calls it.
+using PlanFunction =
+    std::function<EvaluatePlan(const EvaluateOptions& options, size_t views_per_task)>;
+
+SlurmRunOutcome RunEvaluateOnSlurm(const EvaluateOptions& options,
+                                   const PlanFunction& plan_evaluate);
 
 // What RunEvaluateOnSlurm submits, for callers that run several evaluations as one set of job
-// arrays (sweep): prepares the run (PlanEvaluate), writes RUN/evaluate-settings.json and returns
+// arrays (sweep): prepares the run (plan_evaluate), writes RUN/evaluate-settings.json and returns
 // the three groups "fold", "views", "aggregate" (tasks already done left out; task ids prefixed
 // with `prefix`, e.g. "<setting>/").
 std::vector<cluster::TaskGroup> PrepareEvaluateTasks(const EvaluateOptions& options,
                                                      const std::string& prefix,
+                                                     const PlanFunction& plan_evaluate,
                                                      EvaluatePlan* plan);
 
 // The absolute path of this process's executable (/proc/self/exe).

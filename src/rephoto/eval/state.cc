@@ -7,19 +7,19 @@
 namespace rephoto::eval {
 namespace fs = std::filesystem;
 
-fs::path RunState::CacheDir() const {
-  return o.cache_dir.empty() ? run / "cache" : fs::absolute(o.cache_dir).lexically_normal();
+fs::path RunContext::CacheDir() const {
+  return options.cache_dir.empty() ? run / "cache"
+                                   : fs::absolute(options.cache_dir).lexically_normal();
 }
 
-int RunState::CommandThreads() const {
+int RunContext::CommandThreads() const {
   const int all = static_cast<int>(
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
-  return std::max(1, all / std::max(1, o.jobs));
+  return std::max(1, all / std::max(1, options.jobs));
 }
 
-void FailFold(FoldState& fold, const std::string& message) {
+void FailFold(FoldOutcome& fold, const std::string& message) {
   fold.ok = false;
-  fold.command_ok = false;
   if (fold.message.empty()) fold.message = message;
 }
 

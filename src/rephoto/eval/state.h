@@ -1,23 +1,28 @@
-// The state `rephoto evaluate`'s stages share (internal to eval/; evaluate.h is the public API).
+// The types `rephoto evaluate`'s stages pass each other (internal to eval/; options.h holds the
+// settings and results, evaluate.h the public entry points).
 //
-// An evaluation is a sequence of stages over one run folder (evaluate.cc sequences them):
-//   inputs.h        ReadInputs, OpenRun, MakeSplit        the scene, the run folder, the split
-//   prepare_fold.h  PrepareFold, RemoveStaleOutputs      each fold's training/test scenes
-//   run_command.h   RunFoldCommand                        a fold's --reconstruct/--render command
-//   fold_model.h    PrepareFoldModel                      a fold's model: key, colours, defects
-//   rephoto_views.h RephotoViews                          render + compare the held-out views
-//   aggregate.h     Aggregate                             per_image.csv, per_fold.csv, summary.json
+// An evaluation is a sequence of stages over one run folder (evaluate.cc sequences them); each
+// is a function whose signature says what it reads (const) and what it produces:
+//   inputs.h        ReadInputs, OpenRun, MakeSplit     -> RunContext (const afterwards)
+//   prepare_fold.h  PrepareFold                        -> FoldPlan (const afterwards)
+//                   RemoveStaleOutputs, TrainingScene
+//   run_command.h   RunFoldCommand(FoldPlan)           -> CommandOutcome
+//   fold_model.h    ResolveFoldModel(FoldPlan, CommandOutcome) -> FoldModel
+//                   LoadFoldModel, MakeFoldRenderer    the render model and the renderer
+//   rephoto_views.h PlanViews, EvaluateViews           -> the fold's ViewOutcomes
+//   aggregate.h     Aggregate                          per_image.csv, per_fold.csv, summary.json
 //   projection.h    ProjectFold, ProjectSharedModel, WriteReport
-//   records.h       fold.json, views/<stem>.json, run.json, manifest.json
+//   run_records.h   fold.json, views/<stem>.json, run.json, manifest.json
 //   keys.h          the resume keys of every result
-// A stage reads the RunState and its fold, writes only its own outputs in the run folder (each
-// file atomically) and records what it did in the state. Every result a stage writes carries
-// the key of what it depends on, so a stage run again (here, later, or by another process on
-// the same run folder: EvaluateOptions::only) reuses what is still valid.
+// A stage writes only its own outputs in the run folder (each file atomically) and adds what it
+// did to the run's Tally. Every result a stage writes carries the key of what it depends on, so
+// a stage run again (here, later, or by another process on the same run folder:
+// EvaluateOptions::only) reuses what is still valid.
 //
-// Thread safety: one RunState per evaluation. The command stage of different folds may run in
-// worker threads at once (each touches only its own FoldState; shared counters and timings go
-// through RunState::timings_mutex); every other stage runs on one thread.
+// Thread safety: one RunContext per evaluation, read-only once the inputs are read (its file
+// hash cache is thread-safe). The command stage of different folds may run in worker threads at
+// once (each produces its own CommandOutcome); the Tally takes its mutex for every change; every
+// other stage runs on one thread.
 #pragma once
 
 #include <chrono>
@@ -31,8 +36,8 @@
 
 #include "rephoto/camera/camera.h"
 #include "rephoto/compare/compare.h"
-#include "rephoto/eval/evaluate.h"
 #include "rephoto/eval/hash.h"
+#include "rephoto/eval/options.h"
 #include "rephoto/render/view_renderer.h"
 #include "rephoto/run/records.h"
 #include "rephoto/run/run_folder.h"
@@ -82,7 +87,8 @@ struct ViewOutcome {
   bool reused = false;
 };
 
-struct FoldState {
+// What PrepareFold decides for a fold, from the split and the settings; const afterwards.
+struct FoldPlan {
   size_t index = 0;
   std::string name;                      // fold_00
   std::filesystem::path dir;             // RUN/folds/fold_00
@@ -93,46 +99,58 @@ struct FoldState {
   std::filesystem::path test_dir, test_list;
   std::filesystem::path out_dir;  // RUN/folds/fold_00/reconstruction
   std::filesystem::path log_file;
+  // Where the fold's derived model is written (colours, texture, defects): dir/model.ply, or
+  // dir/textured/model.obj with --texture and no defects; its key is dir/model.key.
+  std::filesystem::path derived_model;
   std::string train_key, test_key;
   std::optional<Json> previous;  // fold.json of an earlier run
-
-  // Command stage (worker thread).
-  std::string command;  // substituted
-  std::string command_key;
-  bool command_reused = false;
-  bool command_ok = true;
-  std::string command_status;  // "" (none), "running", "ok", "failed"
-  bool interrupted = false;
-  double external_seconds = 0;     // this run
-  double command_seconds = 0;      // recorded (this run or the reused one)
-  double command_cpu_seconds = 0;  // its CPU time (user + system of its process tree)
-  int exit_status = 0;
-
-  // Model and rephoto stages.
-  bool ok = true;
-  std::string message;
-  std::filesystem::path model_path;  // the model file rendered
-  bool gaussians = false;            // model_path holds 3D Gaussians (splat/gaussians.h)
-  std::string model_key;
-  std::string colorize_key;
-  std::string base_key;  // what every rendering of the fold depends on (keys.h RenderBaseKey)
-  double colorize_seconds = 0;
-  std::vector<ViewOutcome> views;
-  double seconds = 0;  // this run's wall time of the rephoto stage
 };
 
-struct RunState {
-  explicit RunState(const EvaluateOptions& options) : o(options) {}
+// What the command stage found for a fold (RunFoldCommand): run now, reused or failed.
+struct CommandOutcome {
+  std::string command;  // substituted
+  std::string key;
+  bool reused = false;
+  bool ok = true;
+  std::string status;   // "" (none), "running", "ok", "failed" (fold.json)
+  std::string message;  // why it failed (when !ok)
+  bool interrupted = false;
+  double external_seconds = 0;  // this run
+  double seconds = 0;           // recorded (this run or the reused one)
+  double cpu_seconds = 0;       // its CPU time (user + system of its process tree)
+  int exit_status = 0;
+  std::filesystem::path model_path;  // --reconstruct: the model it wrote ({out}/<model>)
+};
 
-  EvaluateOptions o;
+// What a fold renders (ResolveFoldModel; LoadFoldModel adds the colouring time).
+struct FoldModel {
+  std::filesystem::path path;  // the model file rendered ("" for ibr from depth maps alone)
+  bool gaussians = false;      // path holds 3D Gaussians (splat/gaussians.h)
+  std::string model_key;
+  std::string colorize_key;  // of the derived model (colours, texture, defects)
+  std::string base_key;      // what every rendering of the fold depends on (keys.h RenderBaseKey)
+  double colorize_seconds = 0;
+};
+
+// What became of a fold in this invocation: its command, model, views and status.
+struct FoldOutcome {
+  CommandOutcome command;
+  FoldModel model;
+  std::vector<ViewOutcome> views;  // by FoldPlan::tests index (after PlanViews)
+  bool ok = true;
+  std::string message;  // the first failure (one line)
+  double seconds = 0;   // this run's wall time of the rephoto stage
+};
+
+// The run as read and prepared by the first stages (inputs.h); const afterwards.
+struct RunContext {
+  EvaluateOptions options;
   ModelSource source = ModelSource::kModel;
-  // EvaluateOptions::representation, parsed (Check accepted it).
-  render::ViewRepresentation representation = render::ViewRepresentation::kAuto;
   std::filesystem::path run;  // absolute, normal
   Clock::time_point start;
   double start_cpu = 0;  // ProcessCpuSeconds() at start
   // A worker invocation (EvaluateOptions::only): the run folder was prepared by the submitting
-  // `rephoto evaluate`; this one computes the same state without rewriting the split or the
+  // `rephoto evaluate`; this one computes the same plans without rewriting the split or the
   // fold folders and writes only the results of its task.
   bool worker = false;
 
@@ -142,36 +160,67 @@ struct RunState {
   std::map<std::string, std::string> stems;  // view name -> output stem
   std::map<std::string, size_t> view_index;  // view name -> index in scene.views
   std::vector<std::string> photo_names;      // views with a photo, scene order
-  run::RunFolder run_folder;                 // locked from OpenRun on (not by workers)
-  std::string failure;                       // run.json's "error" of a failed run
-  bool run_json_ours = false;  // run.json is this scene's run (set once the identity matched)
   Json scene_identity;
   split::Split split;
   std::string scheme_text;
-  std::unique_ptr<FileHashCache> hashes;
-  std::vector<FoldState> folds;
-
-  EvaluateCounters counters;
-  EvaluateTimings timings;
-  std::mutex timings_mutex;
-  std::string projection_message, report_message;  // why they were not written
+  std::unique_ptr<FileHashCache> hashes;  // thread-safe
 
   // EvaluateOptions::cache_dir, else RUN/cache.
   std::filesystem::path CacheDir() const;
-  std::string CommandTemplate() const { return o.render.empty() ? o.reconstruct : o.render; }
-  const char* CommandKind() const { return o.render.empty() ? "reconstruct" : "render"; }
+  std::string CommandTemplate() const {
+    return options.render.empty() ? options.reconstruct : options.render;
+  }
+  const char* CommandKind() const { return options.render.empty() ? "reconstruct" : "render"; }
   // Threads a command should use: all threads / jobs (at least 1).
   int CommandThreads() const;
   // The rendered model is made from the fold's model: coloured and/or degraded (model.ply).
-  bool DerivesModel() const { return o.colorize || o.texture || HasDefects(o.degrade); }
+  bool DerivesModel() const {
+    return options.colorize || options.texture || HasDefects(options.degrade);
+  }
   // A path inside RUN as written in the run folder's files ("folds/fold_00/renders/a.png").
   std::string Relative(const std::filesystem::path& path) const {
     return path.lexically_relative(run).generic_string();
   }
 };
 
+// What the run did (counters) and how long it took (timings), added to by the stages; the
+// command worker threads add theirs at the same time, so every change takes the mutex.
+class Tally {
+ public:
+  void Count(size_t EvaluateCounters::*counter, size_t n = 1) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.*counter += n;
+  }
+  void AddSeconds(double EvaluateTimings::*field, double seconds) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    timings_.*field += seconds;
+  }
+  EvaluateCounters counters() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return counters_;
+  }
+  EvaluateTimings timings() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return timings_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  EvaluateCounters counters_;
+  EvaluateTimings timings_;
+};
+
+// What run.json says beside the results: the run folder's lock, whether run.json is this
+// scene's, and why a run or an output failed. Written by the sequencer and the last stages.
+struct RunStatus {
+  run::RunFolder run_folder;   // locked from OpenRun on (not by workers)
+  bool run_json_ours = false;  // run.json is this scene's run (set once the identity matched)
+  std::string failure;         // run.json's "error" of a failed run
+  std::string projection_message, report_message;  // why they were not written
+};
+
 // Marks the fold failed with `message` (the first message is kept).
-void FailFold(FoldState& fold, const std::string& message);
+void FailFold(FoldOutcome& fold, const std::string& message);
 
 // An image <folder>/<stem>.<ext> for any extension io::ReadImage handles; empty if none.
 std::filesystem::path FindImageByStem(const std::filesystem::path& folder, const std::string& stem);

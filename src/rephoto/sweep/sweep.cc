@@ -10,7 +10,7 @@
 #include "rephoto/cluster/slurm_settings.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/eval/slurm_executor.h"
@@ -247,7 +247,7 @@ void RunSettings(const SweepOptions& options, const SweepPlan& plan, SweepResult
     LogInfo(fmt::format("sweep: setting {}/{}: {}", s + 1, plan.settings.size(),
                         SettingLabel(setting)));
     eval::EvaluateOptions evaluate = SettingOptions(options, setting);
-    evaluate.executor = "local";
+    evaluate.executor = eval::Executor::kLocal;
     try {
       outcome.result = eval::RunEvaluate(evaluate);
       if (outcome.result.exit_code != ExitCode::kOk) result->exit_code = ExitCode::kIncomplete;
@@ -295,7 +295,7 @@ bool RunSettingsOnSlurm(const SweepOptions& options, const SweepPlan& plan, Swee
   for (const SweepSetting& setting : plan.settings) {
     eval::EvaluatePlan evaluate_plan;
     const std::vector<cluster::TaskGroup> setting_groups = eval::PrepareEvaluateTasks(
-        SettingOptions(options, setting), setting.name + "/", &evaluate_plan);
+        SettingOptions(options, setting), setting.name + "/", eval::PlanEvaluate, &evaluate_plan);
     for (size_t g = 0; g < setting_groups.size(); ++g) {
       for (const cluster::Task& task : setting_groups[g].tasks) groups[g].tasks.push_back(task);
     }
@@ -441,7 +441,7 @@ SweepResult RunSweep(const SweepOptions& options) {
   fs::create_directories(options.out / "settings");
   if (options.only_aggregate) {
     CollectSettings(options, plan, &result);
-  } else if (options.base.executor == "slurm") {
+  } else if (options.base.executor == eval::Executor::kSlurm) {
     result.slurm_finished = RunSettingsOnSlurm(options, plan, &result);
     result.total_seconds = Seconds(start);
     return result;  // the tables, report and sweep.json come from the "sweep" task

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rephoto/core/error.h"
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"

@@ -1,16 +1,15 @@
-#include "rephoto/eval/records.h"
+#include "rephoto/eval/run_records.h"
 
 #include <algorithm>
 
 #include "rephoto/core/process.h"
-#include "rephoto/eval/fold_model.h"
 #include "rephoto/eval/settings.h"
 
 namespace rephoto::eval {
 namespace fs = std::filesystem;
 using run::JsonNumber;
 
-void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome& outcome) {
+void WriteViewRecord(const RunContext& s, const FoldPlan& fold, const ViewOutcome& outcome) {
   const compare::ImageResult& image = outcome.image;
   Json j;
   j["schema"] = "rephoto.evaluate.view/1";
@@ -29,8 +28,8 @@ void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome
                        {"valid_photo_windows", image.completeness.valid_photo},
                        {"valid_both_windows", image.completeness.valid_both}};
   Json metrics_json = Json::object();
-  for (size_t k = 0; k < s.o.metrics.size(); ++k) {
-    metrics_json[std::string(metrics::MetricName(s.o.metrics[k]))] = {
+  for (size_t k = 0; k < s.options.metrics.size(); ++k) {
+    metrics_json[std::string(metrics::MetricName(s.options.metrics[k]))] = {
         {"mean", JsonNumber(image.metrics[k].mean)}, {"evaluated", image.metrics[k].evaluated}};
   }
   j["metrics"] = metrics_json;
@@ -39,7 +38,7 @@ void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome
   run::WriteJsonRecord(outcome.record, j);
 }
 
-bool ReadViewRecord(const RunState& s, const fs::path& path, const std::optional<Json>& json,
+bool ReadViewRecord(const RunContext& s, const fs::path& path, const std::optional<Json>& json,
                     const std::string& key, ViewOutcome* outcome) {
   if (!json || json->value("key", "") != key || json->value("status", "") != "ok") return false;
   try {
@@ -56,7 +55,7 @@ bool ReadViewRecord(const RunState& s, const fs::path& path, const std::optional
     image.completeness.valid_both = c.at("valid_both_windows").get<size_t>();
     const Json& m = json->at("metrics");
     image.metrics.clear();
-    for (metrics::Metric metric : s.o.metrics) {
+    for (metrics::Metric metric : s.options.metrics) {
       const Json& entry = m.at(std::string(metrics::MetricName(metric)));
       image.metrics.push_back(
           {run::NumberFromJson(entry.at("mean")), entry.at("evaluated").get<size_t>()});
@@ -75,8 +74,8 @@ bool ReadViewRecord(const RunState& s, const fs::path& path, const std::optional
   }
   std::error_code ec;
   if (!fs::exists(s.run / render, ec)) return false;
-  if (s.o.error_images) {
-    for (metrics::Metric metric : s.o.metrics) {
+  if (s.options.error_images) {
+    for (metrics::Metric metric : s.options.metrics) {
       const std::string base = outcome->stem + "." + std::string(metrics::MetricName(metric));
       if (!fs::exists(path.parent_path().parent_path() / "errors" / (base + ".exr"), ec)) {
         return false;
@@ -86,69 +85,72 @@ bool ReadViewRecord(const RunState& s, const fs::path& path, const std::optional
   return true;
 }
 
-void WriteFoldJson(const RunState& s, const FoldState& fold, const std::string& status) {
+void WriteFoldJson(const RunContext& s, const FoldPlan& plan, const FoldOutcome& fold,
+                   const std::string& status) {
+  const CommandOutcome& command = fold.command;
+  const FoldModel& model = fold.model;
   Json j;
   j["schema"] = "rephoto.evaluate.fold/1";
-  j["fold"] = fold.name;
-  j["index"] = fold.index;
+  j["fold"] = plan.name;
+  j["index"] = plan.index;
   j["status"] = status;
   j["message"] = fold.message;
   if (s.source != ModelSource::kModel) {
     j["command"] = {{"kind", s.CommandKind()},
-                    {"key", fold.command_key},
-                    {"status", fold.command_status},
-                    {"seconds", fold.command_seconds},
-                    {"cpu_seconds", fold.command_cpu_seconds},
-                    {"reused", fold.command_reused},
-                    {"command", fold.command},
-                    {"log", s.Relative(fold.log_file)}};
+                    {"key", command.key},
+                    {"status", command.status},
+                    {"seconds", command.seconds},
+                    {"cpu_seconds", command.cpu_seconds},
+                    {"reused", command.reused},
+                    {"command", command.command},
+                    {"log", s.Relative(plan.log_file)}};
   }
-  j["model"] = fold.model_path.empty() ? Json() : Json(fold.model_path.string());
-  j["model_key"] = fold.model_key;
-  j["colorize_key"] = fold.colorize_key;
+  j["model"] = model.path.empty() ? Json() : Json(model.path.string());
+  j["model_key"] = model.model_key;
+  j["colorize_key"] = model.colorize_key;
   if (s.DerivesModel()) {
-    j["colorized_model"] = DerivedModelPath(s, fold).lexically_relative(fold.dir).generic_string();
+    j["colorized_model"] = plan.derived_model.lexically_relative(plan.dir).generic_string();
   }
-  j["train"] = {{"folder", fold.train_dir.string()},
-                {"images", fold.images_dir.string()},
-                {"count", fold.train_names.size()},
-                {"key", fold.train_key}};
-  j["test"] = {{"folder", fold.test_dir.string()}, {"count", fold.tests.size()}};
+  j["train"] = {{"folder", plan.train_dir.string()},
+                {"images", plan.images_dir.string()},
+                {"count", plan.train_names.size()},
+                {"key", plan.train_key}};
+  j["test"] = {{"folder", plan.test_dir.string()}, {"count", plan.tests.size()}};
   size_t evaluated = 0;
   double view_seconds = 0;
   for (const ViewOutcome& v : fold.views) {
     evaluated += v.ok ? 1 : 0;
     view_seconds += v.render_seconds + v.compare_seconds;
   }
-  j["test_images"] = fold.tests.size();
+  j["test_images"] = plan.tests.size();
   j["evaluated_images"] = evaluated;
-  j["seconds"] = {{"command", fold.command_seconds},
-                  {"colorize", fold.colorize_seconds},
+  j["seconds"] = {{"command", command.seconds},
+                  {"colorize", model.colorize_seconds},
                   {"views", view_seconds},
                   {"this_run", fold.seconds}};
-  run::WriteJsonRecord(fold.dir / "fold.json", j);
+  run::WriteJsonRecord(plan.dir / "fold.json", j);
 }
 
 namespace {
 
-Json InputsJson(const RunState& s) {
+Json InputsJson(const RunContext& s, const std::vector<FoldPlan>& plans) {
   Json inputs;
-  inputs["scene"] = {{"path", fs::absolute(s.o.scene).lexically_normal().string()},
+  inputs["scene"] = {{"path", fs::absolute(s.options.scene).lexically_normal().string()},
                      {"format", std::string(scene::SceneFormatName(s.scene_source.format))},
                      {"source", fs::absolute(s.scene_source.path).lexically_normal().string()},
                      {"image_root", fs::absolute(s.scene.image_root).lexically_normal().string()},
                      {"views", s.scene.views.size()}};
-  if (s.source == ModelSource::kModel && !s.o.model.empty()) {
+  if (s.source == ModelSource::kModel && !s.options.model.empty()) {
     std::string model_hash;
     try {
-      model_hash = s.hashes->Hash(s.o.model);
+      model_hash = s.hashes->Hash(s.options.model);
     } catch (const Error&) {
     }
-    inputs["model"] = {{"path", fs::absolute(s.o.model).lexically_normal().string()},
+    inputs["model"] = {{"path", fs::absolute(s.options.model).lexically_normal().string()},
                        {"hash", model_hash}};
   }
   Json photos = Json::array();
-  for (const FoldState& fold : s.folds) {
+  for (const FoldPlan& fold : plans) {
     for (const TestView& test : fold.tests) {
       photos.push_back(
           {{"name", test.name}, {"path", test.photo.string()}, {"hash", test.photo_hash}});
@@ -165,23 +167,22 @@ Json InputsJson(const RunState& s) {
   return inputs;
 }
 
-Json SplitJson(const RunState& s) {
+Json SplitJson(const RunContext& s, const std::vector<FoldPlan>& plans) {
   Json split_json;
   split_json["scheme"] = s.split.scheme.ToString();
   split_json["cross_validated"] = s.split.cross_validated;
   split_json["folder"] = "split";
   Json folds = Json::array();
-  for (size_t f = 0; f < s.split.folds.size() && f < s.folds.size(); ++f) {
-    folds.push_back({{"fold", s.folds[f].name},
-                     {"train", s.folds[f].train_names},
+  for (size_t f = 0; f < s.split.folds.size() && f < plans.size(); ++f) {
+    folds.push_back({{"fold", plans[f].name},
+                     {"train", plans[f].train_names},
                      {"test", s.split.folds[f].test}});
   }
   split_json["folds"] = folds;
   return split_json;
 }
 
-Json TimingsJson(const RunState& s) {
-  const EvaluateTimings& t = s.timings;
+Json TimingsJson(const RunContext& s, const EvaluateTimings& t) {
   const double rephoto_cpu = ProcessCpuSeconds() - s.start_cpu;
   return {{"total", Seconds(s.start)},
           {"external", t.external},
@@ -212,7 +213,7 @@ Json TimingsJson(const RunState& s) {
            "previous one written), so their sum can exceed views, the view stage's wall time"}};
 }
 
-Json OutputsJson(const RunState& s) {
+Json OutputsJson(const RunContext& s, const RunStatus& status) {
   Json projected = Json::array();
   std::error_code ec;
   for (fs::directory_iterator it(s.run / "projected", ec), end; !ec && it != end;
@@ -221,29 +222,32 @@ Json OutputsJson(const RunState& s) {
   }
   std::sort(projected.begin(), projected.end());
   return {{"projected", projected},
-          {"projection_error", s.projection_message.empty() ? Json() : Json(s.projection_message)},
+          {"projection_error",
+           status.projection_message.empty() ? Json() : Json(status.projection_message)},
           {"report", fs::exists(s.run / "report.html", ec) ? Json("report.html") : Json()},
-          {"report_error", s.report_message.empty() ? Json() : Json(s.report_message)}};
+          {"report_error", status.report_message.empty() ? Json() : Json(status.report_message)}};
 }
 
 }  // namespace
 
-void WriteRunJson(const RunState& s, const EvaluateResult* result, const std::string& status) {
+void WriteRunJson(const RunContext& s, const std::vector<FoldPlan>& plans, const Tally& tally,
+                  const RunStatus& run_status, const EvaluateResult* result,
+                  const std::string& status) {
   Json j;
   j["schema"] = kSchema;
   j["tool"] = {{"name", "rephoto"}, {"version", compare::ToolVersion()}};
   j["status"] = status;
-  if (!s.failure.empty()) j["error"] = s.failure;
+  if (!run_status.failure.empty()) j["error"] = run_status.failure;
   Json command_line = Json::array();
-  for (const std::string& arg : s.o.command_line) command_line.push_back(arg);
+  for (const std::string& arg : s.options.command_line) command_line.push_back(arg);
   j["command_line"] = command_line;
-  j["config_file"] = s.o.config_file.empty() ? Json() : Json(s.o.config_file.string());
-  j["settings"] = SettingsJson(s.o);
+  j["config_file"] = s.options.config_file.empty() ? Json() : Json(s.options.config_file.string());
+  j["settings"] = SettingsJson(s.options);
   j["scene_identity"] = s.scene_identity;
-  j["inputs"] = InputsJson(s);
-  j["split"] = SplitJson(s);
-  j["timings"] = TimingsJson(s);
-  const EvaluateCounters& c = s.counters;
+  j["inputs"] = InputsJson(s, plans);
+  j["split"] = SplitJson(s, plans);
+  j["timings"] = TimingsJson(s, tally.timings());
+  const EvaluateCounters c = tally.counters();
   j["counters"] = {{"commands_run", c.commands_run},           {"folds_reused", c.folds_reused},
                    {"models_colorized", c.models_colorized},   {"views_rendered", c.views_rendered},
                    {"views_compared", c.views_compared},       {"views_reused", c.views_reused},
@@ -260,24 +264,24 @@ void WriteRunJson(const RunState& s, const EvaluateResult* result, const std::st
     }
   }
   j["folds"] = fold_status;
-  j["outputs"] = OutputsJson(s);
+  j["outputs"] = OutputsJson(s, run_status);
   run::WriteJsonRecord(s.run / "run.json", j);
 }
 
 namespace {
 
-Json ViewTaskJson(const RunState& s, const FoldState& fold, size_t i,
-                  const std::string& command_id) {
+Json ViewTaskJson(const RunContext& s, const FoldPlan& fold, const FoldOutcome& fold_outcome,
+                  size_t i, const std::string& command_id) {
   const TestView& test = fold.tests[i];
-  const ViewOutcome* outcome = i < fold.views.size() ? &fold.views[i] : nullptr;
+  const ViewOutcome* outcome = i < fold_outcome.views.size() ? &fold_outcome.views[i] : nullptr;
   Json outputs = {{"record", s.Relative(fold.dir / "views" / (test.stem + ".json"))}};
   if (s.source != ModelSource::kRender) {
     outputs["render"] = s.Relative(fold.dir / "renders" / (test.stem + ".png"));
     outputs["depth"] = s.Relative(fold.dir / "renders" / (test.stem + ".depth.exr"));
   }
-  if (s.o.error_images) {
+  if (s.options.error_images) {
     Json errors = Json::array();
-    for (metrics::Metric m : s.o.metrics) {
+    for (metrics::Metric m : s.options.metrics) {
       errors.push_back(s.Relative(
           fold.dir / "errors" / (test.stem + "." + std::string(metrics::MetricName(m)) + ".exr")));
     }
@@ -294,7 +298,8 @@ Json ViewTaskJson(const RunState& s, const FoldState& fold, size_t i,
            {{"photo", test.photo.string()},
             {"photo_hash", test.photo_hash},
             {"mask", test.mask.empty() ? Json() : Json(test.mask.string())},
-            {"model", fold.model_path.empty() ? Json() : Json(fold.model_path.string())},
+            {"model",
+             fold_outcome.model.path.empty() ? Json() : Json(fold_outcome.model.path.string())},
             {"camera",
              {{"model", std::string(camera::CameraModelName(test.camera.model))},
               {"width", test.camera.width},
@@ -307,17 +312,19 @@ Json ViewTaskJson(const RunState& s, const FoldState& fold, size_t i,
 
 }  // namespace
 
-void WriteManifest(const RunState& s) {
+void WriteManifest(const RunContext& s, const std::vector<FoldPlan>& plans,
+                   const std::vector<FoldOutcome>& outcomes) {
   Json tasks = Json::array();
-  for (const FoldState& fold : s.folds) {
+  for (size_t f = 0; f < plans.size(); ++f) {
+    const FoldPlan& fold = plans[f];
     std::string command_id;
     if (s.source != ModelSource::kModel) {
       command_id = fold.name + "/" + s.CommandKind();
       tasks.push_back({{"id", command_id},
                        {"kind", s.CommandKind()},
                        {"fold", fold.name},
-                       {"key", fold.command_key},
-                       {"command", fold.command},
+                       {"key", outcomes[f].command.key},
+                       {"command", outcomes[f].command.command},
                        {"inputs",
                         {{"train", fold.train_dir.string()},
                          {"images", fold.images_dir.string()},
@@ -327,7 +334,7 @@ void WriteManifest(const RunState& s) {
                        {"depends_on", Json::array()}});
     }
     for (size_t i = 0; i < fold.tests.size(); ++i) {
-      tasks.push_back(ViewTaskJson(s, fold, i, command_id));
+      tasks.push_back(ViewTaskJson(s, fold, outcomes[f], i, command_id));
     }
   }
   Json manifest;

@@ -43,7 +43,7 @@ std::string SubstitutePlaceholders(std::string_view command_template,
                                    const std::map<std::string, std::string>& values,
                                    std::string_view what);
 
-struct CommandOutcome {
+struct ShellOutcome {
   int exit_status = 0;       // the shell's exit status (127: command not found)
   int signal = 0;            // terminating signal, 0 if it exited
   bool interrupted = false;  // stopped because the run was interrupted (SIGINT/SIGTERM)
@@ -63,7 +63,7 @@ struct CommandOutcome {
 // log ends with a line saying so. A stopped command's group gets SIGKILL once the shell is
 // gone, so no stage of a pipeline outlives it. Throws Error naming the log file when it cannot
 // be created or the shell cannot be started.
-CommandOutcome RunShellCommand(const std::string& command, const std::filesystem::path& log_file,
+ShellOutcome RunShellCommand(const std::string& command, const std::filesystem::path& log_file,
                                std::string_view header, double timeout_seconds = 0);
 
 // The last non-empty line of a log file (at most `max_chars`), "" if none; for messages.

@@ -10,30 +10,40 @@
 // atomically.
 //
 // Thread safety: WriteFoldJson may be called for different folds from different threads; the
-// others read RunState fields other threads may change: call them on the sequencing thread.
+// others read outcomes other threads may change: call them on the sequencing thread.
 #pragma once
 
 #include <filesystem>
 #include <string>
 
+#include <optional>
+#include <vector>
+
 #include "rephoto/eval/state.h"
 
 namespace rephoto::eval {
 
-void WriteViewRecord(const RunState& s, const FoldState& fold, const ViewOutcome& outcome);
+void WriteViewRecord(const RunContext& s, const FoldPlan& fold, const ViewOutcome& outcome);
 
 // Fills `outcome` from `record` (the view record at `path` as run::ReadJsonRecord read it) when
 // it holds `key` with status "ok" and the files it points to (rendering; error images when they
 // are on) still exist; false otherwise.
-bool ReadViewRecord(const RunState& s, const std::filesystem::path& path,
+bool ReadViewRecord(const RunContext& s, const std::filesystem::path& path,
                     const std::optional<Json>& record, const std::string& key,
                     ViewOutcome* outcome);
 
-void WriteFoldJson(const RunState& s, const FoldState& fold, const std::string& status);
+// fold.json of `plan` with what `fold` holds so far; status "running", "ok", "incomplete",
+// "failed".
+void WriteFoldJson(const RunContext& s, const FoldPlan& plan, const FoldOutcome& fold,
+                   const std::string& status);
 
 // `result` may be null (a run still going, interrupted or failed).
-void WriteRunJson(const RunState& s, const EvaluateResult* result, const std::string& status);
+void WriteRunJson(const RunContext& s, const std::vector<FoldPlan>& plans, const Tally& tally,
+                  const RunStatus& run_status, const EvaluateResult* result,
+                  const std::string& status);
 
-void WriteManifest(const RunState& s);
+// `plans` and `outcomes` are the run's folds in index order.
+void WriteManifest(const RunContext& s, const std::vector<FoldPlan>& plans,
+                   const std::vector<FoldOutcome>& outcomes);
 
 }  // namespace rephoto::eval

@@ -1,4 +1,4 @@
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -20,7 +20,7 @@ TEST(CommandTest, ShellQuoteSurvivesTheShell) {
   const fs::path dir = testing::MakeTempDir();
   const std::string nasty = "a b 'c' \"d\" $HOME `x` \\ {e}";
   const fs::path log = dir / "log.txt";
-  const CommandOutcome outcome = RunShellCommand("printf '%s|' " + ShellQuote(nasty), log, "test");
+  const ShellOutcome outcome = RunShellCommand("printf '%s|' " + ShellQuote(nasty), log, "test");
   ASSERT_TRUE(outcome.ok());
   EXPECT_EQ(LastLogLine(log), nasty + "|");
 }
@@ -50,7 +50,7 @@ TEST(CommandTest, UnknownPlaceholderListsTheKnownOnes) {
 TEST(CommandTest, ExitStatusAndOutputAreCaptured) {
   const fs::path dir = testing::MakeTempDir();
   const fs::path log = dir / "logs" / "a.log";
-  CommandOutcome outcome = RunShellCommand("echo hello; echo oops >&2; exit 3", log, "header");
+  ShellOutcome outcome = RunShellCommand("echo hello; echo oops >&2; exit 3", log, "header");
   EXPECT_EQ(outcome.exit_status, 3);
   EXPECT_FALSE(outcome.ok());
   const std::string text = ReadFileToString(log);
@@ -71,7 +71,7 @@ TEST(CommandTest, InterruptStopsTheCommandGroup) {
     RequestInterrupt(true);
   });
   // A child of the shell (sleep) must be stopped too: the whole process group gets SIGTERM.
-  const CommandOutcome outcome = RunShellCommand("sleep 30; echo late", dir / "log", "t");
+  const ShellOutcome outcome = RunShellCommand("sleep 30; echo late", dir / "log", "t");
   interrupter.join();
   RequestInterrupt(false);
   EXPECT_TRUE(outcome.interrupted);
@@ -85,7 +85,7 @@ TEST(CommandTest, TimeoutEndsTheWholeProcessGroup) {
   // The shell starts a stage that ignores SIGTERM and records its pid: the timeout must end it
   // too (SIGKILL to the group once the shell is gone), not leave it running.
   const std::string pid_file = (dir / "pid").string();
-  const CommandOutcome outcome = RunShellCommand(
+  const ShellOutcome outcome = RunShellCommand(
       "(trap '' TERM; exec sleep 1000) & echo $! > " + ShellQuote(pid_file) + "; wait", dir / "log",
       "t", 0.3);
   EXPECT_TRUE(outcome.timed_out);
@@ -109,7 +109,7 @@ TEST(CommandTest, TimeoutEndsTheWholeProcessGroup) {
 
 TEST(CommandTest, NoTimeoutByDefault) {
   const fs::path dir = testing::MakeTempDir();
-  const CommandOutcome outcome = RunShellCommand("sleep 0.3", dir / "log", "t");
+  const ShellOutcome outcome = RunShellCommand("sleep 0.3", dir / "log", "t");
   EXPECT_TRUE(outcome.ok());
   EXPECT_FALSE(outcome.timed_out);
 }

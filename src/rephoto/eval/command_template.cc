@@ -1,4 +1,4 @@
-#include "rephoto/eval/command.h"
+#include "rephoto/eval/command_template.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -170,7 +170,7 @@ void RequestInterrupt(bool value) { g_interrupted.store(value); }
 
 // ------------------------------------------------------------------------------- running
 
-CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_file,
+ShellOutcome RunShellCommand(const std::string& command, const fs::path& log_file,
                                std::string_view header, double timeout_seconds) {
   std::error_code ec;
   if (!log_file.parent_path().empty()) fs::create_directories(log_file.parent_path(), ec);
@@ -201,7 +201,7 @@ CommandOutcome RunShellCommand(const std::string& command, const fs::path& log_f
                 std::strerror(spawned));
   const int slot = RegisterChild(pid);
 
-  CommandOutcome outcome;
+  ShellOutcome outcome;
   int status = 0;
   struct rusage usage {};
   bool terminated = false;
