@@ -10,6 +10,7 @@
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/colorize.h"
+#include "rephoto/representation/make_renderer.h"
 #include "rephoto/texture/texture_mesh.h"
 
 namespace rephoto::eval {
@@ -160,10 +161,13 @@ fs::path DerivedModelPath(const RunState& s, const FoldState& fold) {
 }
 
 bool IsGaussianModel(const RunState& s, ModelCache& cache, const fs::path& path) {
-  if (path.empty() || render::IsImageBased(s.representation)) return false;
-  if (s.representation == render::ViewRepresentation::kGaussians) return true;
+  if (path.empty()) return false;
+  // The run's representation is fixed: the file's header is read once per path.
   const auto [it, inserted] = cache.is_gaussian_file.emplace(path, false);
-  if (inserted) it->second = splat::IsGaussianFile(path);
+  if (inserted) {
+    it->second = representation::ResolveRepresentation(s.representation, path) ==
+                 render::ViewRepresentation::kGaussians;
+  }
   return it->second;
 }
 
@@ -292,8 +296,7 @@ std::shared_ptr<const splat::GaussianModel> LoadGaussians(ModelCache& cache, con
 
 splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o) {
   splat::GaussianRenderOptions options;
-  options.mode = o.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
-                                                  : splat::GaussianMode::kClassic;
+  options.mode = representation::GaussianModeFromName(o.gaussian_mode, "gaussian-mode");
   options.background = Eigen::Vector3f(o.background[0], o.background[1], o.background[2]);
   return options;
 }
@@ -301,36 +304,30 @@ splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o) {
 std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(RunState& s, ModelCache& cache,
                                                        FoldState& fold,
                                                        std::optional<mesh::Mesh>* mesh) {
+  representation::RendererSettings settings;
+  representation::Models models;
   if (fold.gaussians) {
-    return std::make_unique<render::GaussianViewRenderer>(
-        LoadGaussians(cache, fold.model_path, fold.model_key), GaussianOptions(s.o));
+    settings.gaussians = GaussianOptions(s.o);
+    models.gaussians = LoadGaussians(cache, fold.model_path, fold.model_key);
+    return representation::MakeRenderer(render::ViewRepresentation::kGaussians, models, {},
+                                        settings);
   }
-  std::shared_ptr<const render::RenderModel> model = LoadFoldModel(s, cache, fold, mesh);
-  render::RenderOptions render_options;
-  render_options.samples_per_pixel = s.o.samples_per_pixel;
-  render_options.backfaces = s.o.backfaces;
+  models.mesh = LoadFoldModel(s, cache, fold, mesh);
+  settings.render.samples_per_pixel = s.o.samples_per_pixel;
+  settings.render.backfaces = s.o.backfaces;
   const auto build_start = Clock::now();
-  std::unique_ptr<render::ViewRenderer> renderer;
-  if (!render::IsImageBased(s.representation)) {
-    renderer = std::make_unique<render::ModelViewRenderer>(std::move(model), render_options);
-  } else {
-    // The fold's training photos reprojected through the model (vdt) or through per-view depth
-    // maps (ibr: --depth-maps, else plane-sweep stereo): never the test photo.
-    const scene::Scene train = TrainingScene(s, fold);
-    std::vector<size_t> indices(train.views.size());
-    for (size_t i = 0; i < indices.size(); ++i) indices[i] = i;
-    ibr::ImageBasedOptions ibr_options;
-    ibr_options.scene_points = ibr::ScenePoints(train);
-    const bool vdt = s.representation == render::ViewRepresentation::kVdt;
-    auto views = ibr::TrainingViewsFromScene(train, indices, vdt ? fs::path() : s.o.depth_maps);
-    if (vdt) {
-      REPHOTO_CHECK(model && !model->mesh().is_point_cloud(),
-                    "--representation vdt needs a mesh as geometry proxy (got a point cloud)");
-    }
-    renderer = std::make_unique<ibr::ImageBasedViewRenderer>(
-        vdt ? ibr::ImageBasedRenderer::Vdt(model->mesh(), std::move(views), ibr_options)
-            : ibr::ImageBasedRenderer::Ibr(std::move(views), ibr_options));
+  // vdt/ibr: the fold's training photos reprojected through the model (vdt) or through per-view
+  // depth maps (ibr: --depth-maps, else plane-sweep stereo): never the test photo.
+  std::optional<scene::Scene> train;
+  representation::TrainingPhotos training;
+  if (render::IsImageBased(s.representation)) {
+    train = TrainingScene(s, fold);
+    training.scene = &*train;
+    for (size_t i = 0; i < train->views.size(); ++i) training.views.push_back(i);
+    training.depth_maps = s.o.depth_maps;
   }
+  std::unique_ptr<render::ViewRenderer> renderer =
+      representation::MakeRenderer(s.representation, models, training, settings);
   s.timings.render += Seconds(build_start);
   return renderer;
 }
