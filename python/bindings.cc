@@ -43,6 +43,7 @@
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/render/render.h"
 #include "rephoto/render/render_model.h"
+#include "rephoto/representation/make_renderer.h"
 #include "rephoto/run/run_data.h"
 #include "rephoto/scene/read_scene.h"
 #include "rephoto/splat/gaussians.h"
@@ -436,24 +437,23 @@ py::dict Split(const py::object& scene_or_names, const std::string& scheme_text,
 
 // ------------------------------------------------------------------------------ models
 
+// A model file as `rephoto render MODEL` (representation auto) renders it: resolved and read by
+// the library's renderer factory (representation/make_renderer.h).
 struct Model {
   std::filesystem::path path;
-  std::unique_ptr<render::RenderModel> mesh;  // mesh or point cloud
-  std::unique_ptr<splat::GaussianModel> gaussians;
+  // kAuto (a mesh or point cloud in models.mesh) or kGaussians (models.gaussians).
+  render::ViewRepresentation resolved = render::ViewRepresentation::kAuto;
+  representation::Models models;
 };
 
 std::shared_ptr<Model> LoadModel(const std::filesystem::path& path, float point_radius) {
   auto model = std::make_shared<Model>();
   model->path = path;
   py::gil_scoped_release release;
-  if (splat::IsGaussianFile(path)) {
-    model->gaussians = std::make_unique<splat::GaussianModel>(splat::ReadGaussians(path));
-  } else {
-    render::ModelOptions options;
-    if (point_radius > 0) options.point_radius = point_radius;
-    model->mesh =
-        std::make_unique<render::RenderModel>(mesh::ReadMesh(path), options, path.string());
-  }
+  representation::RendererSettings settings;
+  if (point_radius > 0) settings.model.point_radius = point_radius;
+  model->resolved = representation::ResolveRepresentation(render::ViewRepresentation::kAuto, path);
+  model->models = representation::LoadModels(model->resolved, path, settings);
   return model;
 }
 
@@ -473,28 +473,19 @@ py::tuple Render(const Model& model, const py::object& view_or_camera,
     pose = PoseFromMatrix(cam_from_world);
   }
   camera.Validate("camera");
-  Image color, depth;
+  representation::RendererSettings settings;
+  settings.render.samples_per_pixel = spp;
+  settings.render.seed = seed;
+  settings.render.backfaces = backfaces;
+  settings.gaussians.background = Eigen::Vector3f(background[0], background[1], background[2]);
+  settings.gaussians.mode = representation::GaussianModeFromName(gaussian_mode, "gaussian_mode");
+  render::Rephoto rephoto;
   {
     py::gil_scoped_release release;
-    if (model.gaussians) {
-      splat::GaussianRenderOptions options;
-      options.background = Eigen::Vector3f(background[0], background[1], background[2]);
-      options.mode = gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
-                                                    : splat::GaussianMode::kClassic;
-      splat::GaussianRendering r = splat::RenderGaussians(*model.gaussians, camera, pose, options);
-      color = std::move(r.color);
-      depth = std::move(r.depth);
-    } else {
-      render::RenderOptions options;
-      options.samples_per_pixel = spp;
-      options.seed = seed;
-      options.backfaces = backfaces;
-      render::Rephoto r = render::RenderRephoto(*model.mesh, camera, pose, options);
-      color = std::move(r.color);
-      depth = std::move(r.depth);
-    }
+    representation::MakeRenderer(model.resolved, model.models, {}, settings)
+        ->Render(camera, pose, &rephoto);
   }
-  return py::make_tuple(ToNumpy(std::move(color)), ToNumpy(std::move(depth)));
+  return py::make_tuple(ToNumpy(std::move(rephoto.color)), ToNumpy(std::move(rephoto.depth)));
 }
 
 // ------------------------------------------------------------------------------ evaluate
@@ -735,8 +726,8 @@ PYBIND11_MODULE(_rephoto, m) {
       .def_readonly("path", &Model::path)
       .def_property_readonly("kind",
                              [](const Model& model) -> std::string {
-                               if (model.gaussians) return "gaussians";
-                               return model.mesh->representation() ==
+                               if (model.models.gaussians) return "gaussians";
+                               return model.models.mesh->representation() ==
                                               render::Representation::kPointCloud
                                           ? "point_cloud"
                                           : "mesh";

@@ -95,6 +95,28 @@ TEST(Cli, UsageMistakesAnywhereExitTwoWithOneLine) {
                                    "images (10)\n"));
 }
 
+// rephoto render decides nothing itself (representation/make_renderer.h): a representation
+// without the model it needs fails with the library's one line (exit 1), a bad --background is
+// a usage error (exit 2) whatever is rendered, and nothing is written.
+TEST(Cli, RenderWithoutItsModelSaysWhichModelIsMissing) {
+  REPHOTO_REQUIRE_DATA(kSceaux);
+  const fs::path dir = testing::MakeTempDir();
+  const std::string out = " --out '" + (dir / "r").string() + "'";
+  const Outcome vdt = RunCli("render " + SceauxArgs() + " --representation vdt" + out);
+  EXPECT_EQ(vdt.exit_code, 1) << vdt.err;
+  EXPECT_EQ(LastLine(vdt.err),
+            "rephoto: error: --representation vdt needs a model (the geometry proxy)\n");
+  const Outcome mesh = RunCli("render " + SceauxArgs() + out);
+  EXPECT_EQ(mesh.exit_code, 1) << mesh.err;
+  EXPECT_EQ(LastLine(mesh.err),
+            "rephoto: error: --representation auto needs a model (a mesh or point cloud)\n");
+  const Outcome background =
+      RunCli("render '" + Mesh() + "' " + SceauxArgs() + " --background pink" + out);
+  EXPECT_EQ(background.exit_code, 2) << background.err;
+  EXPECT_THAT(background.err, HasSubstr("--background pink"));
+  EXPECT_FALSE(fs::exists(dir / "r"));
+}
+
 // REPHOTO_ISA (core/isa.h): --version names the path; an unknown path, or one the CPU lacks, is
 // a usage error naming the variable.
 TEST(Cli, IsaPathIsShownAndCanBeForced) {

@@ -23,11 +23,11 @@
 // reproduces its own photo and the error is meaningless (paper Section 4.4).
 // Writes DIR/<image name without extension>.png (RGBA 8-bit; alpha = coverage, the
 // completeness mask) and DIR/<...>.depth.exr (camera-frame z, NaN where empty), atomically.
+// Which renderer renders what is decided in the library (rephoto/representation/make_renderer.h,
+// shared with `rephoto evaluate`); this file parses the flags and reads the scene.
 #include <fmt/format.h>
 
-#include <chrono>
 #include <filesystem>
-#include <map>
 #include <memory>
 #include <set>
 #include <string>
@@ -36,14 +36,10 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/ibr/image_based_renderer.h"
-#include "rephoto/ibr/training_views.h"
-#include "rephoto/io/image_io.h"
-#include "rephoto/mesh/read_mesh.h"
-#include "rephoto/render/render.h"
 #include "rephoto/render/view_renderer.h"
+#include "rephoto/representation/make_renderer.h"
 #include "rephoto/scene/image_name.h"
 #include "rephoto/scene/read_scene.h"
-#include "rephoto/splat/gaussians.h"
 #include "rephoto/splat/rasterize.h"
 #include "rephoto/split/split.h"
 #include "scene_args.h"
@@ -67,10 +63,8 @@ struct RenderArguments {
   ibr::ImageBasedOptions ibr_options;
   std::string gaussian_mode = "classic";
   std::string background = "0,0,0";
-  bool spp_given = false;
 };
 
-// "R,G,B" with values in [0, 1], or "black" / "white". Throws Error otherwise.
 // Scene view indices of a --training value: a list file when such a file exists, else
 // comma-separated image names. Throws Error naming an unknown image.
 std::vector<size_t> TrainingIndices(const scene::Scene& scene, const std::string& value) {
@@ -117,103 +111,19 @@ std::vector<std::string> OutputStems(const RenderArguments& args, const scene::S
   return stems;
 }
 
-void RenderModelFile(const RenderArguments& args, const scene::Scene& scene,
-                     const std::vector<size_t>& views) {
-  REPHOTO_CHECK(!args.model.empty(), "render: MODEL is required for --representation auto");
-  const std::vector<std::string> stems = OutputStems(args, scene, views);
-  const auto start = std::chrono::steady_clock::now();
-  render::ModelOptions model_options;
-  model_options.point_radius = args.point_radius;
-  model_options.point_radius_neighbors = args.point_neighbors;
-  auto model = std::make_shared<const render::RenderModel>(mesh::ReadMesh(args.model),
-                                                           model_options, args.model);
-  LogInfo(
-      fmt::format("{}: {} vertices, {} triangles, prepared in {:.2f} s (BVH {:.2f} s)", args.model,
-                  model->mesh().vertex_count(), model->mesh().face_count(),
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                  model->build_seconds()));
-  render::RenderOptions options;
-  options.samples_per_pixel = args.spp;
-  options.backfaces = !args.no_backfaces;
-  render::ModelViewRenderer renderer(std::move(model), options);
-  Progress progress("render", views.size());
-  render::RenderViews(renderer, scene, views, stems, args.out, &progress);
-  progress.Finish();
-}
-
-void RenderGaussianFile(const RenderArguments& args, const scene::Scene& scene,
-                        const std::vector<size_t>& views) {
-  REPHOTO_CHECK(!args.model.empty(), "render: MODEL is required for Gaussians");
-  const std::vector<std::string> stems = OutputStems(args, scene, views);
-  splat::GaussianRenderOptions options;
-  options.mode = args.gaussian_mode == "antialiased" ? splat::GaussianMode::kAntialiased
-                                                     : splat::GaussianMode::kClassic;
-  options.background = splat::ParseBackground(args.background, "--background");
-  if (args.spp_given) {
-    LogWarning("--spp does not apply to Gaussians (one sample at each pixel centre, as 3DGS)");
-  }
-  const auto start = std::chrono::steady_clock::now();
-  splat::GaussianFormat format;
-  auto model =
-      std::make_shared<const splat::GaussianModel>(splat::ReadGaussians(args.model, &format));
-  LogInfo(
-      fmt::format("{}: {} Gaussians ({}, SH degree {}), read in {:.2f} s", args.model,
-                  model->size(), splat::GaussianFormatName(format), model->sh_degree,
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
-  render::GaussianViewRenderer renderer(std::move(model), options);
-  Progress progress("render", views.size());
-  render::RenderViews(renderer, scene, views, stems, args.out, &progress);
-  progress.Finish();
-}
-
-void RenderImageBased(const RenderArguments& args, const scene::Scene& scene,
-                      const std::vector<size_t>& views) {
-  const bool vdt = render::ParseRepresentation(args.representation) ==
-                   render::ViewRepresentation::kVdt;
-  REPHOTO_CHECK(!vdt || !args.model.empty(),
-                "render: --representation vdt needs MODEL (the proxy)");
-  const std::vector<std::string> stems = OutputStems(args, scene, views);
-  ibr::ImageBasedOptions options = args.ibr_options;
-  options.scene_points = ibr::ScenePoints(scene);
-  options.show_progress = true;
-  mesh::Mesh proxy;
-  if (vdt) proxy = mesh::ReadMesh(args.model);
-  auto build = [&](const std::vector<size_t>& training) {
-    std::vector<ibr::TrainingView> training_views =
-        ibr::TrainingViewsFromScene(scene, training, args.depth_maps);
-    return vdt ? ibr::ImageBasedRenderer::Vdt(proxy, std::move(training_views), options)
-               : ibr::ImageBasedRenderer::Ibr(std::move(training_views), options);
-  };
-  render::Rephoto rephoto;
-  if (!args.training.empty()) {
-    const std::vector<size_t> training = TrainingIndices(scene, args.training);
-    const std::set<size_t> training_set(training.begin(), training.end());
-    for (size_t v : views) {
-      if (training_set.count(v)) {
-        LogWarning(
-            fmt::format("{} is also a training photo: its rephoto reproduces the photo "
-                        "(hold it out to measure anything)",
-                        scene.views[v].name));
-      }
-    }
-    ibr::ImageBasedViewRenderer renderer(build(training));
-    Progress progress("render", views.size());
-    render::RenderViews(renderer, scene, views, stems, args.out, &progress);
-    progress.Finish();
-    return;
-  }
-  LogInfo("no --training: leave-one-out (each view rendered from all other views)");
-  for (size_t i = 0; i < views.size(); ++i) {
-    std::vector<size_t> training;
-    for (size_t v = 0; v < scene.views.size(); ++v) {
-      if (v != views[i]) training.push_back(v);
-    }
-    const ibr::ImageBasedRenderer renderer = build(training);
-    const scene::View& view = scene.views[views[i]];
-    renderer.Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
-    render::WriteRephoto(args.out, stems[i], &rephoto);
-    LogInfo(fmt::format("rendered {} ({}/{})", view.name, i + 1, views.size()));
-  }
+// The flags as the renderers' settings (enums parsed here, once).
+representation::RendererSettings Settings(const RenderArguments& args) {
+  representation::RendererSettings settings;
+  settings.render.samples_per_pixel = args.spp;
+  settings.render.backfaces = !args.no_backfaces;
+  settings.model.point_radius = args.point_radius;
+  settings.model.point_radius_neighbors = args.point_neighbors;
+  settings.gaussians.mode =
+      representation::GaussianModeFromName(args.gaussian_mode, "--gaussian-mode");
+  settings.gaussians.background = splat::ParseBackground(args.background, "--background");
+  settings.image_based = args.ibr_options;
+  settings.image_based.show_progress = true;
+  return settings;
 }
 
 CommandRunner SetupRender(CLI::App& app) {
@@ -277,22 +187,35 @@ CommandRunner SetupRender(CLI::App& app) {
   app.add_option("--out", args->out, "Output folder for <name>.png and <name>.depth.exr")
       ->required();
   return [args, spp_option]() {
-    args->spp_given = spp_option->count() > 0;
+    const representation::RendererSettings settings = Settings(*args);
+    const render::ViewRepresentation requested =
+        representation::RepresentationFromName(args->representation, "--representation");
     const scene::ReadSceneOptions scene_options = MakeReadSceneOptions(args->scene_args);
     const scene::Scene scene = scene::ReadScene(args->scene, scene_options);
     const std::vector<size_t> views = SelectViews(scene, args->images);
+    const std::vector<std::string> stems = OutputStems(*args, scene, views);
 
-    using render::ViewRepresentation;
-    const ViewRepresentation representation =
-        render::ParseRepresentation(args->representation).value_or(ViewRepresentation::kAuto);
-    if (representation == ViewRepresentation::kGaussians ||
-        (representation == ViewRepresentation::kAuto && !args->model.empty() &&
-         splat::IsGaussianFile(args->model))) {
-      RenderGaussianFile(*args, scene, views);
-    } else if (render::IsImageBased(representation)) {
-      RenderImageBased(*args, scene, views);
+    const render::ViewRepresentation resolved =
+        representation::ResolveRepresentation(requested, args->model);
+    if (resolved == render::ViewRepresentation::kGaussians && spp_option->count() > 0) {
+      LogWarning("--spp does not apply to Gaussians (one sample at each pixel centre, as 3DGS)");
+    }
+    const representation::Models models =
+        representation::LoadModels(resolved, args->model, settings);
+    if (render::IsImageBased(resolved) && args->training.empty()) {
+      representation::RenderLeaveOneOut(resolved, models, scene, views, stems, args->depth_maps,
+                                        settings, args->out);
     } else {
-      RenderModelFile(*args, scene, views);
+      representation::TrainingPhotos training{&scene, {}, args->depth_maps};
+      if (render::IsImageBased(resolved)) {
+        training.views = TrainingIndices(scene, args->training);
+        representation::WarnRenderedTrainingPhotos(scene, training.views, views);
+      }
+      const std::unique_ptr<render::ViewRenderer> renderer =
+          representation::MakeRenderer(resolved, models, training, settings);
+      Progress progress("render", views.size());
+      render::RenderViews(*renderer, scene, views, stems, args->out, &progress);
+      progress.Finish();
     }
     LogInfo(fmt::format("rendered {} views -> {}", views.size(), args->out));
     return static_cast<int>(ExitCode::kOk);

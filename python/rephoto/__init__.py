@@ -144,7 +144,9 @@ def load_model(path: PathLike, *, point_radius: float = 0.0) -> Model:
     :class:`Camera` with an explicit 4x4 ``cam_from_world``) and returns ``(rgba, depth)``:
     float32 H x W x 4 (straight alpha = coverage) and H x W camera-frame z (NaN = empty).
     ``spp`` applies to meshes and point clouds; ``background`` and ``gaussian_mode``
-    ("classic" or "antialiased") to Gaussians.
+    ("classic" or "antialiased"; anything else raises :class:`UsageError`) to Gaussians.
+    The file is resolved, read and rendered as ``rephoto render MODEL`` does (the library's
+    renderer factory, ``src/rephoto/representation/make_renderer.h``).
     """
     return _rephoto.load_model(os.fspath(path), point_radius)
 

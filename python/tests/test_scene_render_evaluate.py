@@ -119,3 +119,5 @@ def test_gaussians_render(tmp_path):
     assert centre[0] > centre[2]  # red-ish Gaussian (SH DC) in the middle
     assert corner[2] == pytest.approx(1.0, abs=0.05)  # blue background at the corner
     assert depth[24, 32] == pytest.approx(4.0, rel=1e-3)
+    with pytest.raises(rephoto.UsageError, match="gaussian_mode mip: expected classic"):
+        model.render(camera, cam_from_world=np.eye(4), gaussian_mode="mip")

@@ -5,11 +5,10 @@
 #include "rephoto/degrade/degrade.h"
 #include "rephoto/eval/keys.h"
 #include "rephoto/eval/prepare_fold.h"
-#include "rephoto/ibr/image_based_renderer.h"
-#include "rephoto/ibr/training_views.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/colorize.h"
+#include "rephoto/representation/make_renderer.h"
 #include "rephoto/texture/texture_mesh.h"
 
 namespace rephoto::eval {
@@ -168,10 +167,13 @@ const scene::Scene& FoldTrainingScene::Get() {
 }
 
 bool IsGaussianModel(const RunContext& s, ModelCache& cache, const fs::path& path) {
-  if (path.empty() || render::IsImageBased(s.options.representation)) return false;
-  if (s.options.representation == render::ViewRepresentation::kGaussians) return true;
+  if (path.empty()) return false;
+  // The run's representation is fixed: the file's header is read once per path.
   const auto [it, inserted] = cache.is_gaussian_file.emplace(path, false);
-  if (inserted) it->second = splat::IsGaussianFile(path);
+  if (inserted) {
+    it->second = representation::ResolveRepresentation(s.options.representation, path) ==
+                 render::ViewRepresentation::kGaussians;
+  }
   return it->second;
 }
 
@@ -316,42 +318,33 @@ splat::GaussianRenderOptions GaussianOptions(const EvaluateOptions& o) {
 
 std::unique_ptr<render::ViewRenderer> MakeFoldRenderer(const RunContext& s, const FoldPlan& fold,
                                                        FoldModel& fold_model,
-                                                       FoldTrainingScene& training,
+                                                       FoldTrainingScene& training_scene,
                                                        ModelCache& cache,
                                                        std::optional<mesh::Mesh>* mesh,
                                                        Tally& tally) {
+  representation::RendererSettings settings;
+  representation::Models models;
   if (fold_model.gaussians) {
-    return std::make_unique<render::GaussianViewRenderer>(
-        LoadGaussians(cache, fold_model.path, fold_model.model_key), GaussianOptions(s.options));
+    settings.gaussians = GaussianOptions(s.options);
+    models.gaussians = LoadGaussians(cache, fold_model.path, fold_model.model_key);
+    return representation::MakeRenderer(render::ViewRepresentation::kGaussians, models, {},
+                                        settings);
   }
-  std::shared_ptr<const render::RenderModel> model =
-      LoadFoldModel(s, fold, fold_model, training, cache, mesh, tally);
-  render::RenderOptions render_options;
-  render_options.samples_per_pixel = s.options.samples_per_pixel;
-  render_options.backfaces = s.options.backfaces;
+  models.mesh = LoadFoldModel(s, fold, fold_model, training_scene, cache, mesh, tally);
+  settings.render.samples_per_pixel = s.options.samples_per_pixel;
+  settings.render.backfaces = s.options.backfaces;
   const auto build_start = Clock::now();
-  std::unique_ptr<render::ViewRenderer> renderer;
-  if (!render::IsImageBased(s.options.representation)) {
-    renderer = std::make_unique<render::ModelViewRenderer>(std::move(model), render_options);
-  } else {
-    // The fold's training photos reprojected through the model (vdt) or through per-view depth
-    // maps (ibr: --depth-maps, else plane-sweep stereo): never the test photo.
-    const scene::Scene& train = training.Get();
-    std::vector<size_t> indices(train.views.size());
-    for (size_t i = 0; i < indices.size(); ++i) indices[i] = i;
-    ibr::ImageBasedOptions ibr_options;
-    ibr_options.scene_points = ibr::ScenePoints(train);
-    const bool vdt = s.options.representation == render::ViewRepresentation::kVdt;
-    auto views =
-        ibr::TrainingViewsFromScene(train, indices, vdt ? fs::path() : s.options.depth_maps);
-    if (vdt) {
-      REPHOTO_CHECK(model && !model->mesh().is_point_cloud(),
-                    "--representation vdt needs a mesh as geometry proxy (got a point cloud)");
-    }
-    renderer = std::make_unique<ibr::ImageBasedViewRenderer>(
-        vdt ? ibr::ImageBasedRenderer::Vdt(model->mesh(), std::move(views), ibr_options)
-            : ibr::ImageBasedRenderer::Ibr(std::move(views), ibr_options));
+  // vdt/ibr: the fold's training photos reprojected through the model (vdt) or through per-view
+  // depth maps (ibr: --depth-maps, else plane-sweep stereo): never the test photo.
+  representation::TrainingPhotos training;
+  if (render::IsImageBased(s.options.representation)) {
+    const scene::Scene& train = training_scene.Get();
+    training.scene = &train;
+    for (size_t i = 0; i < train.views.size(); ++i) training.views.push_back(i);
+    training.depth_maps = s.options.depth_maps;
   }
+  std::unique_ptr<render::ViewRenderer> renderer =
+      representation::MakeRenderer(s.options.representation, models, training, settings);
   tally.AddSeconds(&EvaluateTimings::render, Seconds(build_start));
   return renderer;
 }

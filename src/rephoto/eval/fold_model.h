@@ -40,7 +40,7 @@ struct ModelCache {
   std::map<std::string, std::string> file_keys;
   std::shared_ptr<const splat::GaussianModel> gaussians;  // the last Gaussian model read
   std::string gaussians_key;
-  std::map<std::filesystem::path, bool> is_gaussian_file;  // splat::IsGaussianFile, asked once
+  std::map<std::filesystem::path, bool> is_gaussian_file;  // rendered as Gaussians, decided once per path
 };
 
 // The fold's training scene (prepare_fold.h TrainingScene), computed on first use and then kept

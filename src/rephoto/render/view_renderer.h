@@ -2,8 +2,8 @@
 //
 // ViewRepresentation (the paper's Table I, as `--representation` names them):
 //   kAuto       the model as what it is: a mesh (vertex colours or textures) or a point cloud
-//               (render.h); `auto` also detects a 3D Gaussian splatting file, which callers
-//               then render as kGaussians
+//               (render.h); `auto` also detects a 3D Gaussian splatting file, rendered as
+//               kGaussians (representation/make_renderer.h decides, for every caller)
 //   kGaussians  3D Gaussians with the CPU rasterizer (splat/rasterize.h)
 //   kVdt        view-dependent texturing of training photos on a mesh (ibr/)
 //   kIbr        image-based rendering with per-view depth maps (ibr/)
