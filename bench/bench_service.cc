@@ -20,12 +20,12 @@
 #include <random>
 #include <thread>
 
-#include "rephoto/benchmark/server.h"
-#include "rephoto/benchmark/test_fixture.h"
+#include "rephoto/service/server.h"
+#include "rephoto/service/test_fixture.h"
 
 namespace {
 namespace fs = std::filesystem;
-using namespace rephoto::benchmark;
+using namespace rephoto::service;
 
 struct Service {
   Service() {

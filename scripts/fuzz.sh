@@ -78,10 +78,10 @@ seed fuzz_depth_map fuzz/corpus/depth_map/*
 # Experiment files: fuzz_config takes a selector byte (bit 0: JSON, bit 1: sweep config).
 seed fuzz_config fuzz/corpus/config/*
 # The benchmark service (issue 27): request fields, and hostile archives made by
-# fuzz/corpus/benchmark_upload/make_seeds.py (those of the benchmark tests).
-seed fuzz_benchmark_request fuzz/corpus/benchmark_request/*
-seed fuzz_benchmark_upload fuzz/corpus/benchmark_upload/*.tar fuzz/corpus/benchmark_upload/*.gz \
-  fuzz/corpus/benchmark_upload/*.zip
+# fuzz/corpus/service_upload/make_seeds.py (those of the benchmark tests).
+seed fuzz_service_request fuzz/corpus/service_request/*
+seed fuzz_service_upload fuzz/corpus/service_upload/*.tar fuzz/corpus/service_upload/*.gz \
+  fuzz/corpus/service_upload/*.zip
 for toml in examples/experiments/*.toml; do
   { printf '\000'; cat "$toml"; } > "$corpus/fuzz_config/evaluate_$(basename "$toml")"
   { printf '\002'; cat "$toml"; } > "$corpus/fuzz_config/sweep_$(basename "$toml")"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Sets everything up and runs the whole test suite (what CI runs, see .ci/run):
 #   1. installs Debian packages, builds Release in ./build, runs every ctest test (the browser
-#      tests drive Debian's headless chromium: report/ with --dump-dom, benchmark/ through the
+#      tests drive Debian's headless chromium: report/ with --dump-dom, service/ through the
 #      DevTools protocol with Debian's python3-websocket, tests/browser/);
 #   2. builds the file readers' tests (scene, split, io, mesh) and the libFuzzer targets with
 #      clang, AddressSanitizer + UndefinedBehaviorSanitizer in ./build-sanitize (preset

@@ -7,7 +7,7 @@
 // rephoto benchmark revoke --root DIR --name NAME
 // rephoto benchmark reveal --root DIR --name DATASET   (the private test photos rank)
 // rephoto benchmark list --root DIR
-// Administration of a benchmark folder (rephoto/benchmark/): safe while `rephoto serve` runs on
+// Administration of a benchmark folder (rephoto/service/): safe while `rephoto serve` runs on
 // the same folder (SQLite WAL and busy timeout, see store.h).
 #include <fmt/format.h>
 
@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "command.h"
-#include "rephoto/benchmark/dataset.h"
-#include "rephoto/benchmark/store.h"
-#include "rephoto/benchmark/text.h"
+#include "rephoto/service/dataset.h"
+#include "rephoto/service/store.h"
+#include "rephoto/service/text.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/metrics/metrics.h"
@@ -52,8 +52,8 @@ void AddRootAndName(CLI::App* app, BenchmarkArguments* args, const std::string& 
 
 int RunAddDataset(const BenchmarkArguments& args) {
   std::filesystem::create_directories(args.root);
-  benchmark::Store store(args.root);
-  benchmark::DatasetOptions options;
+  service::Store store(args.root);
+  service::DatasetOptions options;
   options.name = args.name;
   options.description = args.description;
   options.scene = args.scene;
@@ -65,11 +65,11 @@ int RunAddDataset(const BenchmarkArguments& args) {
   options.window = args.window;
   options.ranking = args.ranking;
   options.public_fraction = args.public_fraction;
-  REPHOTO_CHECK_USAGE(benchmark::IsCleanText(args.description, benchmark::TextPolicy::kMultiLine),
+  REPHOTO_CHECK_USAGE(service::IsCleanText(args.description, service::TextPolicy::kMultiLine),
                       "--description: not UTF-8 text without control characters");
   options.eval_short_side = args.eval_short_side;
   options.photo_masks = args.photo_masks;
-  benchmark::AddDataset(store, options);
+  service::AddDataset(store, options);
   const auto dataset = store.FindDataset(args.name);
   LogInfo(fmt::format("dataset '{}': {} training photos, {} test cameras (photos kept secret)",
                       args.name, dataset->info.at("training_images").size(),
@@ -78,7 +78,7 @@ int RunAddDataset(const BenchmarkArguments& args) {
 }
 
 int RunList(const BenchmarkArguments& args) {
-  benchmark::Store store(args.root);
+  service::Store store(args.root);
   for (const auto& dataset : store.Datasets()) {
     fmt::print("dataset {}: {} test cameras, {} submissions\n", dataset.name,
                dataset.info.at("test_images").size(), store.DatasetSubmissions(dataset.id).size());
@@ -140,9 +140,9 @@ CommandRunner SetupBenchmark(CLI::App& app) {
     if (list->parsed()) return RunList(*args);
     REPHOTO_CHECK_USAGE(std::filesystem::is_directory(args->root), "--root {}: not a folder",
                         args->root);
-    benchmark::Store store(args->root);
+    service::Store store(args->root);
     if (reveal->parsed()) {
-      benchmark::RevealDataset(store, args->name);
+      service::RevealDataset(store, args->name);
       LogInfo(fmt::format("dataset '{}' revealed", args->name));
       return static_cast<int>(ExitCode::kOk);
     }
@@ -152,7 +152,7 @@ CommandRunner SetupBenchmark(CLI::App& app) {
       return static_cast<int>(ExitCode::kOk);
     }
     REPHOTO_CHECK_USAGE(
-        benchmark::IsCleanText(args->name) && !args->name.empty() && args->name.size() <= 100,
+        service::IsCleanText(args->name) && !args->name.empty() && args->name.size() <= 100,
         "--name: 1 to 100 bytes of UTF-8 text without control characters");
     const std::string token = store.AddParticipant(args->name);
     fmt::print("participant '{}' added; its API token (shown only now):\n{}\n", args->name, token);

@@ -4,7 +4,7 @@
 //               [--request-timeout SECONDS]
 //               [--keep-alive-timeout SECONDS] [--max-connections-per-address N]
 //               [--access-log FILE|-]
-// Serves the benchmark folder DIR over HTTP (rephoto/benchmark/server.h; API in
+// Serves the benchmark folder DIR over HTTP (rephoto/service/server.h; API in
 // docs/benchmark.md) until SIGINT or SIGTERM. Scores submissions in the background; on start,
 // re-queues the submissions a previous run left queued or half-scored.
 #include <fmt/format.h>
@@ -17,7 +17,7 @@
 #include <thread>
 
 #include "command.h"
-#include "rephoto/benchmark/server.h"
+#include "rephoto/service/server.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/progress.h"
 
@@ -27,10 +27,10 @@ namespace {
 struct ServeArguments {
   std::string root;
   std::string listen = "127.0.0.1:8080";
-  benchmark::ServerOptions options;
+  service::ServerOptions options;
 };
 
-void ParseListen(const std::string& text, benchmark::ServerOptions* options) {
+void ParseListen(const std::string& text, service::ServerOptions* options) {
   const size_t colon = text.rfind(':');
   REPHOTO_CHECK_USAGE(colon != std::string::npos && colon > 0, "--listen '{}': use HOST:PORT",
                       text);
@@ -57,7 +57,7 @@ int RunServe(ServeArguments& args) {
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  benchmark::Server server(args.root, args.options);
+  service::Server server(args.root, args.options);
   const int port = server.Bind();
   LogInfo(fmt::format("serving {} on http://{}:{}/", args.root, args.options.host, port));
   std::thread stopper([&] {
@@ -74,7 +74,7 @@ int RunServe(ServeArguments& args) {
 
 CommandRunner SetupServe(CLI::App& app) {
   auto args = std::make_shared<ServeArguments>();
-  benchmark::ServerOptions& o = args->options;
+  service::ServerOptions& o = args->options;
   app.add_option("--root", args->root, "The benchmark folder (rephoto benchmark add-dataset)")
       ->required();
   app.add_option("--listen", args->listen, "HOST:PORT (port 0: any free port)")

@@ -1,10 +1,10 @@
 // rephoto suggest --scene S --model M [--run RUN] --count K --out DIR [--camera ID]
 //                 [--candidates N] [--elevation-margin DEG]
 // Proposes K camera poses for the next photos: views of the model's surface that no photo sees
-// yet and of the regions with the highest projected error (src/rephoto/geometry/suggest.h).
+// yet and of the regions with the highest projected error (src/rephoto/suggest/next_views.h).
 // Writes DIR/sparse/ (COLMAP text: the suggested cameras), DIR/transforms.json,
 // DIR/suggestions.json, DIR/renders/suggest_XX.png (the model rendered at each suggestion) and
-// DIR/report.html (report/suggest_report.h: the suggested views with their rephotos, poses,
+// DIR/report.html (suggest/suggest_page.h: the suggested views with their rephotos, poses,
 // newly covered surface and mean error).
 #include <fmt/format.h>
 
@@ -32,7 +32,7 @@ struct SuggestArguments {
 
 CommandRunner SetupSuggest(CLI::App& app) {
   auto args = std::make_shared<SuggestArguments>();
-  geometry::SuggestOptions& o = args->options.suggest;
+  suggest::SuggestOptions& o = args->options.suggest;
   app.add_option("--scene", args->scene, "Scene with the photos taken so far")->required();
   AddSceneOptions(app, &args->scene_args);
   app.add_option("--model", args->model, "The reconstruction (.ply, .obj)")->required();
@@ -61,7 +61,7 @@ CommandRunner SetupSuggest(CLI::App& app) {
     options.scene_label = args->scene;
     options.model_label = args->model;
     options.run = args->run;
-    const geometry::SuggestResult result = suggest::RunSuggest(scene, model, options);
+    const suggest::SuggestResult result = suggest::RunSuggest(scene, model, options);
     fmt::print("{}", suggest::SuggestSummary(result, options));
     return static_cast<int>(ExitCode::kOk);
   };

@@ -3,7 +3,7 @@
 
 Drives Debian's /usr/bin/chromium through the Chrome DevTools protocol directly (Debian's
 python3-websocket; no browser download, no npm). Run by the ctest test
-benchmark/pages_browser_test, which starts a server with one dataset ("tiny") and two scored
+service/pages_browser_test, which starts a server with one dataset ("tiny") and two scored
 submissions ("exact": renders equal to the photos, "noisy") and passes its base URL:
     /usr/bin/python3 benchmark_pages.py http://127.0.0.1:PORT
 Checks: the dataset list links the dataset; the dataset page links its downloads; the

@@ -21,6 +21,7 @@
 #include "rephoto/render/view_renderer.h"
 #include "rephoto/report/report.h"
 #include "rephoto/scene/colmap.h"
+#include "rephoto/suggest/suggest_page.h"
 #include "rephoto/suggest/suggest_run.h"
 
 namespace rephoto::demo {
@@ -222,7 +223,7 @@ DemoSuggestions SuggestNextPhotos(const DemoOptions& options, const mesh::Mesh& 
   LogInfo(fmt::format("demo: suggesting {} views to add to the {} photos from one side",
                       options.suggestions, one_side.views.size()));
   const render::RenderModel model(truth, {}, run.model_label);
-  const geometry::SuggestResult result = suggest::RunSuggest(one_side, model, run);
+  const suggest::SuggestResult result = suggest::RunSuggest(one_side, model, run);
   LogInfo("demo: " + suggest::SuggestSummary(result, run));
   outcome.unseen_fraction =
       result.total_area > 0 ? result.unobserved_area / result.total_area : 0.0;
@@ -240,14 +241,18 @@ void WriteDemoReport(const DemoOptions& options, const DemoResult& result) {
   report_options.title = "rephoto demo: six reconstructions of the procedural scene";
   report_options.image_folders = {options.out / "scene" / "images"};
   if (result.suggestions) {
-    report_options.suggestions = result.suggestions->folder;
-    report_options.suggestions_note = fmt::format(
+    report_options.sections.push_back(
+        {.id = "next-photos",
+         .title = "Where to photograph next",
+         .note = fmt::format(
         "Had only the {} photos from one side of the ring been taken, {:.1f} % of the model's "
         "surface would be seen by no photo. rephoto suggest proposes these views to take next: "
         "together they see {:.1f} % of that surface. (`rephoto suggest --scene "
         "next_photos/photos_so_far/sparse --model models/ground_truth.ply --out next_photos`)",
-        result.suggestions->photos_so_far, 100 * result.suggestions->unseen_fraction,
-        100 * result.suggestions->covered_fraction);
+             result.suggestions->photos_so_far, 100 * result.suggestions->unseen_fraction,
+             100 * result.suggestions->covered_fraction),
+         .body_html = suggest::SuggestionsSectionHtml(result.suggestions->folder,
+                                                      report_options.thumbnail_width, 3)});
   }
   report::WriteCollectionReport(entries, options.out / "report.html", report_options);
 }

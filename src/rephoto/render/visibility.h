@@ -1,5 +1,5 @@
 // Does camera C see point V? The one rule of colorize (render/colorize.h), texture view
-// selection (texture/view_selection.h), next-view suggestions (geometry/suggest.h) and error
+// selection (texture/view_selection.h), next-view suggestions (suggest/next_views.h) and error
 // projection (project/project.h). V is seen when
 //   1. it lies in the camera's usable field (camera::UsableField: in front of the camera, where
 //      the lens model is one-to-one; strong distortion folds points from outside the field of

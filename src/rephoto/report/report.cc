@@ -16,7 +16,6 @@
 #include "rephoto/report/geometry_section.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_page.h"
-#include "rephoto/report/suggest_report.h"
 #include "rephoto/run/run_data.h"
 
 namespace rephoto::report {
@@ -460,13 +459,11 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
                                 options.geometry_options, options.primary_metric);
   }
   html += EntriesHtml(c, options);
-  if (!options.suggestions.empty()) {
-    html += "<section id=\"next-photos\"><h2>Where to photograph next</h2>\n";
-    if (!options.suggestions_note.empty()) {
-      html += "<p>" + HtmlEscape(options.suggestions_note) + "</p>\n";
-    }
-    html +=
-        SuggestionsSectionHtml(options.suggestions, options.thumbnail_width, 3) + "</section>\n";
+  for (const CollectionOptions::Section& section : options.sections) {
+    html += fmt::format("<section id=\"{}\"><h2>{}</h2>\n", HtmlEscape(section.id),
+                        HtmlEscape(section.title));
+    if (!section.note.empty()) html += "<p>" + HtmlEscape(section.note) + "</p>\n";
+    html += section.body_html + "</section>\n";
   }
   html += PageEnd();
   WriteTextFileAtomically(out_html, html);

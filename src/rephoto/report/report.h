@@ -114,12 +114,14 @@ struct CollectionOptions {
   // Runs without a model (compare runs, image-based rendering) show no values and the reason.
   std::filesystem::path geometry_reference;
   geometry::GeometryOptions geometry_options;
-  // Acquisition guidance (paper Sections 5.2 and 6.2): a `rephoto suggest` output folder
-  // (suggestions.json and renders/); a section "Where to photograph next" shows its suggested
-  // views with their rephotos (suggest_report.h). `suggestions_note` is a sentence before them
-  // (what the photos so far were). Empty = no section.
-  std::filesystem::path suggestions;
-  std::string suggestions_note;
+  // Sections made elsewhere, after the runs, each <section id="`id`"><h2>`title`</h2>
+  // <p>`note`</p> `body_html` </section> (note escaped, omitted when empty; body_html is trusted
+  // HTML). The demo adds "Where to photograph next" (acquisition guidance, paper Sections 5.2
+  // and 6.2) from suggest/suggest_page.h.
+  struct Section {
+    std::string id, title, note, body_html;
+  };
+  std::vector<Section> sections;
   // As ReportOptions::image_folders, for every run.
   std::vector<std::filesystem::path> image_folders;
 };

@@ -10,7 +10,7 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
-#include "rephoto/report/suggest_report.h"
+#include "rephoto/suggest/suggest_page.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/transforms_json.h"
 
@@ -44,7 +44,7 @@ std::vector<float> ReadProjectedErrors(const fs::path& run, const std::string& m
   ThrowError("{}: no vertex property 'error' (write it with rephoto project)", path.string());
 }
 
-geometry::SuggestResult RunSuggest(const scene::Scene& scene, const render::RenderModel& model,
+suggest::SuggestResult RunSuggest(const scene::Scene& scene, const render::RenderModel& model,
                                    const SuggestRunOptions& options) {
   options.suggest.Check();
   REPHOTO_CHECK(!scene.views.empty(), "{}: the scene has no views", options.scene_label);
@@ -56,8 +56,8 @@ geometry::SuggestResult RunSuggest(const scene::Scene& scene, const render::Rend
       options.run.empty()
           ? std::vector<float>{}
           : ReadProjectedErrors(options.run, options.metric, model.mesh().vertex_count());
-  const geometry::SuggestResult result =
-      geometry::SuggestViews(model, scene, camera, errors, options.suggest);
+  const suggest::SuggestResult result =
+      suggest::SuggestViews(model, scene, camera, errors, options.suggest);
 
   const fs::path& out = options.out;
   fs::create_directories(out / "renders");
@@ -76,7 +76,7 @@ geometry::SuggestResult RunSuggest(const scene::Scene& scene, const render::Rend
   json["distance"] = result.distance;
   Json list = Json::array();
   for (size_t k = 0; k < result.suggestions.size(); ++k) {
-    const geometry::Suggestion& s = result.suggestions[k];
+    const suggest::Suggestion& s = result.suggestions[k];
     scene::View view;
     view.name = fmt::format("suggest_{:02d}.png", k);
     view.image_path = out / "renders" / view.name;
@@ -102,11 +102,11 @@ geometry::SuggestResult RunSuggest(const scene::Scene& scene, const render::Rend
   scene::WriteColmap(suggested, out / "sparse", scene::ColmapFormat::kText);
   scene::WriteTransformsJson(suggested, out / "transforms.json");
   WriteTextFileAtomically(out / "suggestions.json", json.dump(2) + "\n");
-  report::WriteSuggestionsReport(out, out / "report.html");
+  suggest::WriteSuggestionsReport(out, out / "report.html");
   return result;
 }
 
-std::string SuggestSummary(const geometry::SuggestResult& result,
+std::string SuggestSummary(const suggest::SuggestResult& result,
                            const SuggestRunOptions& options) {
   const double unobserved = result.unobserved_area;
   std::string text =

@@ -1,5 +1,5 @@
 // `rephoto suggest` as a library call (the CLI and the demo's acquisition step use it):
-// camera poses for the next photos (geometry/suggest.h) and every output a user looks at.
+// camera poses for the next photos (suggest/next_views.h) and every output a user looks at.
 //
 // RunSuggest reads nothing itself but the projected errors: the caller gives the scene (the
 // photos taken so far) and the model. It writes into options.out (created if needed; each file
@@ -11,7 +11,7 @@
 //                          totals total_area, unobserved_area, unobserved_area_covered; target,
 //                          distance; the scene, model and run labels
 //   renders/suggest_XX.png the model rendered from each suggestion: what to photograph
-//   report.html            report/suggest_report.h
+//   report.html            suggest/suggest_page.h
 // Failure behaviour: Error (one line naming the file) for projected errors that are missing or
 // do not match the model, or an output that cannot be written; UsageError for a camera id the
 // scene does not have or invalid options. Thread safety: reentrant (one call per out folder).
@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "rephoto/geometry/suggest.h"
+#include "rephoto/suggest/next_views.h"
 #include "rephoto/render/render_model.h"
 #include "rephoto/scene/scene.h"
 
@@ -37,7 +37,7 @@ struct SuggestRunOptions {
   std::filesystem::path run;
   std::string metric = "1-ncc";
   int camera_id = -1;  // scene camera whose intrinsics the suggestions use (-1: the first view's)
-  geometry::SuggestOptions suggest;
+  suggest::SuggestOptions suggest;
 };
 
 // Per-vertex errors of `run` (see SuggestRunOptions::run) for a model of `vertex_count`
@@ -47,11 +47,11 @@ std::vector<float> ReadProjectedErrors(const std::filesystem::path& run, const s
                                        size_t vertex_count);
 
 // See the file comment. Returns what SuggestViews found.
-geometry::SuggestResult RunSuggest(const scene::Scene& scene, const render::RenderModel& model,
+suggest::SuggestResult RunSuggest(const scene::Scene& scene, const render::RenderModel& model,
                                    const SuggestRunOptions& options);
 
 // The one-line summary the CLI prints and the demo logs ("x % of the model's surface is seen
 // by no photo ... together: y % of the unseen surface").
-std::string SuggestSummary(const geometry::SuggestResult& result, const SuggestRunOptions& options);
+std::string SuggestSummary(const suggest::SuggestResult& result, const SuggestRunOptions& options);
 
 }  // namespace rephoto::suggest
