@@ -95,7 +95,8 @@
 //   folds/fold_XX/ reconstruction/ (the command's {out}), model.ply + model.key (the coloured
 //                  model, --colorize), train/ and test/ (only when they differ from split/, see
 //                  Sweeps), renders/<stem>.png (RGBA 8-bit, alpha = coverage) and
-//                  <stem>.depth.exr (built-in renderer), errors/<stem>.<metric>.exr|png,
+//                  <stem>.depth.exr (built-in renderer, WritesDepthImages), errors/
+//                  <stem>.<metric>.exr|png (ErrorImageMetrics: by default 1-NCC's only),
 //                  views/<stem>.json (the view's result and key, written last), fold.json.
 //                  <stem>: the view name's file name without extension, or its relative path
 //                  without extension when two views share a file name.

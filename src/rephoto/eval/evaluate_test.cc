@@ -170,9 +170,14 @@ TEST(EvaluateTest, ModelModeGivesTheNumbersOfSplitRenderCompareByHand) {
   EXPECT_EQ(manifest["tasks"].size(), static_cast<size_t>(kViews));  // no command tasks
   const std::string stem = ReadCsv(run / "per_image.csv")[1][1];
   EXPECT_TRUE(fs::exists(run / "folds/fold_00/views" / (stem + ".json")));
-  EXPECT_TRUE(fs::exists(run / "folds/fold_00/renders" / (stem + ".depth.exr")));
+  // Written by default: the rendering and the headline metric's error images; no depth map
+  // (nothing reads it: no projection here) and no other metric's images.
+  EXPECT_TRUE(fs::exists(run / "folds/fold_00/renders" / (stem + ".png")));
+  EXPECT_FALSE(fs::exists(run / "folds/fold_00/renders" / (stem + ".depth.exr")));
   EXPECT_TRUE(fs::exists(run / "folds/fold_00/errors" / (stem + ".1-ncc.exr")));
-  EXPECT_TRUE(fs::exists(run / "folds/fold_00/errors" / (stem + ".cb+cr.png")));
+  EXPECT_TRUE(fs::exists(run / "folds/fold_00/errors" / (stem + ".1-ncc.png")));
+  EXPECT_FALSE(fs::exists(run / "folds/fold_00/errors" / (stem + ".cb+cr.png")));
+  EXPECT_FALSE(fs::exists(run / "folds/fold_00/errors" / (stem + ".cb+cr.exr")));
 }
 
 TEST(EvaluateTest, ModelAloneDefaultsToOneFoldWithoutCrossValidation) {
@@ -263,7 +268,7 @@ TEST(EvaluateTest, AnotherSplitReplacesTheOldFoldsOutputs) {
   for (const auto& entry : fs::recursive_directory_iterator(run / "folds")) {
     if (entry.path().parent_path().filename() == "errors") ++errors;
   }
-  EXPECT_EQ(errors, static_cast<size_t>(kViews) * 2 * 2);  // 2 metrics x (exr + png)
+  EXPECT_EQ(errors, static_cast<size_t>(kViews) * 2);  // 1-NCC only by default: exr + png
   EXPECT_EQ(result.evaluated_images, static_cast<size_t>(kViews));
 }
 

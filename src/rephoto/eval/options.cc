@@ -148,10 +148,12 @@ void EvaluateOptions::Check() const {
     throw UsageError("evaluate: counts and sizes must not be negative");
   }
   if (metrics.empty()) throw UsageError("evaluate: no metric selected");
-  for (metrics::Metric m : error_image_metrics) {
-    if (std::find(metrics.begin(), metrics.end(), m) == metrics.end()) {
-      throw UsageError(fmt::format("evaluate: --error-image-metrics: {} is not among --metrics",
-                                   metrics::MetricName(m)));
+  if (error_image_metrics && *error_image_metrics != metrics::AllMetrics()) {
+    for (metrics::Metric m : *error_image_metrics) {
+      if (std::find(metrics.begin(), metrics.end(), m) == metrics.end()) {
+        throw UsageError(fmt::format("evaluate: --error-image-metrics: {} is not among --metrics",
+                                     metrics::MetricName(m)));
+      }
     }
   }
   if (projection_metric != "none" && !metrics::ParseMetric(projection_metric)) {
@@ -174,16 +176,33 @@ void EvaluateOptions::Check() const {
 }
 
 std::vector<metrics::Metric> ErrorImageMetrics(const EvaluateOptions& options) {
-  std::vector<metrics::Metric> list = options.error_image_metrics;
-  if (list.empty()) return list;  // all
-  const std::optional<metrics::Metric> projected = metrics::ParseMetric(options.projection_metric);
-  if (projected &&
-      std::find(options.metrics.begin(), options.metrics.end(), *projected) !=
-          options.metrics.end() &&
-      std::find(list.begin(), list.end(), *projected) == list.end()) {
-    list.push_back(*projected);
+  if (options.error_image_metrics == metrics::AllMetrics()) return {};  // all
+  std::vector<metrics::Metric> wanted =
+      options.error_image_metrics.value_or(std::vector<metrics::Metric>{});
+  if (!options.error_image_metrics && !options.metrics.empty()) {
+    wanted.push_back(metrics::HeadlineMetric(options.metrics));
   }
+  const std::optional<metrics::Metric> projected = metrics::ParseMetric(options.projection_metric);
+  if (projected) wanted.push_back(*projected);
+  std::vector<metrics::Metric> list;  // in options.metrics order, each once
+  for (metrics::Metric m : options.metrics) {
+    if (std::find(wanted.begin(), wanted.end(), m) != wanted.end()) list.push_back(m);
+  }
+  // Every metric's: the same as "all" (and the same keys as runs made before the option).
+  if (list.size() == options.metrics.size()) return {};
   return list;
+}
+
+std::vector<metrics::Metric> WrittenErrorImageMetrics(const EvaluateOptions& options) {
+  if (!options.error_images) return {};
+  std::vector<metrics::Metric> list = ErrorImageMetrics(options);
+  return list.empty() ? options.metrics : list;
+}
+
+bool WritesDepthImages(const EvaluateOptions& options, bool gaussians) {
+  return options.depth_images ||
+         (options.representation == render::ViewRepresentation::kAuto && !gaussians &&
+          options.render.empty() && options.projection_metric != "none");
 }
 
 }  // namespace rephoto::eval

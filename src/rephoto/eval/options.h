@@ -83,9 +83,16 @@ struct EvaluateOptions {
   std::filesystem::path photo_masks;  // folder of masks by photo stem ("" = the scene's masks)
   bool resize = false;                // rescale external renders of another size
   bool error_images = true;
-  // Of `metrics`, those whose error images are written (empty = all); the projection metric's
-  // are always written, since the projection reads them (ErrorImageMetrics).
-  std::vector<metrics::Metric> error_image_metrics;
+  // Of `metrics`, those whose error images are written: by default (nullopt) the headline
+  // metric's (metrics::HeadlineMetric: 1-NCC) only, `--error-image-metrics all` (AllMetrics())
+  // every metric's; the projection metric's are always written, since the projection reads
+  // them (ErrorImageMetrics). Each metric's images of a 1280x960 view take 5.7 MB (a float EXR
+  // and a colour-mapped PNG).
+  std::optional<std::vector<metrics::Metric>> error_image_metrics;
+  // Write renders/<stem>.depth.exr beside each built-in rendering (camera-frame z, 4 bytes per
+  // pixel). Nothing in the run reads them: the projection renders the model's depth again with
+  // the same samples, which gives the same values. Off by default.
+  bool depth_images = false;
 
   // ---- built-in rendering (as `rephoto render`)
   int samples_per_pixel = 4;
@@ -219,9 +226,20 @@ struct EvaluateResult {
   ExitCode exit_code = ExitCode::kOk;  // kIncomplete: failed folds/views or missing photos
 };
 
-// The metrics whose error images an evaluation writes: empty = all of options.metrics, else
-// options.error_image_metrics and the projection metric (when it is one of options.metrics).
+// The metrics whose error images an evaluation writes, in options.metrics order: empty = all of
+// options.metrics (`--error-image-metrics all`, as compare::CompareOptions reads it), else
+// options.error_image_metrics (default: the headline metric) and the projection metric when
+// it is one of options.metrics.
 std::vector<metrics::Metric> ErrorImageMetrics(const EvaluateOptions& options);
+// The same as the list of metrics whose images are on disk: ErrorImageMetrics, with "all"
+// spelled out as options.metrics (empty when options.error_images is off).
+std::vector<metrics::Metric> WrittenErrorImageMetrics(const EvaluateOptions& options);
+
+// Whether a fold's built-in renderings are written with their depth maps
+// (renders/<stem>.depth.exr): with options.depth_images, and where the projection reads them
+// (the model itself rendered, representation auto, a mesh or point cloud: not `gaussians`, and
+// a projection metric), which spares it rendering the model again.
+bool WritesDepthImages(const EvaluateOptions& options, bool gaussians);
 
 // One task of a run (EvaluateOptions::only) and whether its results are already in the run
 // folder with valid keys.

@@ -116,7 +116,7 @@ compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
 // The rendering of the view into view.render: reused from disk, rendered, or the external one.
 fs::path ObtainRendering(Tally& tally, PreparedView& view, const FoldPlan& fold,
                          const TestView& test, render::ViewRenderer* renderer,
-                         const ViewOutcome& outcome) {
+                         const ViewOutcome& outcome, bool write_depth) {
   const fs::path renders_dir = fold.dir / "renders";
   if (outcome.reuse_render) {
     // Only compare settings changed: the rendering on disk is the one this view needs.
@@ -125,7 +125,8 @@ fs::path ObtainRendering(Tally& tally, PreparedView& view, const FoldPlan& fold,
   }
   if (renderer != nullptr) {
     renderer->Render(test.camera, test.pose, &view.rephoto);
-    render::WriteRephoto(renders_dir, test.stem, &view.rephoto);  // compared as the PNG written
+    // Compared as the PNG written.
+    render::WriteRephoto(renders_dir, test.stem, &view.rephoto, write_depth);
     std::swap(view.render, view.rephoto.color);  // the next view renders into the previous buffer
     tally.Count(&EvaluateCounters::views_rendered);
     return renders_dir / (test.stem + ".png");
@@ -144,7 +145,8 @@ void PrepareView(const RunContext& s, Tally& tally, PreparedView& view, const Fo
   view.failure.clear();
   try {
     auto start = Clock::now();
-    view.render_path = ObtainRendering(tally, view, fold, test, renderer, outcome);
+    view.render_path = ObtainRendering(tally, view, fold, test, renderer, outcome,
+                                       WritesDepthImages(s.options, gaussians));
     outcome.render_seconds = Seconds(start);
     tally.AddSeconds(&EvaluateTimings::render, outcome.render_seconds);
     start = Clock::now();
@@ -253,7 +255,8 @@ std::vector<size_t> PlanViews(const RunContext& s, const FoldPlan& fold, const F
       outcome.reuse_render =
           previous && previous->value("render_key", "") == outcome.render_key &&
           fs::is_regular_file(fold.dir / "renders" / (test.stem + ".png"), ec) &&
-          fs::is_regular_file(fold.dir / "renders" / (test.stem + ".depth.exr"), ec);
+          (!WritesDepthImages(s.options, model.gaussians) ||
+           fs::is_regular_file(fold.dir / "renders" / (test.stem + ".depth.exr"), ec));
     }
     if (ReadViewRecord(s, outcome.record, previous, outcome.key, &outcome)) {
       outcome.ok = true;

@@ -27,6 +27,8 @@ TEST(RephotoViewsTest, PipelinedViewsWriteTheFilesOfOneViewAtATime) {
   o.model = EvaluateTestScene().truth;
   o.scheme = "kfold:2";
   o.metrics = {metrics::Metric::kOneMinusNcc, metrics::Metric::kCbCr, metrics::Metric::kDssim};
+  o.error_image_metrics = metrics::AllMetrics();  // every file the view stage can write
+  o.depth_images = true;
   o.report = false;
   const EvaluateResult pipelined = RunEvaluate(o);
   EvaluateOptions sequential = o;
@@ -63,7 +65,7 @@ TEST(RephotoViewsTest, PipelinedViewsWriteTheFilesOfOneViewAtATime) {
   some.error_image_metrics = {metrics::Metric::kCbCr};
   some.projection_metric = "1-ncc";
   EXPECT_EQ(ErrorImageMetrics(some),
-            (std::vector<metrics::Metric>{metrics::Metric::kCbCr, metrics::Metric::kOneMinusNcc}));
+            (std::vector<metrics::Metric>{metrics::Metric::kOneMinusNcc, metrics::Metric::kCbCr}));
   RunEvaluate(some);
   size_t error_files = 0;
   for (const auto& entry : fs::recursive_directory_iterator(some.out / "folds")) {
@@ -81,6 +83,34 @@ TEST(RephotoViewsTest, PipelinedViewsWriteTheFilesOfOneViewAtATime) {
   bad.error_image_metrics = {metrics::Metric::kDssim};
   EXPECT_THROW(RunEvaluate(bad), UsageError);
   fs::remove_all(root);
+}
+
+TEST(RephotoViewsTest, ByDefaultOnlyTheHeadlineAndProjectionMetricsImagesAndReadDepthsAreWritten) {
+  using metrics::Metric;
+  EvaluateOptions o;
+  o.metrics = {Metric::kCbCr, Metric::kDssim, Metric::kOneMinusNcc};
+  o.projection_metric = "dssim";
+  EXPECT_EQ(ErrorImageMetrics(o), (std::vector<Metric>{Metric::kDssim, Metric::kOneMinusNcc}));
+  o.metrics = {Metric::kCbCr, Metric::kDssim};  // no 1-NCC: the first metric is the headline
+  o.projection_metric = "none";
+  EXPECT_EQ(ErrorImageMetrics(o), (std::vector<Metric>{Metric::kCbCr}));
+  o.error_image_metrics = metrics::AllMetrics();
+  EXPECT_TRUE(ErrorImageMetrics(o).empty());  // all, as compare::CompareOptions reads it
+  EXPECT_EQ(WrittenErrorImageMetrics(o), o.metrics);
+  o.error_images = false;
+  EXPECT_TRUE(WrittenErrorImageMetrics(o).empty());
+
+  // Depth maps: where the projection reads them (the model itself, projected), or when asked.
+  EvaluateOptions d;
+  EXPECT_TRUE(WritesDepthImages(d, /*gaussians=*/false));
+  EXPECT_FALSE(WritesDepthImages(d, /*gaussians=*/true));
+  d.projection_metric = "none";
+  EXPECT_FALSE(WritesDepthImages(d, false));
+  d.depth_images = true;
+  EXPECT_TRUE(WritesDepthImages(d, true));
+  EvaluateOptions vdt;
+  vdt.representation = render::ViewRepresentation::kVdt;
+  EXPECT_FALSE(WritesDepthImages(vdt, false));
 }
 
 }  // namespace

@@ -75,7 +75,7 @@ bool ReadViewRecord(const RunContext& s, const fs::path& path, const std::option
   std::error_code ec;
   if (!fs::exists(s.run / render, ec)) return false;
   if (s.options.error_images) {
-    for (metrics::Metric metric : s.options.metrics) {
+    for (metrics::Metric metric : WrittenErrorImageMetrics(s.options)) {
       const std::string base = outcome->stem + "." + std::string(metrics::MetricName(metric));
       if (!fs::exists(path.parent_path().parent_path() / "errors" / (base + ".exr"), ec)) {
         return false;
@@ -277,11 +277,14 @@ Json ViewTaskJson(const RunContext& s, const FoldPlan& fold, const FoldOutcome& 
   Json outputs = {{"record", s.Relative(fold.dir / "views" / (test.stem + ".json"))}};
   if (s.source != ModelSource::kRender) {
     outputs["render"] = s.Relative(fold.dir / "renders" / (test.stem + ".png"));
-    outputs["depth"] = s.Relative(fold.dir / "renders" / (test.stem + ".depth.exr"));
+    // (A Gaussian model's folds write no depth maps: WritesDepthImages.)
+    if (WritesDepthImages(s.options, /*gaussians=*/false)) {
+      outputs["depth"] = s.Relative(fold.dir / "renders" / (test.stem + ".depth.exr"));
+    }
   }
   if (s.options.error_images) {
     Json errors = Json::array();
-    for (metrics::Metric m : s.options.metrics) {
+    for (metrics::Metric m : WrittenErrorImageMetrics(s.options)) {
       errors.push_back(s.Relative(
           fold.dir / "errors" / (test.stem + "." + std::string(metrics::MetricName(m)) + ".exr")));
     }

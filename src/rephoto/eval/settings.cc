@@ -74,7 +74,11 @@ const std::vector<SettingInfo>& Settings() {
       {"resize", SettingType::kBool, "Rescale external renderings of another size to the photo"},
       {"error-images", SettingType::kBool, "Write errors/<stem>.<metric>.exr/.png"},
       {"error-image-metrics", SettingType::kMetricList,
-       "Write error images of these of the metrics only (and of the projection metric) or all"},
+       "Write error images of these metrics (and of the projection metric), or all (default: "
+       "the headline metric, 1-NCC when measured, and the projection metric)"},
+      {"depth-images", SettingType::kBool,
+       "Write renders/<stem>.depth.exr beside each built-in rendering (nothing in the run reads "
+       "them)"},
       {"spp", SettingType::kInt, "Samples per pixel of the built-in renderer"},
       {"backfaces", SettingType::kBool, "Render the back sides of triangles"},
       {"point-radius", SettingType::kDouble,
@@ -315,7 +319,8 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->error_images = AsBool(value, source);
   } else if (n == "error-image-metrics") {
     o->error_image_metrics = AsMetrics(value, source);
-    if (o->error_image_metrics == metrics::AllMetrics()) o->error_image_metrics.clear();
+  } else if (n == "depth-images") {
+    o->depth_images = AsBool(value, source);
   } else if (n == "spp") {
     o->samples_per_pixel = CheckedInt(value, source, 1, 1024);
   } else if (n == "backfaces") {
@@ -520,7 +525,8 @@ Json SettingsJson(const EvaluateOptions& o) {
   Json error_image_names = Json::array();
   for (metrics::Metric m : ErrorImageMetrics(o))
     error_image_names.push_back(metrics::MetricName(m));
-  j["error-image-metrics"] = o.error_image_metrics.empty() ? Json("all") : error_image_names;
+  j["error-image-metrics"] = ErrorImageMetrics(o).empty() ? Json("all") : error_image_names;
+  j["depth-images"] = o.depth_images;
   j["spp"] = o.samples_per_pixel;
   j["backfaces"] = o.backfaces;
   j["point-radius"] = o.point_radius;

@@ -387,6 +387,14 @@ const std::vector<Metric>& AllMetrics() {
   return all;
 }
 
+Metric HeadlineMetric(const std::vector<Metric>& metrics) {
+  REPHOTO_CHECK(!metrics.empty(), "no metric selected");
+  for (Metric m : metrics) {
+    if (m == Metric::kOneMinusNcc) return m;
+  }
+  return metrics.front();
+}
+
 std::optional<Metric> ParseMetric(std::string_view name) {
   std::string lower(name);
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

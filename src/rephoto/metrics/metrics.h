@@ -63,6 +63,10 @@ std::optional<Metric> ParseMetric(std::string_view name);
 std::vector<Metric> ParseMetricList(std::string_view list);
 // All metrics in the order of the table above.
 const std::vector<Metric>& AllMetrics();
+
+// The metric a run is summed up by (the paper's headline, Section 4: 1-NCC) when `metrics`
+// holds it, else the first of `metrics`. Throws Error for an empty list.
+Metric HeadlineMetric(const std::vector<Metric>& metrics);
 // True when a larger value is better (psnr, ssim); false for errors. The one definition: the
 // tables, reports and rankings all ask this.
 bool HigherIsBetter(Metric metric);

@@ -40,9 +40,16 @@ void GaussianViewRenderer::Render(const camera::Camera& camera, const camera::Po
   std::swap(out->depth, rendering_.depth);
 }
 
-void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto) {
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto,
+                  bool write_depth) {
   io::WritePngAndQuantize(out_dir / (stem + ".png"), &rephoto->color);
-  io::WriteExr(out_dir / (stem + ".depth.exr"), rephoto->depth);
+  const std::filesystem::path depth = out_dir / (stem + ".depth.exr");
+  if (write_depth) {
+    io::WriteExr(depth, rephoto->depth);
+  } else {
+    std::error_code ec;
+    std::filesystem::remove(depth, ec);  // an earlier rendering's: it would not match this one
+  }
 }
 
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,

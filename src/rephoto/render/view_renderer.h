@@ -80,8 +80,10 @@ class GaussianViewRenderer : public ViewRenderer {
 };
 
 // Writes a rendering as OUT/<stem>.png (quantized in place: `rephoto->color` then holds the
-// values the PNG holds) and OUT/<stem>.depth.exr.
-void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto);
+// values the PNG holds) and, with `write_depth`, OUT/<stem>.depth.exr (without, an existing
+// OUT/<stem>.depth.exr is removed: it belonged to an earlier rendering).
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto,
+                  bool write_depth = true);
 
 // See above. `stems[i]` names views[i]'s files.
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,
