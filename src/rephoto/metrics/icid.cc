@@ -10,6 +10,7 @@
 
 #include "rephoto/core/parallel.h"
 #include "rephoto/metrics/kernels.h"
+#include "rephoto/metrics/simd.h"
 
 namespace rephoto::metrics {
 namespace {
@@ -203,16 +204,38 @@ void IcidQuantities(const double* linear1, const double* linear2, int w, double*
                     out[kL2L2], out[kC1C1], out[kC2C2], out[kL1L2], out[kC1C2], out[kHue]);
 }
 
-// v[x] = sum over k of weights[k] * src[x + k * stride], added in order of k. One loop per tap so
-// that the x loop vectorises; the order of the additions per value is the one of a plain loop.
+// v[x] = sum over k of weights[k] * src[x + k * stride], added in order of k (the order of a
+// plain loop over k per value). Blocks of kAcc vectors of 4 values accumulated in registers over
+// the taps (a loop per tap over the whole row loaded and stored v at every tap: load-bound; two
+// vectors per block were add-latency-bound), then single vectors, then one value at a time: the
+// same operations per value on every path (contraction is off in metrics/).
+typedef double V4d __attribute__((vector_size(32)));
+
+template <int kAcc>
+[[gnu::always_inline]] inline int IcidVerticalBlocks(const double* __restrict src, size_t stride,
+                                                     const double* __restrict weights, int taps,
+                                                     int x, int w, double* __restrict v) {
+  for (; x + 4 * kAcc <= w; x += 4 * kAcc) {
+    V4d a[kAcc];
+    for (int j = 0; j < kAcc; ++j) a[j] = weights[0] * REPHOTO_LOAD(V4d, src + x + 4 * j);
+    for (int k = 1; k < taps; ++k) {
+      const double* s = src + static_cast<size_t>(k) * stride + x;
+      for (int j = 0; j < kAcc; ++j) a[j] += weights[k] * REPHOTO_LOAD(V4d, s + 4 * j);
+    }
+    for (int j = 0; j < kAcc; ++j) REPHOTO_STORE(v + x + 4 * j, a[j]);
+  }
+  return x;
+}
+
 [[gnu::always_inline]] inline void IcidVerticalBody(const double* __restrict src, size_t stride,
                                                     const double* __restrict weights, int taps,
                                                     int w, double* __restrict v) {
-  for (int x = 0; x < w; ++x) v[x] = weights[0] * src[x];
-  for (int k = 1; k < taps; ++k) {
-    const double wk = weights[k];
-    const double* __restrict s = src + static_cast<size_t>(k) * stride;
-    for (int x = 0; x < w; ++x) v[x] += wk * s[x];
+  int x = IcidVerticalBlocks<8>(src, stride, weights, taps, 0, w, v);
+  x = IcidVerticalBlocks<1>(src, stride, weights, taps, x, w, v);
+  for (; x < w; ++x) {
+    double acc = weights[0] * src[x];
+    for (int k = 1; k < taps; ++k) acc += weights[k] * src[static_cast<size_t>(k) * stride + x];
+    v[x] = acc;
   }
 }
 REPHOTO_ISA_DISPATCH(void, IcidVertical,
@@ -220,15 +243,33 @@ REPHOTO_ISA_DISPATCH(void, IcidVertical,
                       int taps, int w, double* __restrict v),
                      (src, stride, weights, taps, w, v))
 
-// f[x] = 0 + sum over k in [0, 2r] of weights[k] * v[x - r + k], for x in [r, w - r).
+// f[x] = 0 + sum over k in [0, 2r] of weights[k] * v[x - r + k], for x in [r, w - r), added in
+// order of k; in registers as IcidVerticalBody.
+template <int kAcc>
+[[gnu::always_inline]] inline int IcidHorizontalBlocks(const double* __restrict v,
+                                                       const double* __restrict weights, int r,
+                                                       int x, int end, double* __restrict f) {
+  for (; x + 4 * kAcc <= end; x += 4 * kAcc) {
+    V4d a[kAcc];
+    for (int j = 0; j < kAcc; ++j) a[j] = V4d{} + 0.0;
+    for (int k = 0; k <= 2 * r; ++k) {
+      const double* s = v + x - r + k;
+      for (int j = 0; j < kAcc; ++j) a[j] += weights[k] * REPHOTO_LOAD(V4d, s + 4 * j);
+    }
+    for (int j = 0; j < kAcc; ++j) REPHOTO_STORE(f + x + 4 * j, a[j]);
+  }
+  return x;
+}
+
 [[gnu::always_inline]] inline void IcidHorizontalBody(const double* __restrict v,
                                                       const double* __restrict weights, int r,
                                                       int w, double* __restrict f) {
-  for (int x = r; x < w - r; ++x) f[x] = 0.0;
-  for (int k = 0; k <= 2 * r; ++k) {
-    const double wk = weights[k];
-    const double* __restrict s = v - r + k;
-    for (int x = r; x < w - r; ++x) f[x] += wk * s[x];
+  int x = IcidHorizontalBlocks<8>(v, weights, r, r, w - r, f);
+  x = IcidHorizontalBlocks<1>(v, weights, r, x, w - r, f);
+  for (; x < w - r; ++x) {
+    double acc = 0.0;
+    for (int k = 0; k <= 2 * r; ++k) acc += weights[k] * v[x - r + k];
+    f[x] = acc;
   }
 }
 REPHOTO_ISA_DISPATCH(void, IcidHorizontal,
