@@ -13,10 +13,9 @@
 //
 // Kernels: the names of the cases stay the same from build to build, so an older binary's
 // figures compare case by case with a newer one's (run both in turns). Census and the SSIM
-// filters have a 16-wide AVX-512 version and 8-wide AVX2/baseline clones (picked at run time);
-// to measure the AVX2 code that CPUs without AVX-512 run, configure a build with
-// -DREPHOTO_METRICS_NO_AVX512=ON (before that option existed, the AVX2 clones used 16-wide
-// GCC vectors, lowered to scalar code: census ~10x, DSSIM ~7x slower than the AVX-512 code).
+// filters have a 16-wide AVX-512 version and 8-wide AVX2/baseline versions (picked at run time,
+// core/isa.h); to measure the AVX2 code that CPUs without AVX-512 run, run the benchmark with
+// REPHOTO_ISA=avx2 in the environment (REPHOTO_ISA=baseline for the SSE2 path).
 //
 // Images, masks and result buffers are allocated and touched once, outside the timed loop (the
 // first touch of fresh pages costs ~10 us per 4 KiB page on the target machines and would
