@@ -7,7 +7,8 @@
 // Arguments: N in thousands / image width (height = width * 9 / 16).
 // Counters: project_ms, sort_ms, blend_ms (mean per frame), visible (Gaussians after culling),
 // tile_entries (Gaussian-tile pairs), peak_rss_mb (process peak resident memory so far, which
-// includes the model: model_mb), cpu_ms_per_frame (all threads).
+// includes the model: model_mb), cpu_ms_per_frame (all threads), render_hash (32-bit FNV-1a of
+// the colour and depth bytes: the same on every ISA path and before/after a speed change).
 // Threads: all cores (TBB default); REPHOTO_BENCH_THREADS=N limits them.
 // Your own model: REPHOTO_BENCH_SPLAT=point_cloud.ply and REPHOTO_BENCH_SCENE=scene (e.g. the
 // 3DGS output folder with cameras.json) run BM_RenderSplatFile at view REPHOTO_BENCH_VIEW (0).
@@ -15,6 +16,7 @@
 #include <sys/resource.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <map>
 #include <memory>
@@ -90,6 +92,17 @@ Camera BenchCamera(int width) {
   return camera;
 }
 
+double RenderHash(const rephoto::splat::GaussianRendering& out) {
+  uint32_t hash = 2166136261u;
+  auto add = [&](const float* data, size_t count) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < count * sizeof(float); ++i) hash = (hash ^ bytes[i]) * 16777619u;
+  };
+  add(out.color.data(), out.color.pixel_count() * 4);
+  add(out.depth.data(), out.depth.pixel_count());
+  return static_cast<double>(hash);
+}
+
 double PeakRssMb() {
   struct rusage usage;
   getrusage(RUSAGE_SELF, &usage);
@@ -127,6 +140,7 @@ void Render(benchmark::State& state, const GaussianModel& model, const Camera& c
   double coverage = 0;
   for (size_t i = 0; i < out.color.pixel_count(); ++i) coverage += out.color.data()[4 * i + 3];
   state.counters["coverage"] = coverage / static_cast<double>(out.color.pixel_count());
+  state.counters["render_hash"] = RenderHash(out);
 }
 
 void BM_RenderSplat(benchmark::State& state) {

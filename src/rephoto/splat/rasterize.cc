@@ -13,6 +13,10 @@
 #include <utility>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include "rephoto/core/error.h"
 #include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
@@ -63,7 +67,8 @@ struct TileRect {
   int x0, y0, x1, y1;  // tiles [x0, x1) x [y0, y1)
 };
 
-Eigen::Vector3f ShColor(const float* sh, int degree, const Eigen::Vector3f& dir) {
+[[gnu::always_inline]] inline Eigen::Vector3f ShColor(const float* sh, int degree,
+                                                      const Eigen::Vector3f& dir) {
   auto coef = [&](int k) { return Eigen::Vector3f(sh[k * 3], sh[k * 3 + 1], sh[k * 3 + 2]); };
   Eigen::Vector3f result = kShC0 * coef(0);
   if (degree > 0) {
@@ -90,7 +95,7 @@ Eigen::Vector3f ShColor(const float* sh, int degree, const Eigen::Vector3f& dir)
 
 // Tile index range of getRect: min(grid, max(0, (int)v)), with the float clamped before the
 // conversion so that huge radii cannot overflow.
-int TileBound(float v, int grid) {
+[[gnu::always_inline]] inline int TileBound(float v, int grid) {
   if (!(v > 0.0f)) return 0;
   if (v >= static_cast<float>(grid)) return grid;
   return static_cast<int>(v);
@@ -98,16 +103,17 @@ int TileBound(float v, int grid) {
 
 // v clamped to [lo, hi] before the conversion (no overflow for huge extents); NaN (from
 // extreme but finite parameters, e.g. inf - inf in an ellipse extent) gives lo.
-int ClampToInt(float v, int lo, int hi) {
+[[gnu::always_inline]] inline int ClampToInt(float v, int lo, int hi) {
   if (!(v > static_cast<float>(lo))) return lo;
   if (v >= static_cast<float>(hi)) return hi;
   return static_cast<int>(v);
 }
 
 // Projects Gaussian g; false when it is culled.
-bool Project(const GaussianModel& model, size_t g, const Pinhole& cam, const Eigen::Matrix3f& rot,
-             const Eigen::Vector3f& trans, const Eigen::Vector3f& center, GaussianMode mode,
-             int grid_x, int grid_y, Splat* splat, TileRect* rect) {
+[[gnu::always_inline]] inline bool Project(const GaussianModel& model, size_t g, const Pinhole& cam,
+                                           const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans,
+                                           const Eigen::Vector3f& center, GaussianMode mode,
+                                           int grid_x, int grid_y, Splat* splat, TileRect* rect) {
   const Eigen::Vector3f& mean = model.positions[g];
   const Eigen::Vector3f p = rot * mean + trans;
   if (p.z() <= kNearZ) return false;
@@ -198,17 +204,50 @@ bool Project(const GaussianModel& model, size_t g, const Pinhole& cam, const Eig
   return true;
 }
 
-// Stable LSD radix sort of (key, value) pairs by key (non-negative float bits order as floats).
-void RadixSort(std::vector<uint32_t>& keys, std::vector<uint32_t>& values) {
-  const size_t n = keys.size();
-  std::vector<uint32_t> keys_tmp(n), values_tmp(n);
-  for (int shift = 0; shift < 32; shift += 8) {
-    size_t count[257] = {};
-    for (size_t i = 0; i < n; ++i) ++count[((keys[i] >> shift) & 0xff) + 1];
-    if (count[((keys.empty() ? 0 : keys[0]) >> shift & 0xff) + 1] == n) continue;  // one bucket
-    for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
+// Projects Gaussians [begin, end) (visible[g] = 1 where not culled); returns how many are
+// visible. Compiled per ISA path (core/isa.h): the same IEEE operations on each (no contraction,
+// libm's logf, correctly rounded sqrt and ceil), only the encoding differs.
+[[gnu::always_inline]] inline uint32_t ProjectRangeBody(
+    const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
+    const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
+    GaussianMode mode, int grid_x, int grid_y, Splat* splats, TileRect* rects, uint8_t* visible) {
+  uint32_t count = 0;
+  for (int64_t g = begin; g < end; ++g) {
+    visible[g] = Project(model, static_cast<size_t>(g), cam, rot, trans, center, mode, grid_x,
+                         grid_y, &splats[g], &rects[g]);
+    count += visible[g];
+  }
+  return count;
+}
+REPHOTO_ISA_DISPATCH_AVX2(
+    uint32_t, ProjectRange,
+    (const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
+     const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
+     GaussianMode mode, int grid_x, int grid_y, Splat* splats, TileRect* rects, uint8_t* visible),
+    (model, begin, end, cam, rot, trans, center, mode, grid_x, grid_y, splats, rects, visible))
+
+// An array of n trivially constructible T left uninitialized (std::vector would zero it on
+// one thread before the parallel loops that fill it; here each page is first touched by the
+// thread that writes it).
+template <typename T>
+std::unique_ptr<T[]> UninitializedArray(size_t n) {
+  return std::unique_ptr<T[]>(new T[n]);
+}
+
+// Stable LSD radix sort of n (key, value) pairs by key (non-negative float bits order as
+// floats), 11 bits per pass. `keys` and `values` hold the result; the *_tmp arrays (n each) are
+// scratch.
+void RadixSort(size_t n, std::unique_ptr<uint32_t[]>& keys, std::unique_ptr<uint32_t[]>& values,
+               std::unique_ptr<uint32_t[]>& keys_tmp, std::unique_ptr<uint32_t[]>& values_tmp) {
+  constexpr int kBits = 11;
+  constexpr uint32_t kMask = (1u << kBits) - 1;
+  for (int shift = 0; shift < 32; shift += kBits) {
+    size_t count[kMask + 2] = {};
+    for (size_t i = 0; i < n; ++i) ++count[((keys[i] >> shift) & kMask) + 1];
+    if (n == 0 || count[((keys[0] >> shift) & kMask) + 1] == n) continue;  // one bucket
+    for (uint32_t b = 0; b <= kMask; ++b) count[b + 1] += count[b];
     for (size_t i = 0; i < n; ++i) {
-      const size_t at = count[(keys[i] >> shift) & 0xff]++;
+      const size_t at = count[(keys[i] >> shift) & kMask]++;
       keys_tmp[at] = keys[i];
       values_tmp[at] = values[i];
     }
@@ -223,6 +262,23 @@ constexpr int kTilePixels = kTile * kTile;
 // extensions: the blend kernel is written once for both instruction sets.
 typedef float V8f __attribute__((vector_size(32), may_alias));
 typedef int32_t V8i __attribute__((vector_size(32), may_alias));
+typedef int32_t V4i __attribute__((vector_size(16), may_alias));
+// Eight floats at any float-aligned address.
+typedef float V8fu __attribute__((vector_size(32), may_alias, aligned(4)));
+
+// Bit k set where lane k of the comparison result `mask` (0 or -1 per lane) is true.
+__attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
+#if defined(__SSE2__)
+  const V4i low = __builtin_shufflevector(mask, mask, 0, 1, 2, 3);
+  const V4i high = __builtin_shufflevector(mask, mask, 4, 5, 6, 7);
+  return _mm_movemask_ps(_mm_castsi128_ps(reinterpret_cast<const __m128i&>(low))) |
+         _mm_movemask_ps(_mm_castsi128_ps(reinterpret_cast<const __m128i&>(high))) << 4;
+#else
+  int bits = 0;
+  for (int k = 0; k < 8; ++k) bits |= (mask[k] & 1) << k;
+  return bits;
+#endif
+}
 
 // exp(x) for x <= 0 (larger x are clamped to 0; callers mask them anyway), relative error
 // below 2e-7: Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a degree-6 Taylor polynomial
@@ -256,17 +312,21 @@ struct TileState {
   alignas(64) float done[kTilePixels];         // 1 = stopped (or outside the image)
   alignas(64) float error[kTilePixels];        // per-pixel error, 0 where invalid
   alignas(64) float error_valid[kTilePixels];  // 1 where the error is finite
+  alignas(64) float weights[kTilePixels];      // one Gaussian's blending weights (error sums)
   alignas(64) float pixel_x[kTile];
+  uint32_t row_done[kTile];  // per row, bit x set where done[row * kTile + x] is 1
   int done_count = 0;
 
   void Reset(int x_begin, int width, int height) {
     done_count = 0;
+    for (int i = 0; i < kTile; ++i) row_done[i] = 0;
     for (int i = 0; i < kTilePixels; ++i) {
       transmittance[i] = 1.0f;
       acc_r[i] = acc_g[i] = acc_b[i] = acc_z[i] = 0.0f;
       const bool outside = i / kTile >= height || i % kTile >= width;
       done[i] = outside ? 1.0f : 0.0f;
       done_count += outside;
+      row_done[i / kTile] |= static_cast<uint32_t>(outside) << (i % kTile);
     }
     for (int i = 0; i < kTile; ++i) pixel_x[i] = static_cast<float>(x_begin + i);
   }
@@ -283,23 +343,76 @@ struct TileState {
   }
 };
 
+// Eight pixels [h, h + 8) of one tile row that a Gaussian may change.
+struct BlendSpan {
+  int row;  // offset of the span's first pixel in the tile arrays: row * kTile + h
+  int h;
+  float dy, bdy;  // the row's py - y and conic_b * dy
+};
+
+// power = -0.5 d^T conic d and alpha = min(0.99, opacity * exp(power)) of the span's pixels
+// (only reads memory, so that two spans' arithmetic can overlap).
+__attribute__((always_inline)) inline void SpanAlpha(const Splat& s, const BlendSpan& span,
+                                                     const float* pixel_x, V8f* power, V8f* alpha) {
+  const V8f dx = s.px - *reinterpret_cast<const V8fu*>(pixel_x + span.h);
+  *power = -0.5f * (s.conic_a * dx * dx + s.conic_c * span.dy * span.dy) - span.bdy * dx;
+  V8f a;
+  ExpNonPositive(*power, &a);
+  a *= s.opacity;
+  *alpha = a < kMaxAlpha ? a : V8f{} + kMaxAlpha;
+}
+
+// Blends the span's pixels (the reference's per-pixel step); returns how many stopped.
+__attribute__((always_inline)) inline int SpanBlend(const Splat& s, const BlendSpan& span,
+                                                    const V8f& power, const V8f& alpha,
+                                                    bool with_error, TileState* state) {
+  const int at = span.row + span.h;
+  V8fu& done = *reinterpret_cast<V8fu*>(state->done + at);
+  V8fu& transmittance = *reinterpret_cast<V8fu*>(state->transmittance + at);
+  const V8i valid = (done == 0.0f) & (power <= 0.0f) & (alpha >= kMinAlpha);
+  const V8f t = transmittance;
+  const V8f test_t = t * (1.0f - alpha);
+  const V8i stop = valid & (test_t < kMinTransmittance);
+  const V8i update = valid & ~stop;
+  const V8f w = update ? alpha * t : V8f{};
+  const int stop_bits = MoveMask(stop);
+  if (stop_bits != 0) {
+    done = stop ? V8f{} + 1.0f : V8f(done);
+    state->row_done[span.row / kTile] |= static_cast<uint32_t>(stop_bits) << span.h;
+  }
+  *reinterpret_cast<V8fu*>(state->acc_r + at) += s.r * w;
+  *reinterpret_cast<V8fu*>(state->acc_g + at) += s.g * w;
+  *reinterpret_cast<V8fu*>(state->acc_b + at) += s.b * w;
+  *reinterpret_cast<V8fu*>(state->acc_z + at) += s.depth * w;
+  transmittance = update ? test_t : t;
+  if (with_error) *reinterpret_cast<V8fu*>(state->weights + at) = w;
+  return __builtin_popcount(static_cast<unsigned>(stop_bits));
+}
+
 // Blends the Gaussians entries[begin, end) (front to back) into one tile, the reference's
-// per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse and then
-// evaluated over whole kTile-pixel rows without branches, so that the compiler vectorizes them
-// (an AVX2 + FMA variant and an SSE2 one, core/isa.h; the arithmetic is the same IEEE float
-// operations in both). `sums` (optional) receives per entry the sums of
-// w * error and of w over valid error pixels.
+// per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse; the
+// 8 pixels around a chord of at most 8 pixels, or both 8-pixel halves of the row for a longer
+// one (unless all their pixels have stopped), are the Gaussian's spans. Spans are evaluated
+// without branches on 8-float vectors, two at a time (an AVX2 + FMA variant and an SSE2 one,
+// core/isa.h; the arithmetic is the same IEEE float operations in both). Pixels outside the
+// chord get alpha < 1/255 and change nothing, stopped pixels change nothing, and the spans of one
+// Gaussian share no pixel, so neither the skipping nor the order changes a bit. `sums`
+// (optional) receives per entry the sums of w * error and of w over valid error pixels.
 [[gnu::always_inline]] inline void BlendTileBody(const Splat* splats, const uint32_t* entries,
                                                  uint32_t begin, uint32_t end, int x_begin,
                                                  int y_begin, int x_end, int y_end, bool with_error,
                                                  TileState* state, float* sums_we, float* sums_w) {
+  BlendSpan spans[2 * kTile];
   for (uint32_t e = begin; e < end && state->done_count < kTilePixels; ++e) {
     if (e + 8 < end) __builtin_prefetch(&splats[entries[e + 8]]);
     const Splat& s = splats[entries[e]];
     const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
     const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
-    float sum_we = 0, sum_w = 0;
+    int span_count = 0;
     for (int y = y0; y <= y1; ++y) {
+      const int row_index = y - y_begin;
+      const uint32_t row_done = state->row_done[row_index];
+      if (row_done == (1u << kTile) - 1) continue;
       // The row's chord of the ellipse q <= level: a dx^2 + 2 b dy dx + c dy^2 - level <= 0
       // with dx = px - x (a > 0: the conic is positive definite).
       const float dy = s.py - static_cast<float>(y);
@@ -311,56 +424,49 @@ struct TileState {
       const int x0 = ClampToInt(std::ceil(s.px - dx_high - 0.01f), x_begin, x_end);
       const int x1 = ClampToInt(std::floor(s.px - dx_low + 0.01f), x_begin - 1, x_end - 1);
       if (x1 < x0) continue;
-      const int row = (y - y_begin) * kTile;
-      float* __restrict t_row = state->transmittance + row;
-      float* __restrict r_row = state->acc_r + row;
-      float* __restrict g_row = state->acc_g + row;
-      float* __restrict b_row = state->acc_b + row;
-      float* __restrict z_row = state->acc_z + row;
-      float* __restrict done_row = state->done + row;
-      const float* __restrict err_row = state->error + row;
-      const float* __restrict valid_row = state->error_valid + row;
-      const float* __restrict pixel_x = state->pixel_x;
-      int stops = 0;
-      alignas(64) float weights[kTile];
-      // Whole row (16 lanes, two vectors of 8): pixels outside the chord get alpha < 1/255 and
-      // change nothing.
-      for (int h = 0; h < kTile; h += 8) {
-        const V8f dx = s.px - *reinterpret_cast<const V8f*>(pixel_x + h);
-        const V8f power = -0.5f * (s.conic_a * dx * dx + s.conic_c * dy * dy) - bdy * dx;
-        V8f a;
-        ExpNonPositive(power, &a);
-        a *= s.opacity;
-        const V8f alpha = a < kMaxAlpha ? a : V8f{} + kMaxAlpha;
-        V8f& done = *reinterpret_cast<V8f*>(done_row + h);
-        V8f& transmittance = *reinterpret_cast<V8f*>(t_row + h);
-        const V8i valid = (done == 0.0f) & (power <= 0.0f) & (alpha >= kMinAlpha);
-        const V8f t = transmittance;
-        const V8f test_t = t * (1.0f - alpha);
-        const V8i stop = valid & (test_t < kMinTransmittance);
-        const V8i update = valid & ~stop;
-        const V8f w = update ? alpha * t : V8f{};
-        done = stop ? V8f{} + 1.0f : done;
-        for (int k = 0; k < 8; ++k) stops -= stop[k];  // lanes are -1 where true
-        *reinterpret_cast<V8f*>(r_row + h) += s.r * w;
-        *reinterpret_cast<V8f*>(g_row + h) += s.g * w;
-        *reinterpret_cast<V8f*>(b_row + h) += s.b * w;
-        *reinterpret_cast<V8f*>(z_row + h) += s.depth * w;
-        transmittance = update ? test_t : t;
-        *reinterpret_cast<V8f*>(weights + h) = w;
+      // Eight pixels [h, h + 8) that hold the chord [x0, x1] when it is at most 8 wide,
+      // otherwise the two halves of the row.
+      const int lo = x0 - x_begin, hi = x1 - x_begin;
+      const int h_first = hi - lo < 8 ? std::min(lo, kTile - 8) : 0;
+      const int h_last = hi - lo < 8 ? h_first : 8;
+      for (int h = h_first; h <= h_last; h += 8) {
+        if (((row_done >> h) & 0xffu) == 0xffu) continue;
+        spans[span_count++] = {row_index * kTile, h, dy, bdy};
       }
-      float row_we = 0, row_w = 0;
-      if (with_error) {
-        for (int i = 0; i < kTile; ++i) {
-          row_we += weights[i] * err_row[i];
-          row_w += weights[i] * valid_row[i];
-        }
-      }
-      state->done_count += static_cast<int>(stops);
-      sum_we += row_we;
-      sum_w += row_w;
     }
     if (with_error) {
+      for (int i = (y0 - y_begin) * kTile; i < (y1 + 1 - y_begin) * kTile; ++i) {
+        state->weights[i] = 0.0f;
+      }
+    }
+    int stops = 0;
+    int k = 0;
+    for (; k + 1 < span_count; k += 2) {
+      V8f power0, alpha0, power1, alpha1;
+      SpanAlpha(s, spans[k], state->pixel_x, &power0, &alpha0);
+      SpanAlpha(s, spans[k + 1], state->pixel_x, &power1, &alpha1);
+      stops += SpanBlend(s, spans[k], power0, alpha0, with_error, state);
+      stops += SpanBlend(s, spans[k + 1], power1, alpha1, with_error, state);
+    }
+    if (k < span_count) {
+      V8f power, alpha;
+      SpanAlpha(s, spans[k], state->pixel_x, &power, &alpha);
+      stops += SpanBlend(s, spans[k], power, alpha, with_error, state);
+    }
+    state->done_count += stops;
+    if (with_error) {
+      // Per row in order, as the reference's per-pixel sums (zero weights add nothing).
+      float sum_we = 0, sum_w = 0;
+      for (int y = y0; y <= y1; ++y) {
+        const int row = (y - y_begin) * kTile;
+        float row_we = 0, row_w = 0;
+        for (int i = 0; i < kTile; ++i) {
+          row_we += state->weights[row + i] * state->error[row + i];
+          row_w += state->weights[row + i] * state->error_valid[row + i];
+        }
+        sum_we += row_we;
+        sum_w += row_w;
+      }
       sums_we[e] = sum_we;
       sums_w[e] = sum_w;
     }
@@ -392,44 +498,57 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   const Eigen::Vector3f center = pose.Center().cast<float>();
   const size_t n = model.size();
 
-  std::vector<Splat> splats(n);
-  std::vector<TileRect> rects(n);
-  std::vector<uint8_t> visible(n);
-  ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
-    for (int64_t g = b; g < e; ++g) {
-      visible[g] = Project(model, static_cast<size_t>(g), cam, rot, trans, center, options.mode,
-                           grid_x, grid_y, &splats[g], &rects[g]);
+  // Projection in chunks; per chunk the number of visible Gaussians.
+  constexpr int64_t kChunk = 8192;
+  const int64_t chunks = (static_cast<int64_t>(n) + kChunk - 1) / kChunk;
+  auto splats = UninitializedArray<Splat>(n);
+  auto rects = UninitializedArray<TileRect>(n);
+  auto visible = UninitializedArray<uint8_t>(n);
+  std::vector<uint32_t> chunk_offsets(chunks + 1, 0);
+  ParallelFor(0, chunks, 1, [&](int64_t cb, int64_t ce) {
+    for (int64_t c = cb; c < ce; ++c) {
+      chunk_offsets[c + 1] = ProjectRange(
+          model, c * kChunk, std::min<int64_t>(static_cast<int64_t>(n), (c + 1) * kChunk), cam, rot,
+          trans, center, options.mode, grid_x, grid_y, splats.get(), rects.get(), visible.get());
     }
   });
+  for (int64_t c = 0; c < chunks; ++c) chunk_offsets[c + 1] += chunk_offsets[c];
   const auto sort_start = Clock::now();
   if (stats)
     stats->project_ms = std::chrono::duration<double, std::milli>(sort_start - start).count();
 
-  // Front to back by view depth, ties by index.
-  std::vector<uint32_t> keys, order;
-  keys.reserve(n);
-  order.reserve(n);
-  for (size_t g = 0; g < n; ++g) {
-    if (!visible[g]) continue;
-    uint32_t bits;
-    std::memcpy(&bits, &splats[g].depth, sizeof(bits));
-    keys.push_back(bits);
-    order.push_back(static_cast<uint32_t>(g));
+  // Front to back by view depth, ties by index (keys in index order, stable sort).
+  const size_t visible_count = chunk_offsets[chunks];
+  auto keys = UninitializedArray<uint32_t>(visible_count);
+  auto order_array = UninitializedArray<uint32_t>(visible_count);
+  ParallelFor(0, chunks, 1, [&](int64_t cb, int64_t ce) {
+    for (int64_t c = cb; c < ce; ++c) {
+      uint32_t at = chunk_offsets[c];
+      for (int64_t g = c * kChunk; g < std::min<int64_t>(n, (c + 1) * kChunk); ++g) {
+        if (!visible[g]) continue;
+        std::memcpy(&keys[at], &splats[g].depth, sizeof(uint32_t));
+        order_array[at++] = static_cast<uint32_t>(g);
+      }
+    }
+  });
+  {
+    auto keys_tmp = UninitializedArray<uint32_t>(visible_count);
+    auto order_tmp = UninitializedArray<uint32_t>(visible_count);
+    RadixSort(visible_count, keys, order_array, keys_tmp, order_tmp);
   }
-  RadixSort(keys, order);
-  std::vector<uint32_t>().swap(keys);
+  keys.reset();
+  const uint32_t* order = order_array.get();
   // Gaussians in depth order: each tile's list then walks memory forwards.
-  const size_t visible_count = order.size();
-  std::vector<Splat> sorted(visible_count);
-  std::vector<TileRect> sorted_rects(visible_count);
+  auto sorted = UninitializedArray<Splat>(visible_count);
+  auto sorted_rects = UninitializedArray<TileRect>(visible_count);
   ParallelFor(0, static_cast<int64_t>(visible_count), 65536, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       sorted[i] = splats[order[i]];
       sorted_rects[i] = rects[order[i]];
     }
   });
-  std::vector<Splat>().swap(splats);
-  std::vector<TileRect>().swap(rects);
+  splats.reset();
+  rects.reset();
 
   // Per-tile lists, built per band of tile rows (each band scans the sorted Gaussians once).
   const int band_rows = std::max(1, (grid_y + 15) / 16);
@@ -463,11 +582,11 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       }
     }
   });
-  std::vector<TileRect>().swap(sorted_rects);
+  sorted_rects.reset();
   const auto blend_start = Clock::now();
   if (stats) {
     stats->sort_ms = std::chrono::duration<double, std::milli>(blend_start - sort_start).count();
-    stats->visible = order.size();
+    stats->visible = visible_count;
     stats->tile_entries = 0;
     for (const Band& band : bands) stats->tile_entries += band.entries.size();
   }
@@ -494,7 +613,7 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
       const int y_end = std::min(cam.height, y_begin + kTile);
       state.Reset(x_begin, x_end - x_begin, y_end - y_begin);
       if (error != nullptr) state.SetError(error, cam.width, x_begin, y_begin);
-      BlendTile(sorted.data(), band.entries.data(), band.offsets[local], band.offsets[local + 1],
+      BlendTile(sorted.get(), band.entries.data(), band.offsets[local], band.offsets[local + 1],
                 x_begin, y_begin, x_end, y_end, error != nullptr, &state,
                 error != nullptr ? entry_weighted_error[band_index].data() : nullptr,
                 error != nullptr ? entry_weight[band_index].data() : nullptr);

@@ -41,9 +41,11 @@
 //
 // Threading and speed: preprocessing, the per-band tile lists and blending (one tile per task)
 // run in parallel with ParallelFor (TBB, all cores or a ThreadLimit); the result does not
-// depend on the thread count. The blend kernel evaluates 16-pixel tile rows on 8-float vectors
-// (an AVX2/FMA version is chosen at run time where the CPU has it, SSE2 otherwise) with a
-// polynomial exp (relative error < 2e-7 against expf). Memory per view: about 80 bytes per
+// depend on the thread count. The blend kernel evaluates, per Gaussian and tile row, the 8 pixels
+// around the chord of its alpha >= 1/255 ellipse (both 8-pixel halves when the chord is longer),
+// skipping pixels that have stopped, on 8-float vectors (an AVX2 version is chosen at run time
+// where the CPU has it, SSE2 otherwise; the same IEEE operations, no FMA) with a polynomial exp
+// (relative error < 2e-7 against expf). Memory per view: about 80 bytes per
 // visible Gaussian plus 4 bytes per (tile, Gaussian) pair, besides the images. Functions are
 // reentrant; the model is only read.
 #pragma once
