@@ -25,6 +25,20 @@
 //     lower index), whichever of the two Embree reported.
 // Left: a ray within rounding of a vertex where three or more triangles meet.
 //
+// Cost: the filter loads a face once per call (Embree's packet kernels call it once per
+// triangle, for the rays of the packet that hit it) and computes the exact hits of all of the
+// packet's rays in one vectorized loop, compiled for each ISA path (ActiveNearestHitFilter);
+// the decisions then go lane by lane. Not done: tracing without the filter and re-tracing only
+// rays whose hit might differ. Embree's nearest hit E being well inside its triangle does not
+// show that no other face G is within rounding of E's depth on that ray (overlapping or
+// intersecting surfaces, a face folded onto its neighbour): the unfiltered trace has already
+// culled every G behind E by Embree's depth, so it cannot tell, and the filter would keep G
+// when rephoto's depth of G is the smaller. Skipping the filter is only sound with a per-face
+// bound on the distance to every other face (precomputed), compared per ray with the depth's
+// rounding error. Measured bounds (1920x1080, 1 spp, 1M triangles, 2 threads): without any
+// filter 1.05x (AVX-512) and 1.03x (AVX2) of the Embree floor; with an empty filter callback
+// 1.06x and 1.06x.
+//
 // Thread safety: the filter writes only the NearestHitContext of the query that calls it.
 #pragma once
 
