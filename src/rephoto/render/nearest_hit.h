@@ -25,6 +25,20 @@
 //     lower index), whichever of the two Embree reported.
 // Left: a ray within rounding of a vertex where three or more triangles meet.
 //
+// Cost: the filter loads a face once per call (Embree's packet kernels call it once per
+// triangle, for the rays of the packet that hit it) and computes the exact hits of all of the
+// packet's rays in one vectorized loop, compiled for each ISA path (ActiveNearestHitFilter);
+// the decisions then go lane by lane. Not done: tracing without the filter and re-tracing only
+// rays whose hit might differ. Embree's nearest hit E being well inside its triangle does not
+// show that no other face G is within rounding of E's depth on that ray (overlapping or
+// intersecting surfaces, a face folded onto its neighbour): the unfiltered trace has already
+// culled every G behind E by Embree's depth, so it cannot tell, and the filter would keep G
+// when rephoto's depth of G is the smaller. Skipping the filter is only sound with a per-face
+// bound on the distance to every other face (precomputed), compared per ray with the depth's
+// rounding error. Measured bounds (1920x1080, 1 spp, 1M triangles, 2 threads): without any
+// filter 1.05x (AVX-512) and 1.03x (AVX2) of the Embree floor; with an empty filter callback
+// 1.06x and 1.06x.
+//
 // Thread safety: the filter writes only the NearestHitContext of the query that calls it.
 #pragma once
 
@@ -44,12 +58,13 @@ namespace rephoto::render {
 struct ExactHit {
   float t, u, v, det;
 };
-[[gnu::always_inline]] inline ExactHit MoellerTrumbore(const float o[3], const float d[3],
-                                                       const Eigen::Vector3f& p0,
-                                                       const Eigen::Vector3f& p1,
-                                                       const Eigen::Vector3f& p2) {
-  const float e1x = p1.x() - p0.x(), e1y = p1.y() - p0.y(), e1z = p1.z() - p0.z();
-  const float e2x = p2.x() - p0.x(), e2y = p2.y() - p0.y(), e2z = p2.z() - p0.z();
+// The same with the edges e1 = p1 - p0 and e2 = p2 - p0 given (computed as above, component by
+// component): the same bits.
+[[gnu::always_inline]] inline ExactHit MoellerTrumboreEdges(const float o[3], const float d[3],
+                                                            const Eigen::Vector3f& p0,
+                                                            const float e1[3], const float e2[3]) {
+  const float e1x = e1[0], e1y = e1[1], e1z = e1[2];
+  const float e2x = e2[0], e2y = e2[1], e2z = e2[2];
   const float sx = o[0] - p0.x(), sy = o[1] - p0.y(), sz = o[2] - p0.z();
   const float px = d[1] * e2z - d[2] * e2y, py = d[2] * e2x - d[0] * e2z,
               pz = d[0] * e2y - d[1] * e2x;
@@ -57,6 +72,14 @@ struct ExactHit {
   const float det = (e1x * px + e1y * py) + e1z * pz;
   return {((e2x * qx + e2y * qy) + e2z * qz) / det, ((sx * px + sy * py) + sz * pz) / det,
           ((d[0] * qx + d[1] * qy) + d[2] * qz) / det, det};
+}
+[[gnu::always_inline]] inline ExactHit MoellerTrumbore(const float o[3], const float d[3],
+                                                       const Eigen::Vector3f& p0,
+                                                       const Eigen::Vector3f& p1,
+                                                       const Eigen::Vector3f& p2) {
+  const float e1[3] = {p1.x() - p0.x(), p1.y() - p0.y(), p1.z() - p0.z()};
+  const float e2[3] = {p2.x() - p0.x(), p2.y() - p0.y(), p2.z() - p0.z()};
+  return MoellerTrumboreEdges(o, d, p0, e1, e2);
 }
 
 // Relative depth slack (see above).
@@ -98,7 +121,11 @@ struct NearestHitContext {
 };
 
 // The context filter (install as context.filter, with RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION).
+// NearestHitFilter is compiled for the baseline; ActiveNearestHitFilter() is the same function
+// compiled for core::ActiveIsa() (vectorized over the rays of a packet; the same decisions bit
+// for bit, contraction being off).
 void NearestHitFilter(const RTCFilterFunctionNArguments* args);
+RTCFilterFunctionN ActiveNearestHitFilter();
 
 // The strips' own intersection and occlusion filters: they let only NearestHitFilter's queries
 // see the strips.

@@ -430,7 +430,7 @@ template <bool kJitter, bool kPinhole, int L, typename RayHit, typename Shade>
   NearestHitContext context;
   rtcInitIntersectContext(&context.context);
   context.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  if (view.triangles) context.context.filter = NearestHitFilter;
+  if (view.triangles) context.context.filter = ActiveNearestHitFilter();
   context.mesh = &view.mesh;
   context.skirts = view.skirts;
   context.cull = view.cull;

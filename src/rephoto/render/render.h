@@ -32,9 +32,10 @@
 // shading and the tile's output in vectorized lane loops, compiled for AVX-512, AVX2 and the
 // baseline (same results bit for bit); no allocation per pixel. The price of deciding hits
 // itself (nearest_hit.h: a filter call per candidate hit, robust traversal, border strips): at
-// 1920x1080, 1 sample per pixel, 1M triangles the CPU time is 1.56x that of Embree's
-// rtcIntersect16 alone on the same rays on the AVX-512 path, 1.34x on AVX2 (it was 0.92x and
-// 1.02x when Embree's rounding decided; bench/bench_render.cc, BM_RenderOverFloor).
+// 1920x1080, 1 sample per pixel, 1M triangles, 2 threads the CPU time is 1.45x that of
+// Embree's rtcIntersect16 alone on the same rays on the AVX-512 path, 1.21x of rtcIntersect8 on
+// AVX2 (1.59x and 1.35x before the filter was vectorized; 0.92x and 1.02x when Embree's rounding
+// decided; bench/bench_render.cc, BM_RenderOverFloor).
 //
 // Thread safety: RenderRephoto only reads the RenderModel and CameraRays (Embree queries on a
 // committed scene are thread-safe), so several threads may render one model at once, each into its
