@@ -2,7 +2,7 @@
 //                [--point-radius R] [--format F] [--image-root DIR] --out DIR
 //                [--representation auto|vdt|ibr|gaussians] [--training LIST] [--depth-maps DIR]
 //                [--k-best K] [--depth-tolerance T] [--sweep-width W] [--sweep-planes N]
-//                [--gaussian-mode classic|antialiased] [--background R,G,B]
+//                [--gaussian-mode classic|antialiased] [--background R,G,B] [--no-depth]
 // Rephotographs a reconstruction at every selected camera of a scene, at each camera's own
 // resolution and distortion:
 // - auto (default): MODEL (mesh or point cloud, PLY/OBJ) with the built-in Embree renderer
@@ -22,7 +22,9 @@
 // rendered view). A rendered view that is also a training view is reported: the renderer then
 // reproduces its own photo and the error is meaningless (paper Section 4.4).
 // Writes DIR/<image name without extension>.png (RGBA 8-bit; alpha = coverage, the
-// completeness mask) and DIR/<...>.depth.exr (camera-frame z, NaN where empty), atomically.
+// completeness mask) and DIR/<...>.depth.exr (camera-frame z, NaN where empty; not with
+// --no-depth, which also removes an earlier run's depth map of each rendered view, so that
+// `tar cf renders.tar -C DIR .` holds only the PNGs), atomically.
 // Which renderer renders what is decided in the library (rephoto/representation/make_renderer.h,
 // shared with `rephoto evaluate`); this file parses the flags and reads the scene.
 #include <fmt/format.h>
@@ -63,6 +65,7 @@ struct RenderArguments {
   ibr::ImageBasedOptions ibr_options;
   std::string gaussian_mode = "classic";
   std::string background = "0,0,0";
+  bool no_depth = false;
 };
 
 // Scene view indices of a --training value: a list file when such a file exists, else
@@ -184,6 +187,8 @@ CommandRunner SetupRender(CLI::App& app) {
       ->check(CLI::Range(2, 4096))
       ->capture_default_str();
   AddSceneOptions(app, &args->scene_args);
+  app.add_flag("--no-depth", args->no_depth,
+               "Write only the PNGs, no <name>.depth.exr (removes those of an earlier run)");
   app.add_option("--out", args->out, "Output folder for <name>.png and <name>.depth.exr")
       ->required();
   return [args, spp_option]() {
@@ -204,7 +209,7 @@ CommandRunner SetupRender(CLI::App& app) {
         representation::LoadModels(resolved, args->model, settings);
     if (render::IsImageBased(resolved) && args->training.empty()) {
       representation::RenderLeaveOneOut(resolved, models, scene, views, stems, args->depth_maps,
-                                        settings, args->out);
+                                        settings, args->out, !args->no_depth);
     } else {
       representation::TrainingPhotos training{&scene, {}, args->depth_maps};
       if (render::IsImageBased(resolved)) {
@@ -214,7 +219,7 @@ CommandRunner SetupRender(CLI::App& app) {
       const std::unique_ptr<render::ViewRenderer> renderer =
           representation::MakeRenderer(resolved, models, training, settings);
       Progress progress("render", views.size());
-      render::RenderViews(*renderer, scene, views, stems, args->out, &progress);
+      render::RenderViews(*renderer, scene, views, stems, args->out, &progress, !args->no_depth);
       progress.Finish();
     }
     LogInfo(fmt::format("rendered {} views -> {}", views.size(), args->out));

@@ -54,14 +54,14 @@ void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem,
 
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,
                  const std::vector<size_t>& views, const std::vector<std::string>& stems,
-                 const std::filesystem::path& out_dir, Progress* progress) {
+                 const std::filesystem::path& out_dir, Progress* progress, bool write_depth) {
   REPHOTO_CHECK(views.size() == stems.size(), "RenderViews: {} views but {} stems", views.size(),
                 stems.size());
   Rephoto rephoto;
   for (size_t i = 0; i < views.size(); ++i) {
     const scene::View& view = scene.views.at(views[i]);
     renderer.Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
-    WriteRephoto(out_dir, stems[i], &rephoto);
+    WriteRephoto(out_dir, stems[i], &rephoto, write_depth);
     if (progress != nullptr) progress->Advance(stems[i]);
   }
 }

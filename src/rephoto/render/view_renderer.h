@@ -12,7 +12,8 @@
 // ones in ibr/image_based_renderer.h.
 //
 // RenderViews renders `views` of `scene` with one renderer and writes OUT/<stem>.png (RGBA 8-bit,
-// the values quantized as written) and OUT/<stem>.depth.exr for each, atomically, reporting
+// the values quantized as written) and, unless `write_depth` is false, OUT/<stem>.depth.exr for
+// each (WriteRephoto: without, a stale OUT/<stem>.depth.exr is removed), atomically, reporting
 // each view to `progress` (may be null). Stems come from the caller (scene/image_name.h
 // OutputStems). Views are rendered in order; each rendering is multi-threaded.
 //
@@ -88,6 +89,6 @@ void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem,
 // See above. `stems[i]` names views[i]'s files.
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,
                  const std::vector<size_t>& views, const std::vector<std::string>& stems,
-                 const std::filesystem::path& out_dir, Progress* progress);
+                 const std::filesystem::path& out_dir, Progress* progress, bool write_depth = true);
 
 }  // namespace rephoto::render

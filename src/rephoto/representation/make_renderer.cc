@@ -149,7 +149,7 @@ void RenderLeaveOneOut(render::ViewRepresentation representation, const Models& 
                        const scene::Scene& scene, const std::vector<size_t>& views,
                        const std::vector<std::string>& stems,
                        const std::filesystem::path& depth_maps, const RendererSettings& settings,
-                       const std::filesystem::path& out_dir) {
+                       const std::filesystem::path& out_dir, bool write_depth) {
   REPHOTO_CHECK(render::IsImageBased(representation),
                 "leave-one-out rendering is for vdt and ibr, not {}",
                 render::RepresentationName(representation));
@@ -171,7 +171,7 @@ void RenderLeaveOneOut(render::ViewRepresentation representation, const Models& 
         MakeRenderer(representation, models, training, view_settings);
     const scene::View& view = scene.views.at(views[i]);
     renderer->Render(scene.CameraOf(view), view.cam_from_world, &rephoto);
-    render::WriteRephoto(out_dir, stems[i], &rephoto);
+    render::WriteRephoto(out_dir, stems[i], &rephoto, write_depth);
     LogInfo(fmt::format("rendered {} ({}/{})", view.name, i + 1, views.size()));
   }
 }

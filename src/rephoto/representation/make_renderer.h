@@ -103,13 +103,13 @@ void WarnRenderedTrainingPhotos(const scene::Scene& scene, const std::vector<siz
 
 // vdt/ibr without a training list: renders each of `views` from all other views of `scene`
 // (leave-one-out: one renderer per rendered view, built as MakeRenderer builds it) and writes
-// OUT/<stems[i]>.png and .depth.exr as render::RenderViews does, logging each view. Throws
-// Error as MakeRenderer does, and for `representation` not vdt/ibr or stems.size() !=
-// views.size().
+// OUT/<stems[i]>.png and (with `write_depth`) .depth.exr as render::RenderViews does, logging
+// each view. Throws Error as MakeRenderer does, and for `representation` not vdt/ibr or
+// stems.size() != views.size().
 void RenderLeaveOneOut(render::ViewRepresentation representation, const Models& models,
                        const scene::Scene& scene, const std::vector<size_t>& views,
                        const std::vector<std::string>& stems,
                        const std::filesystem::path& depth_maps, const RendererSettings& settings,
-                       const std::filesystem::path& out_dir);
+                       const std::filesystem::path& out_dir, bool write_depth = true);
 
 }  // namespace rephoto::representation
