@@ -378,6 +378,96 @@ TEST(Cli, SuggestWritesCamerasRephotosAndAReport) {
   EXPECT_EQ(Lines(bad.err), 1u) << bad.err;
 }
 
+// The files of `folder` whose names end in `suffix`.
+size_t FilesEndingIn(const fs::path& folder, const std::string& suffix) {
+  size_t n = 0;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    n += entry.path().filename().string().ends_with(suffix);
+  }
+  return n;
+}
+
+// issue 30: the test views of a split rendered without depth maps (what a benchmark's tar
+// takes) and compared on their own against the scene's photo folder.
+TEST(Cli, TestViewsOfASplitRenderedWithoutDepthAndComparedAlone) {
+  const fs::path dir = testing::MakeTempDir();
+  const std::string sparse = (DemoScene() / "sparse").string();
+  const std::string photos = (DemoScene() / "images").string();
+  const fs::path split = dir / "split";
+  ASSERT_EQ(
+      RunCli("split '" + sparse + "' --scheme every:4 --out '" + split.string() + "'").exit_code,
+      0);
+  const fs::path test_list = split / "fold_00/test.txt";
+  ASSERT_EQ(ReadFileToString(test_list), "view_000.png\nview_004.png\n");
+
+  // render --no-depth: only the PNGs, and an earlier run's depth maps are gone.
+  const fs::path renders = dir / "renders";
+  const std::string render = "render '" + (DemoScene() / "truth.ply").string() + "' --scene '" +
+                             sparse + "' --images '" + test_list.string() + "' --spp 1 --out '" +
+                             renders.string() + "'";
+  ASSERT_EQ(RunCli(render).exit_code, 0);
+  EXPECT_EQ(FilesEndingIn(renders, ".depth.exr"), 2u);
+  const Outcome no_depth = RunCli(render + " --no-depth");
+  ASSERT_EQ(no_depth.exit_code, 0) << no_depth.err;
+  EXPECT_EQ(FilesEndingIn(renders, ".png"), 2u);
+  EXPECT_EQ(FilesEndingIn(renders, ".depth.exr"), 0u);
+  EXPECT_EQ(std::distance(fs::directory_iterator(renders), fs::directory_iterator()), 2);
+
+  const std::string compare = "compare --photos '" + photos + "' --renders '" + renders.string() +
+                              "' --metrics cb+cr --no-error-images ";
+  // Without a selection the 6 training photos have no rendering: incomplete.
+  const Outcome all = RunCli(compare + "--out '" + (dir / "all").string() + "'");
+  EXPECT_EQ(all.exit_code, 3) << all.err;
+  EXPECT_EQ(Lines(ReadFileToString(dir / "all/per_image.csv")), 9u);
+  // --split DIR (its only fold) and --images FILE: exactly the two test views, complete.
+  for (const std::string& selection :
+       {"--split '" + split.string() + "'", "--split '" + (split / "fold_00").string() + "'",
+        "--images '" + test_list.string() + "'"}) {
+    SCOPED_TRACE(selection);
+    const fs::path out = dir / "selected";
+    const Outcome outcome = RunCli(compare + selection + " --out '" + out.string() + "'");
+    EXPECT_EQ(outcome.exit_code, 0) << outcome.err;
+    const std::string csv = ReadFileToString(out / "per_image.csv");
+    EXPECT_EQ(Lines(csv), 3u) << csv;
+    EXPECT_THAT(csv, HasSubstr("\nview_000,ok,"));
+    EXPECT_THAT(csv, HasSubstr("\nview_004,ok,"));
+  }
+  // --min-alpha is recorded; out of range or with --compat it is a usage mistake.
+  const Outcome strict = RunCli(compare + "--split '" + split.string() +
+                                "' --min-alpha 0.5 --out '" + (dir / "strict").string() + "'");
+  EXPECT_EQ(strict.exit_code, 0) << strict.err;
+  EXPECT_THAT(ReadFileToString(dir / "strict/summary.json"), HasSubstr("\"min_alpha\": 0.5"));
+
+  // Mistakes: one line naming the file and line, the folder, or the options.
+  WriteTextFileAtomically(dir / "bad.txt", "view_000.png\n../images/view_001.png\n");
+  const Outcome hostile = RunCli(compare + "--images '" + (dir / "bad.txt").string() + "' --out '" +
+                                 (dir / "bad").string() + "'");
+  EXPECT_EQ(hostile.exit_code, 1) << hostile.err;
+  EXPECT_EQ(Lines(hostile.err), 1u) << hostile.err;
+  EXPECT_THAT(hostile.err,
+              HasSubstr("bad.txt:2: image name '../images/view_001.png' contains '..'"));
+  const fs::path folds = dir / "folds";
+  ASSERT_EQ(
+      RunCli("split '" + sparse + "' --scheme kfold:2 --out '" + folds.string() + "'").exit_code,
+      0);
+  const Outcome several =
+      RunCli(compare + "--split '" + folds.string() + "' --out '" + (dir / "bad").string() + "'");
+  EXPECT_EQ(several.exit_code, 1) << several.err;
+  EXPECT_EQ(Lines(several.err), 1u) << several.err;
+  EXPECT_THAT(several.err, HasSubstr("the split has 2 folds (fold_00 ... fold_01); name the fold's "
+                                     "folder, e.g. " +
+                                     (folds / "fold_00").string()));
+  for (const std::string& mistake :
+       {"--split '" + split.string() + "' --images '" + test_list.string() + "'",
+        std::string("--min-alpha 1.5"), std::string("--min-alpha 0.5 --compat 3dgs")}) {
+    SCOPED_TRACE(mistake);
+    const Outcome outcome = RunCli(compare + mistake + " --out '" + (dir / "bad").string() + "'");
+    EXPECT_EQ(outcome.exit_code, 2) << outcome.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "bad"));
+  EXPECT_THAT(RunCli("compare --help").out, HasSubstr("--min-alpha"));
+}
+
 // issue 21: report --reference refuses a missing reference and a single run in one line.
 TEST(Cli, ReportReferenceMistakesExitTwoWithOneLine) {
   const fs::path dir = testing::MakeTempDir();

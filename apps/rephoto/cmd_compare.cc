@@ -1,6 +1,7 @@
 // rephoto compare --photos DIR --renders DIR [--masks DIR] [--photo-masks DIR]
 //                 [--metrics a,b,...|all] [--window N] [--ssim-mode gaussian|skimage]
 //                 [--dark T] [--saturated T] [--resize] [--no-error-images]
+//                 [--images FILE | --split DIR] [--min-alpha A]
 //                 [--compat 3dgs|nerfstudio [--compat-background R,G,B]] --out RUN_DIR
 // Parses options into compare::CompareOptions and calls compare::RunCompare (see
 // src/rephoto/compare/compare.h for inputs, outputs and exit codes).
@@ -18,6 +19,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/run/summary_table.h"
+#include "rephoto/split/split_writer.h"
 
 namespace rephoto::cli {
 namespace {
@@ -31,6 +33,7 @@ struct CompareArguments {
   bool no_prefetch = false;
   std::string compat;
   std::vector<float> compat_background;
+  std::string split;
 };
 
 CommandRunner SetupCompare(CLI::App& app) {
@@ -50,6 +53,22 @@ CommandRunner SetupCompare(CLI::App& app) {
   app.add_option("--photo-masks", o.photo_masks,
                  "Folder of photo masks by name (0 = ignore the photo pixel)")
       ->check(CLI::ExistingDirectory);
+  CLI::Option* images =
+      app.add_option("--images", o.image_list,
+                     "Compare only the images named in this list file (one name per line, as "
+                     "a split's test.txt; matched by file name without extension); other photos "
+                     "are ignored, not reported missing")
+          ->check(CLI::ExistingFile);
+  app.add_option("--split", args->split,
+                 "Compare only the test images of a `rephoto split` folder: DIR/test.txt of a "
+                 "fold folder (DIR/fold_XX), or of the only fold of a single-fold split")
+      ->check(CLI::ExistingDirectory)
+      ->excludes(images);
+  app.add_option("--min-alpha", o.min_alpha,
+                 "Coverage of renderings with alpha: a pixel is rendered where alpha >= A "
+                 "(`rephoto evaluate` uses 0.5 for Gaussian splatting); 0 = any alpha > 0")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_option("--metrics", args->metrics,
                  "Comma-separated metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim) or all")
       ->capture_default_str();
@@ -114,6 +133,9 @@ CommandRunner SetupCompare(CLI::App& app) {
     }
     REPHOTO_CHECK_USAGE(args->compat_background.empty() || !args->compat.empty(),
                         "--compat-background needs --compat");
+    REPHOTO_CHECK_USAGE(options.min_alpha == 0 || args->compat.empty(),
+                        "--min-alpha does not apply with --compat (every pixel is compared)");
+    if (!args->split.empty()) options.image_list = split::SplitTestList(args->split);
     if (!args->compat.empty()) {
       options.compat = metrics::ParseCompatPreset(args->compat);
       if (args->metrics == "all") {

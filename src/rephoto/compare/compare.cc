@@ -34,6 +34,8 @@
 #include "rephoto/io/image_io.h"
 #include "rephoto/run/records.h"
 #include "rephoto/run/run_folder.h"
+#include "rephoto/scene/image_name.h"
+#include "rephoto/split/split.h"
 
 #ifndef REPHOTO_VERSION
 #define REPHOTO_VERSION "unknown"
@@ -60,6 +62,10 @@ void CompareOptions::Check() const {
   REPHOTO_CHECK(metric_options.ssim_window >= 3 && metric_options.ssim_window % 2 == 1,
                 "compare: the SSIM window must be odd and at least 3 (got {})",
                 metric_options.ssim_window);
+  REPHOTO_CHECK(min_alpha >= 0 && min_alpha <= 1,
+                "compare: the minimum alpha must be in [0, 1] (got {})", min_alpha);
+  REPHOTO_CHECK(!compat || min_alpha == 0,
+                "compare: the minimum alpha does not apply in compat mode (no masks)");
   REPHOTO_CHECK(exposure.dark_threshold < exposure.saturated_threshold,
                 "compare: the dark threshold ({}) must be below the saturation threshold ({})",
                 exposure.dark_threshold, exposure.saturated_threshold);
@@ -244,6 +250,34 @@ const ImageT<T>& ColourOf(const ImageT<T>& image, ImageT<T>* rgb, Mask* alpha_va
   return grey ? *rgb : image;
 }
 
+template <typename T>
+bool HasAlpha(const ImageT<T>& image) {
+  return image.channels() == 2 || image.channels() == 4;
+}
+
+// CompareOptions::min_alpha: 1 where the alpha of `image` (2 or 4 channels; 8-bit v stands for
+// v / 255 as in metrics/validity.cc) is at least `min_alpha`, compared in float as `rephoto
+// evaluate` compared a Gaussian rendering's PNG alpha before the rule moved here.
+template <typename T>
+Mask AlphaReaches(const ImageT<T>& image, double min_alpha) {
+  const int channels = image.channels();
+  const float threshold = static_cast<float>(min_alpha);
+  Mask valid(image.width(), image.height(), 1);
+  ParallelFor(0, static_cast<int64_t>(image.pixel_count()), 1 << 15, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const T a = image.data()[i * channels + channels - 1];
+      float alpha;
+      if constexpr (std::is_same_v<T, uint8_t>) {
+        alpha = static_cast<float>(a) / 255.f;
+      } else {
+        alpha = a;
+      }
+      valid.data()[i] = alpha >= threshold ? 1 : 0;
+    }
+  });
+  return valid;
+}
+
 // RGB floats of `image` (alpha dropped, grey replicated) in `rgb`, the values io::ReadImage
 // gives for the same file when `image` holds 8-bit samples.
 template <typename T>
@@ -335,7 +369,9 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
   }
 
   // Rendering validity (alpha / black / explicit mask) at the rendering's own size.
-  Mask render_valid = metrics::RephotoValidity(render, render_mask ? *render_mask : Mask());
+  Mask render_valid = render_mask == nullptr && options.min_alpha > 0 && HasAlpha(render)
+                          ? AlphaReaches(render, options.min_alpha)
+                          : metrics::RephotoValidity(render, render_mask ? *render_mask : Mask());
   bool render_has_alpha = false;
   thread_local ImageT<R> render_grey;
   const ImageT<R>* render_rgb = &ColourOf(render, &render_grey, nullptr, &render_has_alpha);
@@ -575,6 +611,9 @@ std::string SummaryJsonText(const CompareOptions& options, const CompareResult& 
       {"error_images", options.write_error_images},
       {"compat", options.compat ? Json(metrics::CompatPresetName(*options.compat)) : Json()}};
   if (options.compat) j["parameters"]["compat_background"] = options.compat_background;
+  // Only when set, so that the summaries of runs without them stay as they were.
+  if (!options.image_list.empty()) j["parameters"]["image_list"] = options.image_list.string();
+  if (options.min_alpha > 0) j["parameters"]["min_alpha"] = options.min_alpha;
   size_t missing_render = 0, missing_photo = 0, resized = 0;
   for (const MissingImage& m : result.missing) {
     (m.missing == Missing::kRender ? missing_render : missing_photo)++;
@@ -697,17 +736,60 @@ void CommitRun(const fs::path& staging, const fs::path& out, bool error_images) 
   fs::remove_all(staging, ec);
 }
 
+// The stem a list name stands for: its file name without an image extension.
+std::string ListedStem(const std::string& name) {
+  const fs::path file = fs::path(name).filename();
+  return io::IsImageFile(file) ? file.stem().string() : file.string();
+}
+
+// CompareOptions::image_list: keeps the photos and renderings the list names (see compare.h).
+void KeepListedImages(const CompareOptions& options, std::vector<ImageFile>* photos,
+                      std::vector<ImageFile>* renders) {
+  const fs::path& list = options.image_list;
+  struct Listed {
+    std::string name;
+    std::string location;  // "<list>:<line>"
+  };
+  std::map<std::string, Listed> by_stem;
+  for (const split::ImageListEntry& entry : split::ReadImageListEntries(list)) {
+    std::string location = fmt::format("{}:{}", list.string(), entry.line);
+    std::string name = scene::CheckedImageName(entry.name, location);
+    const std::string stem = ListedStem(name);
+    const auto [it, inserted] = by_stem.emplace(stem, Listed{name, location});
+    REPHOTO_CHECK(inserted,
+                  "{}: image '{}' is already listed at {} as '{}' (images are paired by file "
+                  "name without extension)",
+                  location, name, it->second.location, it->second.name);
+  }
+  REPHOTO_CHECK(!by_stem.empty(), "{}: the image list names no image", list.string());
+  const size_t photos_before = photos->size(), renders_before = renders->size();
+  std::set<std::string> found;
+  for (std::vector<ImageFile>* images : {photos, renders}) {
+    std::erase_if(*images, [&](const ImageFile& image) { return !by_stem.contains(image.stem); });
+    for (const ImageFile& image : *images) found.insert(image.stem);
+  }
+  for (const auto& [stem, listed] : by_stem) {
+    REPHOTO_CHECK(found.contains(stem),
+                  "{}: image '{}' has neither a photo in {} nor a rendering in {}", listed.location,
+                  listed.name, options.photos.string(), options.renders.string());
+  }
+  LogInfo(fmt::format("{}: {} images listed; {} photos and {} renderings not listed are ignored",
+                      list.string(), by_stem.size(), photos_before - photos->size(),
+                      renders_before - renders->size()));
+}
+
 }  // namespace
 
 CompareResult RunCompare(const CompareOptions& options) {
   options.Check();
-  const std::vector<ImageFile> photos = ListImages(options.photos, "photos");
-  const std::vector<ImageFile> renders = ListImages(options.renders, "renderings");
+  std::vector<ImageFile> photos = ListImages(options.photos, "photos");
+  std::vector<ImageFile> renders = ListImages(options.renders, "renderings");
   REPHOTO_CHECK(!photos.empty(), "{}: no images in the photo folder (.png .jpg .jpeg .exr .pfm)",
                 options.photos.string());
   REPHOTO_CHECK(!renders.empty(),
                 "{}: no images in the rendering folder (.png .jpg .jpeg .exr .pfm)",
                 options.renders.string());
+  if (!options.image_list.empty()) KeepListedImages(options, &photos, &renders);
   const Pairing pairing = PairByStem(photos, renders);
   for (const MissingImage& m : pairing.missing) {
     if (m.missing == Missing::kRender) {

@@ -3,8 +3,13 @@
 // Inputs
 //   photos/       the photos (PNG, JPEG, EXR, PFM; see io/image_io.h).
 //   renders/      renderings with the same stems. Alpha (2 or 4 channels) is the completeness
-//                 mask (alpha 0 = not covered); without alpha, pure black pixels (all channels
-//                 exactly 0) are not covered, as the paper's benchmark does.
+//                 mask: by default any alpha > 0 is covered; with min_alpha > 0 a pixel is
+//                 covered where its alpha reaches min_alpha (alpha >= min_alpha, alpha as a
+//                 value in [0, 1]: 8-bit v stands for v / 255), the rule `rephoto evaluate`
+//                 applies to Gaussian splatting renderings (0.5 there: a splat's soft edge covers
+//                 a pixel only partly), so a rendering from any renderer can be held to it.
+//                 Without alpha, pure black pixels (all channels exactly 0) are not covered, as
+//                 the paper's benchmark does; min_alpha does not apply to them.
 //   render_masks/ optional, by stem: overrides alpha/black; valid where the first channel > 0.
 //                 Must hold a mask for every compared pair, at the rendering's size.
 //   photo_masks/  optional, by stem: user masks of the photos (first channel 0 = ignore the
@@ -15,6 +20,16 @@
 //   Renderings whose size differs from their photo are an error naming both files and sizes,
 //   unless `resize`: then the rendering (and its mask) is rescaled to the photo's size, see
 //   resample.h; validity (alpha/black/mask) is decided before rescaling.
+//
+// Selection: with `image_list` (a list file as split::ReadImageList reads it, e.g. a split's
+// fold_XX/test.txt) only the listed images are compared. Each name must pass
+// scene::CheckedImageName (no "..", no absolute path, ...; else an Error "<list>:<line>: image
+// name ..."); it stands for the stem of its file name (the name's last component without its
+// image extension: "images/IMG_1.JPG" -> "IMG_1"; a name without one is the stem itself). Two
+// names with one stem are an Error naming both lines, as is a name with neither a photo nor a
+// rendering (a list of another scene). Unlisted photos and renderings are ignored (neither
+// compared nor missing, and not in the counts); a listed name with only one of the two is
+// missing as below.
 //
 // Pairing: see pairing.h. A photo without a rendering or a rendering without a photo is a
 // warning line, a row of per_image.csv and an entry of summary.json "missing"; the run then
@@ -78,6 +93,12 @@ struct CompareOptions {
   std::filesystem::path render_masks;  // empty = use alpha / black
   std::filesystem::path photo_masks;   // empty = none
   std::filesystem::path out;
+  // Compare only the images this list file names (see "Selection" above); empty = all.
+  std::filesystem::path image_list;
+  // Coverage rule for renderings with alpha (see "Inputs" above): 0 = alpha > 0, else alpha >=
+  // min_alpha; in [0, 1]. Not with compat (no masks there). Also applies to
+  // ComparePhotoAndRender / CompareInMemory; an explicit rendering mask overrides it.
+  double min_alpha = 0;
   std::vector<metrics::Metric> metrics = metrics::AllMetrics();
   metrics::MetricOptions metric_options;  // window (also the completeness window), SSIM mode...
   metrics::ExposureOptions exposure;      // photo dark/saturated thresholds
@@ -125,8 +146,8 @@ struct CompareResult {
   std::vector<MissingImage> missing;   // sorted by name
   std::vector<MetricSummary> metrics;  // in CompareOptions::metrics order
   Summary completeness;                // over images
-  size_t photo_count = 0;
-  size_t render_count = 0;
+  size_t photo_count = 0;              // photos (with image_list: the listed ones found)
+  size_t render_count = 0;             // renderings (with image_list: the listed ones found)
 
   // kOk, or kIncomplete when some image had no counterpart.
   ExitCode exit_code() const { return missing.empty() ? ExitCode::kOk : ExitCode::kIncomplete; }
@@ -152,7 +173,8 @@ class CompareWorkspace {
 };
 
 // Compares one decoded pair exactly as RunCompare does (validity from the photo's alpha,
-// `photo_mask`, exposure; the rendering's alpha/black or `render_mask`; rescaling when
+// `photo_mask`, exposure; the rendering's alpha (options.min_alpha)/black or `render_mask`;
+// rescaling when
 // options.resize and the sizes differ, else sizes must match). `photo_path` and `render_path`
 // are only recorded in the result. When options.write_error_images, writes
 // <error_folder>/<name>.<metric>.exr and .png (`name` may contain '/': the subfolders must

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -708,6 +709,141 @@ TEST(Compare, InvalidOptionsAreRejected) {
   options.exposure.dark_threshold = 0.9f;
   options.exposure.saturated_threshold = 0.5f;
   EXPECT_THAT(ErrorMessage([&] { options.Check(); }), HasSubstr("dark threshold"));
+  options = Options(f);
+  options.min_alpha = 1.5;
+  EXPECT_THAT(ErrorMessage([&] { options.Check(); }), HasSubstr("minimum alpha must be in [0, 1]"));
+  options.min_alpha = 0.5;
+  options.compat = metrics::CompatPreset::k3dgs;
+  EXPECT_THAT(ErrorMessage([&] { options.Check(); }), HasSubstr("compat"));
+}
+
+// issue 30: min_alpha, the coverage rule `rephoto evaluate` applies to Gaussian renderings,
+// owned by compare. Alpha by column band: x < 4: 0.25, 4 <= x < 8: 0.5, 8 <= x < 12: 0.75,
+// x >= 12: 1. With the 9x9 window the photo has 16 x 12 windows; a threshold that drops the
+// bands left of x0 leaves WindowsInside(x0, 24) = (24 - x0 - 8) x 12 of them, so completeness
+// is exactly 1, 12/16, 8/16, 4/16 for min_alpha 0 (alpha > 0), 0.5, 0.75, 1.
+float BandAlpha(int x) { return x < 4 ? 0.25f : x < 8 ? 0.5f : x < 12 ? 0.75f : 1.f; }
+
+TEST(Compare, MinAlphaCountsPixelsWhoseAlphaReachesIt) {
+  auto rng = testing::MakeRng();
+  const Image photo = RandomImage(rng);
+  Image render(kWidth, kHeight, 4);
+  // In a PNG: 8-bit alphas 63, 128, 192, 255 (v / 255 = 0.247, 0.502, 0.753, 1), on the same
+  // sides of 0.5, 0.75 and 1 as the exact values of the in-memory rendering below.
+  Image render_png(kWidth, kHeight, 4);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      for (int c = 0; c < 3; ++c) render.at(x, y, c) = render_png.at(x, y, c) = photo.at(x, y, c);
+      render.at(x, y, 3) = BandAlpha(x);
+      render_png.at(x, y, 3) = std::array<float, 4>{63, 128, 192, 255}[x < 4    ? 0
+                                                                       : x < 8  ? 1
+                                                                       : x < 12 ? 2
+                                                                                : 3] /
+                               255.f;
+    }
+  }
+  const Folders f = MakeFolders();
+  io::WritePng(f.photos / "a.png", photo);
+  io::WritePng(f.renders / "a.png", render_png);
+  const size_t photo_windows = WindowsInside(0, kWidth);
+  ASSERT_EQ(photo_windows, 16u * 12u);
+  const std::vector<std::pair<double, int>> cases = {{0, 0}, {0.5, 4}, {0.75, 8}, {1, 12}};
+  for (const auto& [min_alpha, first_covered] : cases) {
+    SCOPED_TRACE(min_alpha);
+    CompareOptions options = Options(f);
+    options.metrics = {Metric::kCbCr};
+    options.min_alpha = min_alpha;
+    const double expected = static_cast<double>(WindowsInside(first_covered, kWidth)) /
+                            static_cast<double>(photo_windows);
+    // RunCompare on the PNG (8-bit samples).
+    const CompareResult run = RunCompare(options);
+    ASSERT_EQ(run.images.size(), 1u);
+    EXPECT_EQ(run.images[0].completeness.valid_photo, photo_windows);
+    EXPECT_EQ(run.images[0].completeness.valid_both, WindowsInside(first_covered, kWidth));
+    EXPECT_EQ(run.images[0].completeness.value, expected);
+    EXPECT_EQ(run.images[0].metrics[0].evaluated,
+              static_cast<size_t>((kWidth - first_covered) * kHeight));
+    const nlohmann::json parameters = ReadJson(f.out / "summary.json")["parameters"];
+    if (min_alpha > 0) {
+      EXPECT_EQ(parameters["min_alpha"], min_alpha);
+    } else {
+      EXPECT_FALSE(parameters.contains("min_alpha"));  // runs without it stay as they were
+    }
+    // In memory on the float rendering: exact alphas 0.5, 0.75, 1 reach their threshold.
+    CompareWorkspace workspace;
+    const ImageResult in_memory =
+        CompareInMemory(options, photo, render, nullptr, nullptr, nullptr, &workspace);
+    EXPECT_EQ(in_memory.completeness.value, expected);
+    // An explicit rendering mask still overrides alpha.
+    Mask all(kWidth, kHeight, 1);
+    std::fill(all.data(), all.data() + all.size(), uint8_t{1});
+    EXPECT_EQ(CompareInMemory(options, photo, render, nullptr, &all, nullptr, &workspace)
+                  .completeness.value,
+              1.0);
+  }
+}
+
+// issue 30: image_list compares only the listed images, by stem; unlisted ones are neither
+// compared nor missing.
+TEST(Compare, ImageListSelectsImagesByStem) {
+  auto rng = testing::MakeRng();
+  const Folders f = MakeFolders();
+  for (const char* name : {"a", "b", "c", "d"}) {
+    io::WritePng(f.photos / (std::string(name) + ".png"), RandomImage(rng));
+  }
+  for (const char* name : {"a", "b", "c", "e"}) {
+    io::WritePng(f.renders / (std::string(name) + ".png"), RandomImage(rng));
+  }
+  const fs::path list = f.root / "test.txt";
+  CompareOptions options = Options(f);
+  options.metrics = {Metric::kCbCr};
+  options.image_list = list;
+  // Names as a split writes them (scene names with their extension and folders).
+  WriteTextFileAtomically(list, "# test views\nimages/b.JPG\n\n./c.jpg\n");
+  {
+    const CompareResult result = RunCompare(options);
+    EXPECT_EQ(result.exit_code(), ExitCode::kOk);
+    ASSERT_EQ(result.images.size(), 2u);
+    EXPECT_EQ(result.images[0].name, "b");
+    EXPECT_EQ(result.images[1].name, "c");
+    EXPECT_TRUE(result.missing.empty());
+    EXPECT_EQ(result.photo_count, 2u);
+    EXPECT_EQ(result.render_count, 2u);
+    const auto rows = io::ReadCsvFile(f.out / "per_image.csv");
+    ASSERT_EQ(rows.size(), 3u);
+    EXPECT_EQ(rows[1][0], "b");
+    EXPECT_EQ(rows[2][0], "c");
+    EXPECT_EQ(ReadJson(f.out / "summary.json")["parameters"]["image_list"], list.string());
+  }
+  // A listed image without its rendering is missing as without a list.
+  WriteTextFileAtomically(list, "a\nd\n");
+  {
+    const CompareResult result = RunCompare(options);
+    EXPECT_EQ(result.exit_code(), ExitCode::kIncomplete);
+    ASSERT_EQ(result.images.size(), 1u);
+    ASSERT_EQ(result.missing.size(), 1u);
+    EXPECT_EQ(result.missing[0].name, "d");
+    EXPECT_EQ(result.missing[0].missing, Missing::kRender);
+    EXPECT_EQ(io::ReadCsvFile(f.out / "per_image.csv").size(), 3u);
+  }
+  // Hostile or mistaken lists: one Error naming the file and line; nothing written.
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"a\n../b.png\n", ":2: image name '../b.png' contains '..'"},
+      {"a\n" + f.photos.string() + "/b.png\n",
+       ":2: image name '" + f.photos.string() + "/b.png' is an absolute path"},
+      {"b.png\nsub/b.jpg\n",
+       ":2: image 'sub/b.jpg' is already listed at " + list.string() + ":1 as 'b.png'"},
+      {"a\n\nz.png\n", ":3: image 'z.png' has neither a photo in " + f.photos.string() +
+                           " nor a rendering in " + f.renders.string()},
+      {"# nothing\n", ": the image list names no image"}};
+  for (const auto& [text, message] : bad) {
+    SCOPED_TRACE(text);
+    fs::remove_all(f.out);
+    WriteTextFileAtomically(list, text);
+    EXPECT_THAT(ErrorMessage([&] { RunCompare(options); }),
+                ::testing::StartsWith(list.string() + message));
+    EXPECT_FALSE(fs::exists(f.out));
+  }
 }
 
 }  // namespace

@@ -418,6 +418,13 @@ TEST(EvaluateTest, GaussianSplattingModelsAreRenderedComparedAndProjected) {
   EXPECT_EQ(measured.at(stem)[1], io::CsvNumber(by_hand.completeness.value));
   EXPECT_EQ(measured.at(stem)[2], io::CsvNumber(by_hand.metrics[0].mean));
   EXPECT_GT(by_hand.completeness.value, 0.5);
+  // issue 30: the same rule as compare's option, without a hand-made mask.
+  compare_options.min_alpha = o.min_alpha;
+  const compare::ImageResult by_rule = compare::ComparePhotoAndRender(
+      compare_options, "x", view.image_path, rendered, io::ReadImage(view.image_path), render,
+      nullptr, nullptr, dir, &workspace);
+  EXPECT_EQ(measured.at(stem)[1], io::CsvNumber(by_rule.completeness.value));
+  EXPECT_EQ(measured.at(stem)[2], io::CsvNumber(by_rule.metrics[0].mean));
   // The error on the Gaussians: the model's file with a float "error" added.
   const std::string projected = ReadFileToString(dir / "run/projected/1-ncc.ply");
   EXPECT_THAT(projected, HasSubstr("property float rot_3\nproperty float error\nend_header"));

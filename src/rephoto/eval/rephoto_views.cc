@@ -89,19 +89,6 @@ std::optional<Mask> EvalMask(const TestView& test) {
   return mask;
 }
 
-// Gaussians: a pixel is the model's where its alpha reaches --min-alpha (the PNG's alpha, so a
-// reused rendering gives the same mask).
-Mask AlphaMask(const Image& render, double min_alpha) {
-  Mask mask(render.width(), render.height(), 1);
-  const float* px = render.data();
-  const int channels = render.channels();
-  uint8_t* m = mask.data();
-  for (size_t i = 0, n = static_cast<size_t>(render.width()) * render.height(); i < n; ++i) {
-    m[i] = channels == 4 && px[i * 4 + 3] >= static_cast<float>(min_alpha) ? 255 : 0;
-  }
-  return mask;
-}
-
 compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
   compare::CompareOptions c;
   c.metrics = o.metrics;
@@ -152,10 +139,10 @@ void PrepareView(const RunContext& s, Tally& tally, PreparedView& view, const Fo
     start = Clock::now();
     EvalPhoto(s, tally, view, test, &view.photo_path);
     view.mask = EvalMask(test);
-    view.render_mask.reset();
-    if (gaussians && (renderer != nullptr || outcome.reuse_render)) {
-      view.render_mask = AlphaMask(view.render, s.options.min_alpha);
-    }
+    // Gaussians: a pixel is the model's where its alpha reaches --min-alpha (the PNG's alpha,
+    // so a reused rendering gives the same coverage).
+    view.min_alpha =
+        gaussians && (renderer != nullptr || outcome.reuse_render) ? s.options.min_alpha : 0;
     outcome.compare_seconds = Seconds(start);
     tally.AddSeconds(&EvaluateTimings::photos, outcome.compare_seconds);
   } catch (const UsageError&) {
@@ -177,11 +164,12 @@ void CompareView(const RunContext& s, Tally& tally, ViewWorkspace& ws, const Pre
     std::error_code ec;
     fs::create_directories((errors_dir / test.stem).parent_path(), ec);
   }
+  compare::CompareOptions settings = CompareSettings(s.options);
+  settings.min_alpha = view.min_alpha;
   outcome.image = compare::ComparePhotoAndRender(
-      CompareSettings(s.options), test.stem, view.photo_path,
-      fs::path(s.Relative(view.render_path)), view.eval_photo, view.render,
-      view.mask ? &*view.mask : nullptr, view.render_mask ? &*view.render_mask : nullptr,
-      errors_dir, &ws.compare, error_images);
+      settings, test.stem, view.photo_path, fs::path(s.Relative(view.render_path)), view.eval_photo,
+      view.render, view.mask ? &*view.mask : nullptr, nullptr, errors_dir, &ws.compare,
+      error_images);
   const double seconds = Seconds(start);
   outcome.compare_seconds += seconds;
   tally.AddSeconds(&EvaluateTimings::compare, seconds);

@@ -3,18 +3,19 @@
 // photos at the evaluation resolution and write one record per view.
 //
 // PlanViews      for views [first, first + count) of the fold (in FoldPlan::tests order; count 0
-//                = to the end), into `views` (sized to the fold's tests): each view's record key and render key (keys.h); a view whose
-//                record (folds/fold_XX/views/<stem>.json) holds the same key with status "ok"
-//                and whose outputs exist is reused; a view whose rendering has the same render
-//                key is only compared again. Returns the indices of the views that need work.
+//                = to the end), into `views` (sized to the fold's tests): each view's record key
+//                and render key (keys.h); a view whose record (folds/fold_XX/views/<stem>.json)
+//                holds the same key with status "ok" and whose outputs exist is reused; a view
+//                whose rendering has the same render key is only compared again. Returns the
+//                indices of the views that need work.
 // EvaluateViews  renders (renderer, when not reused) and compares each view: the photo
 //                (downscaled once into CacheDir()/eval_photos/<stem>.png with eval_short_side),
-//                its mask, the rendering's coverage (Gaussians: alpha >= min_alpha) through
-//                compare::ComparePhotoAndRender; writes renders/<stem>.png + .depth.exr,
-//                errors/<stem>.<metric>.exr|png and the view record last. A view that fails is
-//                recorded in its outcome (message) and the others go on; UsageError propagates.
-//                Stops between views when an interrupt was requested (the views already
-//                compared are written first).
+//                its mask, the rendering's coverage (Gaussians: alpha >= min_alpha, the rule
+//                of compare::CompareOptions::min_alpha) through compare::ComparePhotoAndRender;
+//                writes renders/<stem>.png + .depth.exr, errors/<stem>.<metric>.exr|png and the
+//                view record last. A view that fails is recorded in its outcome (message) and the
+//                others go on; UsageError propagates. Stops between views when an interrupt was
+//                requested (the views already compared are written first).
 //
 // The views go through a pipeline of three threads (when more than one view needs work, more
 // than one thread is allowed (core/parallel.h ThreadLimit) and a second view in flight, about 64
@@ -57,7 +58,10 @@ struct PreparedView {
   Image full_photo;
   Image eval_photo;  // the photo compared
   std::filesystem::path render_path, photo_path;
-  std::optional<Mask> mask, render_mask;
+  std::optional<Mask> mask;
+  // The rendering's coverage rule (compare::CompareOptions::min_alpha): the Gaussian alpha
+  // threshold for Gaussians rendered by rephoto, else 0 (any alpha > 0, or not black).
+  double min_alpha = 0;
   std::string failure;  // why the view could not be prepared (an Error's message)
 };
 

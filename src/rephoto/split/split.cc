@@ -47,15 +47,12 @@ uint64_t ParseSeed(std::string_view text, std::string_view scheme) {
   return value;
 }
 
-struct ListEntry {
-  std::string name;
-  int line = 0;
-};
+}  // namespace
 
-std::vector<ListEntry> ReadListEntries(const fs::path& path) {
+std::vector<ImageListEntry> ReadImageListEntries(const fs::path& path) {
   std::ifstream in(path);
   REPHOTO_CHECK(in, "{}: cannot open image list", path.string());
-  std::vector<ListEntry> entries;
+  std::vector<ImageListEntry> entries;
   std::string line;
   int line_number = 0;
   while (std::getline(in, line)) {
@@ -70,6 +67,8 @@ std::vector<ListEntry> ReadListEntries(const fs::path& path) {
   REPHOTO_CHECK(!in.bad(), "{}: read error", path.string());
   return entries;
 }
+
+namespace {
 
 // Single-fold split from a per-image test flag over `sorted` names.
 Split SingleFold(const Scheme& scheme, const std::vector<std::string>& sorted,
@@ -201,7 +200,7 @@ Scheme ParseSchemeText(std::string_view text) {
 
 std::vector<std::string> ReadImageList(const fs::path& path) {
   std::vector<std::string> names;
-  for (ListEntry& entry : ReadListEntries(path)) names.push_back(std::move(entry.name));
+  for (ImageListEntry& entry : ReadImageListEntries(path)) names.push_back(std::move(entry.name));
   return names;
 }
 
@@ -265,7 +264,7 @@ Split MakeSplit(const std::vector<std::string>& image_names, const Scheme& schem
       Fold fold;
       for (const auto& [path, is_test] :
            {std::pair{scheme.train_list, false}, std::pair{scheme.test_list, true}}) {
-        for (ListEntry& entry : ReadListEntries(path)) {
+        for (ImageListEntry& entry : ReadImageListEntries(path)) {
           const std::string location = fmt::format("{}:{}", path.string(), entry.line);
           REPHOTO_CHECK(std::binary_search(sorted.begin(), sorted.end(), entry.name),
                         "{}: image '{}' is not in the scene", location, entry.name);

@@ -85,7 +85,17 @@ struct Split {
 Split MakeSplit(const std::vector<std::string>& image_names, const Scheme& scheme);
 
 // Reads a list file (one image name per line; blank and '#' lines ignored; "./" prefixes
-// dropped). Throws Error naming the file when it cannot be read.
+// dropped). Throws Error naming the file when it cannot be read. The names are not checked
+// here: callers check them (scene::CheckedImageName / ViewIndices) with the location.
 std::vector<std::string> ReadImageList(const std::filesystem::path& path);
+
+// One name of a list file and its line (1-based), for messages "<file>:<line>: ...".
+struct ImageListEntry {
+  std::string name;
+  int line = 0;
+};
+
+// ReadImageList with the line of each name.
+std::vector<ImageListEntry> ReadImageListEntries(const std::filesystem::path& path);
 
 }  // namespace rephoto::split

@@ -1,5 +1,6 @@
 #include "rephoto/split/split_writer.h"
 
+#include <algorithm>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <unordered_map>
@@ -52,6 +53,28 @@ scene::Scene SubsetScene(const scene::Scene& scene, const std::vector<std::strin
 std::string FoldFolderName(size_t index, size_t count) {
   const size_t digits = std::max<size_t>(2, std::to_string(count > 0 ? count - 1 : 0).size());
   return fmt::format("fold_{:0{}}", index, digits);
+}
+
+fs::path SplitTestList(const fs::path& dir) {
+  std::error_code ec;
+  REPHOTO_CHECK(fs::is_directory(dir, ec), "{}: split folder does not exist", dir.string());
+  if (fs::is_regular_file(dir / "test.txt", ec)) return dir / "test.txt";
+  std::vector<std::string> folds;  // fold folders holding a test list
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.starts_with("fold_") && fs::is_regular_file(it->path() / "test.txt", ec)) {
+      folds.push_back(name);
+    }
+  }
+  REPHOTO_CHECK(!ec, "{}: cannot list the split folder: {}", dir.string(), ec.message());
+  std::sort(folds.begin(), folds.end());
+  REPHOTO_CHECK(!folds.empty(),
+                "{}: not a split folder (no test.txt, no fold_XX/test.txt: see `rephoto split`)",
+                dir.string());
+  REPHOTO_CHECK(
+      folds.size() == 1, "{}: the split has {} folds ({} ... {}); name the fold's folder, e.g. {}",
+      dir.string(), folds.size(), folds.front(), folds.back(), (dir / folds.front()).string());
+  return dir / folds.front() / "test.txt";
 }
 
 namespace {

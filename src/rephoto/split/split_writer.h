@@ -54,4 +54,10 @@ std::vector<std::filesystem::path> WriteSplit(const scene::Scene& scene, const S
 // "fold_00" style folder name for fold `index` of `count`.
 std::string FoldFolderName(size_t index, size_t count);
 
+// The test list of a folder WriteSplit wrote, for commands that take one (`compare --split`):
+// DIR/test.txt when DIR is a fold folder; DIR/fold_XX/test.txt when DIR is a split folder with
+// a single fold (every:N, fraction, lists). Throws Error naming DIR when it holds several folds
+// (the message names them: pass one fold's folder) or is neither.
+std::filesystem::path SplitTestList(const std::filesystem::path& dir);
+
 }  // namespace rephoto::split

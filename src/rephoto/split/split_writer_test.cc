@@ -118,5 +118,30 @@ TEST(SplitWriterTest, WritesFoldsThatExternalToolsRead) {
   }
 }
 
+// issue 30: the test list a "--split DIR" names: a fold folder's, the only fold's, else an
+// error naming the folder and its folds.
+TEST(SplitWriterTest, SplitTestListOfAFoldOrASingleFoldSplit) {
+  const fs::path root = testing::MakeTempDir();
+  const scene::Scene scene = MakeScene(root);
+  std::vector<std::string> names;
+  for (const auto& view : scene.views) names.push_back(view.name);
+  WriteSplit(scene, MakeSplit(names, ParseScheme("every:2")), {"s", "colmap"}, root / "one");
+  WriteSplit(scene, MakeSplit(names, ParseScheme("kfold:2")), {"s", "colmap"}, root / "two");
+  EXPECT_EQ(SplitTestList(root / "one"), root / "one/fold_00/test.txt");
+  EXPECT_EQ(SplitTestList(root / "one/fold_00"), root / "one/fold_00/test.txt");
+  EXPECT_EQ(SplitTestList(root / "two/fold_01"), root / "two/fold_01/test.txt");
+  try {
+    SplitTestList(root / "two");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), (root / "two").string() +
+                                         ": the split has 2 folds (fold_00 ... fold_01); name the "
+                                         "fold's folder, e.g. " +
+                                         (root / "two/fold_00").string());
+  }
+  EXPECT_THROW(SplitTestList(root / "photos"), Error);   // no split
+  EXPECT_THROW(SplitTestList(root / "nothing"), Error);  // no folder
+}
+
 }  // namespace
 }  // namespace rephoto::split
