@@ -254,8 +254,12 @@ py::dict Compare(const py::object& photo_object, const py::object& render_object
                  const py::object& render_mask_object, bool error_images, int window,
                  const std::string& ssim_mode, float dark, float saturated,
                  const std::optional<std::string>& compat, std::array<float, 3> background,
-                 bool resize) {
+                 bool resize, double min_alpha) {
   compare::CompareOptions options;
+  REPHOTO_CHECK_USAGE(min_alpha >= 0 && min_alpha <= 1, "min_alpha: {} is not in [0, 1]",
+                      min_alpha);
+  REPHOTO_CHECK_USAGE(!compat || min_alpha == 0, "compat: min_alpha does not apply (no masks)");
+  options.min_alpha = min_alpha;
   options.metrics = MetricList(metrics_object);
   options.metric_options.window = window;
   REPHOTO_CHECK_USAGE(window >= 3 && window % 2 == 1, "window: {} is not an odd number >= 3",
@@ -637,7 +641,8 @@ PYBIND11_MODULE(_rephoto, m) {
         py::arg("metrics") = py::none(), py::arg("render_mask") = py::none(),
         py::arg("error_images") = false, py::arg("window") = 9, py::arg("ssim_mode") = "gaussian",
         py::arg("dark") = 0.0f, py::arg("saturated") = 1.0f, py::arg("compat") = py::none(),
-        py::arg("background") = std::array<float, 3>{0, 0, 0}, py::arg("resize") = false);
+        py::arg("background") = std::array<float, 3>{0, 0, 0}, py::arg("resize") = false,
+        py::arg("min_alpha") = 0.0);
   m.def("metric_names", [] {
     std::vector<std::string> names;
     for (metrics::Metric metric : metrics::AllMetrics())

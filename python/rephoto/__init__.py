@@ -57,7 +57,8 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
             render_mask: Optional[np.ndarray] = None, error_images: bool = False,
             window: int = 9, ssim_mode: str = "gaussian", dark: float = 0.0,
             saturated: float = 1.0, compat: Optional[str] = None,
-            background: Sequence[float] = (0.0, 0.0, 0.0), resize: bool = False) -> Dict[str, Any]:
+            background: Sequence[float] = (0.0, 0.0, 0.0), resize: bool = False,
+            min_alpha: float = 0.0) -> Dict[str, Any]:
     """Compares a photo with a rendering of the same view, as ``rephoto compare`` does.
 
     Args:
@@ -83,6 +84,9 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
       resize: a render (and ``render_mask``) of another size is rescaled to the photo's size
         with the CLI's area filter (``--resize``); validity is decided before rescaling.
         Otherwise the sizes must be equal.
+      min_alpha: a rendering pixel counts as covered where its alpha reaches this (in [0, 1];
+        ``--min-alpha``, e.g. 0.5 as ``evaluate`` counts a Gaussian splat's soft edge); 0 = any
+        alpha above 0. An explicit ``render_mask`` overrides it.
 
     Returns:
       A dict: "completeness" (float, NaN if the photo has no valid window),
@@ -95,7 +99,8 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
       Error: anything the library rejects.
     """
     return _rephoto.compare(photo, render, mask, metrics, render_mask, error_images, window,
-                            ssim_mode, dark, saturated, compat, list(background), resize)
+                            ssim_mode, dark, saturated, compat, list(background), resize,
+                            min_alpha)
 
 
 def error_image(photo: np.ndarray, render: np.ndarray, metric: str,

@@ -218,3 +218,19 @@ def test_huge_shapes_are_refused_before_narrowing_or_allocating():
         huge = as_strided(base, shape=shape, strides=(0, 0, 1))
         with pytest.raises(rephoto.Error, match="larger than the limit"):
             rephoto.compare(huge, small if shape[0] != 100000 else huge)
+
+
+def test_min_alpha_counts_pixels_whose_alpha_reaches_it(pair):
+    """A rendering of uniform alpha 0.4: covered for min_alpha 0 (any alpha above 0) and 0.4,
+    not at all for 0.5 (closed form: completeness 1, 1, 0)."""
+    photo, _ = pair
+    rgb = photo[..., :3].astype(np.float32) / 255.0
+    render = np.dstack([rgb, np.full(rgb.shape[:2], 0.4, np.float32)])
+    assert rephoto.compare(rgb, render, metrics="1-ncc")["completeness"] == 1.0
+    assert rephoto.compare(rgb, render, metrics="1-ncc", min_alpha=0.4)["completeness"] == 1.0
+    none = rephoto.compare(rgb, render, metrics="1-ncc", min_alpha=0.5)
+    assert none["completeness"] == 0.0 and none["evaluated"]["1-ncc"] == 0
+    with pytest.raises(ValueError, match="min_alpha"):
+        rephoto.compare(rgb, render, min_alpha=1.5)
+    with pytest.raises(ValueError, match="min_alpha"):
+        rephoto.compare(rgb, render, compat="3dgs", min_alpha=0.5)
