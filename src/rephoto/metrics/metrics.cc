@@ -507,6 +507,7 @@ struct Engine {
   int halo = 0;  // source rows needed above and below a band
   internal::SsimSetup ssim;
   std::vector<double> icid_weights;
+  uint64_t call = internal::NewCallId();
 
   bool Wants(Metric m) const { return want[static_cast<int>(m)]; }
 };
@@ -531,7 +532,7 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
   const int first = static_cast<int>(y0) - e.halo, end = static_cast<int>(y1) + e.halo;
   p.Load(e.photo, first, end, &photo_scratch);
   q.Load(e.rephoto, first, end, &rephoto_scratch);
-  const Inputs in{p, q, e.valid, e.width, e.height};
+  const Inputs in{p, q, e.valid, e.width, e.height, e.call};
   // Without rows to keep (a null sink), each band writes its error rows into per-thread scratch
   // that stays in cache instead of streaming them to memory.
   ErrorRows local[8];
