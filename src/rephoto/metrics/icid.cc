@@ -1,6 +1,7 @@
 #include "rephoto/metrics/icid.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -341,6 +342,27 @@ void SrgbToLab(float r, float g, float b, double lab[3]) {
 
 namespace internal {
 
+uint64_t NewCallId() {
+  static std::atomic<uint64_t> last{0};
+  return last.fetch_add(1, std::memory_order_relaxed) + 1;
+}
+
+namespace {
+
+// The quantity rows a band shares with the next one: band [c0, c1) computes source rows
+// [c0 - r, c1 + r), the next band [c1, ...) needs [c1 - r, c1 + r) first, the last 2r. When the
+// same thread does the next band of the same call, it copies them instead of recomputing (the
+// quantities of a pixel do not depend on the strip or band around it). Per strip s and
+// quantity q, 2r rows of the strip's width at (s * kCount + q) * 2r * max_width.
+struct IcidCarry {
+  uint64_t call = 0;  // 0: nothing held
+  int64_t next_c0 = 0;
+  int width = 0, radius = 0;
+  std::vector<double> rows;
+};
+
+}  // namespace
+
 MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& weights,
                   const ErrorRows* error, int64_t y0, int64_t y1) {
   const int w = in.width, h = in.height, r = window / 2;
@@ -375,12 +397,30 @@ MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& w
   }
   double* linear1 = linear_buffer.data();
   double* linear2 = linear1 + 3 * max_width;
+  thread_local IcidCarry carry;
+  const bool reuse = in.call != 0 && carry.call == in.call && carry.next_c0 == c0 &&
+                     carry.width == w && carry.radius == r;
+  const size_t carry_rows = static_cast<size_t>(2 * r) * max_width;
+  const int strips = (w + kStripPixels - 1) / kStripPixels;
+  if (in.call != 0 && carry.rows.size() < strips * kCount * carry_rows) {
+    carry.rows.resize(strips * kCount * carry_rows);
+  }
+  carry.call = 0;  // until this band has stored its rows
   for (int x0 = 0; x0 < w; x0 += kStripPixels) {
     // Source columns [s0, s1) feed the output columns [max(x0, r), min(x0 + strip, w - r)).
     const int s0 = std::max(0, x0 - r), s1 = std::min(w, x0 + kStripPixels + r), sw = s1 - s0;
     const int xa = std::max(x0, r), xb = std::min(x0 + kStripPixels, w - r);
     if (xa >= xb) continue;
-    for (int j = 0; j < rows; ++j) {
+    double* held = in.call != 0 ? carry.rows.data() +
+                                      static_cast<size_t>(x0 / kStripPixels) * kCount * carry_rows
+                                : nullptr;
+    const size_t held_values = static_cast<size_t>(2 * r) * sw;
+    if (reuse) {
+      for (int q = 0; q < kCount; ++q) {
+        std::copy(held + q * carry_rows, held + q * carry_rows + held_values, planes + q * plane);
+      }
+    }
+    for (int j = reuse ? 2 * r : 0; j < rows; ++j) {
       const int y = static_cast<int>(c0) - r + j;
       for (const auto& [rgb, linear] : {std::pair{&in.photo, linear1}, {&in.rephoto, linear2}}) {
         if (const uint8_t* bytes = rgb->bytes_row(y)) {
@@ -396,6 +436,12 @@ MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& w
       }
       IcidQuantities(linear1, linear2, sw, row_planes);
     }
+    if (held) {
+      for (int q = 0; q < kCount; ++q) {
+        const double* last = planes + q * plane + static_cast<size_t>(rows - 2 * r) * sw;
+        std::copy(last, last + held_values, held + q * carry_rows);
+      }
+    }
     for (int64_t y = c0; y < c1; ++y) {
       const int j0 = static_cast<int>(y - c0);
       for (int q = 0; q < kCount; ++q) {
@@ -409,6 +455,12 @@ MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& w
       float* out = error->row(static_cast<int>(y));
       std::copy(values + (xa - s0), values + (xb - s0), out + xa);
     }
+  }
+  if (in.call != 0) {
+    carry.call = in.call;
+    carry.next_c0 = c1;
+    carry.width = w;
+    carry.radius = r;
   }
   WindowValidityRows validity(in.valid, w, h, r);
   for (int64_t y = c0; y < c1; ++y) {
@@ -441,7 +493,7 @@ void ComputeIcid(const Image& photo, const Image& rephoto, const Mask& valid,
   std::vector<float> unused;
   p.Load(photo, 0, h, &unused);
   q.Load(rephoto, 0, h, &unused);
-  const internal::BandInputs in{p, q, valid, w, h};
+  const internal::BandInputs in{p, q, valid, w, h, internal::NewCallId()};
   const internal::ErrorRows rows{error->data(), 0, w};
   const MeanSums sums = ParallelSum<MeanSums>(0, h, kBandRows, [&](int64_t y0, int64_t y1) {
     return internal::IcidBand(in, options.window, weights, &rows, y0, y1);

@@ -88,7 +88,13 @@ struct BandInputs {
   const Mask& valid;  // may be empty
   int width;
   int height;
+  // Identifies the call these inputs belong to (NewCallId; 0: none). Bands of one call on one
+  // thread may reuse each other's per-pixel values (IcidBand); bands of different calls never.
+  uint64_t call = 0;
 };
+
+// A number no earlier call got (thread-safe; never 0).
+uint64_t NewCallId();
 
 // iCID of the output rows [y0, y1) (icid.cc); needs source rows [y0 - r, y1 + r).
 MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& weights,
