@@ -120,59 +120,6 @@ REPHOTO_ISA_DISPATCH(void, AccumulateBoxColumns,
                      (const float* __restrict planes, int w, double sign, double* __restrict cols),
                      (planes, w, sign, cols))
 
-// Slides the column sums down one row: cols[q * w + x] += quantity q of the planar rows `add`,
-// then -= that of `sub` (6 planes each, as AccumulateBoxColumns). Per value the operations and
-// their order are those of AccumulateBoxColumns(add, +1) followed by AccumulateBoxColumns(sub,
-// -1) (x * 1.0 and x * -1.0 are exact, and a + (-b) is a - b), in one pass over the sums.
-[[gnu::always_inline]] inline void SlideBoxColumnsBody(const float* __restrict add,
-                                                       const float* __restrict sub, int w,
-                                                       double* __restrict cols) {
-  const float* __restrict a0 = add;
-  const float* __restrict a1 = add + w;
-  const float* __restrict a2 = add + 2 * w;
-  const float* __restrict b0 = add + 3 * w;
-  const float* __restrict b1 = add + 4 * w;
-  const float* __restrict b2 = add + 5 * w;
-  const float* __restrict c0 = sub;
-  const float* __restrict c1 = sub + w;
-  const float* __restrict c2 = sub + 2 * w;
-  const float* __restrict d0 = sub + 3 * w;
-  const float* __restrict d1 = sub + 4 * w;
-  const float* __restrict d2 = sub + 5 * w;
-  double* __restrict sx0 = cols;
-  double* __restrict sx1 = cols + w;
-  double* __restrict sx2 = cols + 2 * w;
-  double* __restrict sy0 = cols + 3 * w;
-  double* __restrict sy1 = cols + 4 * w;
-  double* __restrict sy2 = cols + 5 * w;
-  double* __restrict sxx = cols + 6 * w;
-  double* __restrict syy = cols + 7 * w;
-  double* __restrict sxy = cols + 8 * w;
-  for (int x = 0; x < w; ++x) {
-    sx0[x] = (sx0[x] + static_cast<double>(a0[x])) - static_cast<double>(c0[x]);
-    sx1[x] = (sx1[x] + static_cast<double>(a1[x])) - static_cast<double>(c1[x]);
-    sx2[x] = (sx2[x] + static_cast<double>(a2[x])) - static_cast<double>(c2[x]);
-  }
-  for (int x = 0; x < w; ++x) {
-    sy0[x] = (sy0[x] + static_cast<double>(b0[x])) - static_cast<double>(d0[x]);
-    sy1[x] = (sy1[x] + static_cast<double>(b1[x])) - static_cast<double>(d1[x]);
-    sy2[x] = (sy2[x] + static_cast<double>(b2[x])) - static_cast<double>(d2[x]);
-  }
-  for (int x = 0; x < w; ++x) {
-    const double p0 = a0[x], p1 = a1[x], p2 = a2[x];
-    const double q0 = b0[x], q1 = b1[x], q2 = b2[x];
-    const double u0 = c0[x], u1 = c1[x], u2 = c2[x];
-    const double v0 = d0[x], v1 = d1[x], v2 = d2[x];
-    sxx[x] = (sxx[x] + (p0 * p0 + p1 * p1 + p2 * p2)) - (u0 * u0 + u1 * u1 + u2 * u2);
-    syy[x] = (syy[x] + (q0 * q0 + q1 * q1 + q2 * q2)) - (v0 * v0 + v1 * v1 + v2 * v2);
-    sxy[x] = (sxy[x] + (p0 * q0 + p1 * q1 + p2 * q2)) - (u0 * v0 + u1 * v1 + u2 * v2);
-  }
-}
-REPHOTO_ISA_DISPATCH(void, SlideBoxColumns,
-                     (const float* __restrict add, const float* __restrict sub, int w,
-                      double* __restrict cols),
-                     (add, sub, w, cols))
-
 // prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. The nine
 // independent chains are interleaved so the adds overlap.
 void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) {
@@ -301,7 +248,8 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
     if (y > c0) {
       load(y + r);
       if (box) {
-        SlideBoxColumns(slot(y + r), slot(y - r - 1), w, cols);
+        AccumulateBoxColumns(slot(y + r), w, 1.0, cols);
+        AccumulateBoxColumns(slot(y - r - 1), w, -1.0, cols);
       }
     }
     const uint8_t* ok = validity.Row(yi);
