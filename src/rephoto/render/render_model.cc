@@ -68,46 +68,132 @@ float IntersectLane(const RenderModel::PointGeometry& data, unsigned prim, RTCRa
   return IntersectDisc(data, prim, o, d, RTCRayN_tnear(ray, n, i), RTCRayN_tfar(ray, n, i), normal);
 }
 
-void PointIntersect(const RTCIntersectFunctionNArguments* args) {
-  const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
+// The disc of `prim` against kN lanes of a packet at once: IntersectDisc's operations in its
+// order, written out per component (Eigen sums a 3-vector's dot product and squared norm as
+// x + (y + z)), with tfar = infinity, so that a lane gets the same bits as IntersectDisc and
+// the loop vectorizes under each path's target (no contraction in this library). NaN = no hit.
+template <unsigned kN>
+[[gnu::always_inline]] inline void IntersectDiscLanes(const RenderModel::PointGeometry& data,
+                                                      unsigned prim, const float* ray,
+                                                      float* t_out) {
+  const float *ox = ray, *oy = ray + kN, *oz = ray + 2 * kN, *tnear = ray + 3 * kN;
+  const float *dx = ray + 4 * kN, *dy = ray + 5 * kN, *dz = ray + 6 * kN;
+  const Eigen::Vector3f& c = data.positions[prim];
+  const float cx = c.x(), cy = c.y(), cz = c.z();
+  const float r = data.radii[prim];
+  const float r2 = r * r;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  Eigen::Vector3f n = Eigen::Vector3f::Zero();
+  if (data.normals != nullptr) n = data.normals[prim];
+  const float nx = n.x(), ny = n.y(), nz = n.z();
+  if (nx * nx + (ny * ny + nz * nz) > 0) {
+    for (unsigned i = 0; i < kN; ++i) {
+      const float denom = dx[i] * nx + (dy[i] * ny + dz[i] * nz);
+      const float t = ((cx - ox[i]) * nx + ((cy - oy[i]) * ny + (cz - oz[i]) * nz)) / denom;
+      const float px = (ox[i] + t * dx[i]) - cx, py = (oy[i] + t * dy[i]) - cy,
+                  pz = (oz[i] + t * dz[i]) - cz;
+      const bool hit = !(std::abs(denom) < 1e-12f) && t > tnear[i] &&
+                       t < std::numeric_limits<float>::infinity() &&
+                       !(px * px + (py * py + pz * pz) > r2);
+      t_out[i] = hit ? t : nan;
+    }
+  } else {  // view-facing
+    for (unsigned i = 0; i < kN; ++i) {
+      const float t =
+          ((cx - ox[i]) * dx[i] + ((cy - oy[i]) * dy[i] + (cz - oz[i]) * dz[i])) /
+          (dx[i] * dx[i] + (dy[i] * dy[i] + dz[i] * dz[i]));
+      const float px = (ox[i] + t * dx[i]) - cx, py = (oy[i] + t * dy[i]) - cy,
+                  pz = (oz[i] + t * dz[i]) - cz;
+      const bool hit = t > tnear[i] && t < std::numeric_limits<float>::infinity() &&
+                       !(px * px + (py * py + pz * pz) > r2);
+      t_out[i] = hit ? t : nan;
+    }
+  }
+}
+
+// Lane i's hit t (NaN: none) against the lane's current best: the nearest disc; of discs at
+// exactly the same distance (coplanar discs, e.g. on a flat ground: their planes give the same
+// t for every ray) the one whose centre is nearest to the hit point, then the lowest index: the
+// same hit whatever order Embree's traversal (which differs between its ISA kernels and packet
+// widths) visits them in, and the disc that represents that point of the surface best.
+[[gnu::always_inline]] inline void DecideDiscLane(const RTCIntersectFunctionNArguments* args,
+                                                  const RenderModel::PointGeometry& data,
+                                                  unsigned i, float t) {
   const unsigned n = args->N;
   RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, n);
   RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, n);
-  for (unsigned i = 0; i < n; ++i) {
-    if (args->valid[i] == 0) continue;
+  const float tfar = RTCRayN_tfar(ray, n, i);
+  bool better = t < tfar;
+  if (!better && t == tfar && RTCHitN_geomID(hit, n, i) != RTC_INVALID_GEOMETRY_ID) {
     const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
                             RTCRayN_org_z(ray, n, i));
     const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
                             RTCRayN_dir_z(ray, n, i));
-    Eigen::Vector3f normal;
-    const float tfar = RTCRayN_tfar(ray, n, i);
-    const float t = IntersectDisc(*data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
-                                  std::numeric_limits<float>::infinity(), &normal);
-    // The nearest disc; of discs at exactly the same distance (coplanar discs, e.g. on a flat
-    // ground: their planes give the same t for every ray) the one whose centre is nearest to the
-    // hit point, then the lowest index: the same hit whatever order Embree's traversal (which
-    // differs between its ISA kernels and packet widths) visits them in, and the disc that
-    // represents that point of the surface best.
-    bool better = t < tfar;
-    if (!better && t == tfar && RTCHitN_geomID(hit, n, i) != RTC_INVALID_GEOMETRY_ID) {
-      const unsigned current = RTCHitN_primID(hit, n, i);
-      const Eigen::Vector3f point = o + t * d;
-      const float mine = (point - data->positions[args->primID]).squaredNorm();
-      const float theirs = (point - data->positions[current]).squaredNorm();
-      better = mine < theirs || (mine == theirs && args->primID < current);
-    }
-    if (!better) continue;
-    RTCRayN_tfar(ray, n, i) = t;
-    RTCHitN_Ng_x(hit, n, i) = normal.x();
-    RTCHitN_Ng_y(hit, n, i) = normal.y();
-    RTCHitN_Ng_z(hit, n, i) = normal.z();
-    RTCHitN_u(hit, n, i) = 0;
-    RTCHitN_v(hit, n, i) = 0;
-    RTCHitN_primID(hit, n, i) = args->primID;
-    RTCHitN_geomID(hit, n, i) = args->geomID;
-    RTCHitN_instID(hit, n, i, 0) = args->context->instID[0];
+    const unsigned current = RTCHitN_primID(hit, n, i);
+    const Eigen::Vector3f point = o + t * d;
+    const float mine = (point - data.positions[args->primID]).squaredNorm();
+    const float theirs = (point - data.positions[current]).squaredNorm();
+    better = mine < theirs || (mine == theirs && args->primID < current);
+  }
+  if (!better) return;
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+  if (data.normals != nullptr) normal = data.normals[args->primID];
+  if (!(normal.squaredNorm() > 0)) {
+    normal = -Eigen::Vector3f(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
+                              RTCRayN_dir_z(ray, n, i));
+  }
+  RTCRayN_tfar(ray, n, i) = t;
+  RTCHitN_Ng_x(hit, n, i) = normal.x();
+  RTCHitN_Ng_y(hit, n, i) = normal.y();
+  RTCHitN_Ng_z(hit, n, i) = normal.z();
+  RTCHitN_u(hit, n, i) = 0;
+  RTCHitN_v(hit, n, i) = 0;
+  RTCHitN_primID(hit, n, i) = args->primID;
+  RTCHitN_geomID(hit, n, i) = args->geomID;
+  RTCHitN_instID(hit, n, i, 0) = args->context->instID[0];
+}
+
+template <unsigned kN>
+[[gnu::always_inline]] inline void PointIntersectPacket(
+    const RTCIntersectFunctionNArguments* args) {
+  const auto& data = *static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
+  alignas(64) float t[kN];
+  IntersectDiscLanes<kN>(data, args->primID,
+                         reinterpret_cast<const float*>(RTCRayHitN_RayN(args->rayhit, kN)), t);
+  for (unsigned i = 0; i < kN; ++i) {
+    if (args->valid[i] != 0 && !std::isnan(t[i])) DecideDiscLane(args, data, i, t[i]);
   }
 }
+
+[[gnu::always_inline]] inline void PointIntersectBody(const RTCIntersectFunctionNArguments* args) {
+  switch (args->N) {
+    case 16:
+      return PointIntersectPacket<16>(args);
+    case 8:
+      return PointIntersectPacket<8>(args);
+    case 4:
+      return PointIntersectPacket<4>(args);
+    default:
+      break;
+  }
+  const auto& data = *static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
+  const unsigned n = args->N;
+  RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, n);
+  for (unsigned i = 0; i < n; ++i) {
+    if (args->valid[i] == 0) continue;
+    Eigen::Vector3f normal;
+    const Eigen::Vector3f o(RTCRayN_org_x(ray, n, i), RTCRayN_org_y(ray, n, i),
+                            RTCRayN_org_z(ray, n, i));
+    const Eigen::Vector3f d(RTCRayN_dir_x(ray, n, i), RTCRayN_dir_y(ray, n, i),
+                            RTCRayN_dir_z(ray, n, i));
+    const float t = IntersectDisc(data, args->primID, o, d, RTCRayN_tnear(ray, n, i),
+                                  std::numeric_limits<float>::infinity(), &normal);
+    if (!std::isnan(t)) DecideDiscLane(args, data, i, t);
+  }
+}
+
+// The intersect callback of the disc geometry, compiled for each instruction-set path.
+REPHOTO_ISA_DISPATCH(void, PointIntersect, (const RTCIntersectFunctionNArguments* args), (args))
 
 void PointOccluded(const RTCOccludedFunctionNArguments* args) {
   const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
