@@ -5,10 +5,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "rephoto/compare/compare.h"
+#include "rephoto/core/background_worker.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/degrade/degrade.h"
@@ -30,28 +33,6 @@ namespace {
 
 std::string Stem(const std::string& name) { return fs::path(name).stem().string(); }
 
-// Renders `model` at every view and writes RGBA PNGs named <stem>.png into `folder`.
-void RenderAll(const mesh::Mesh& model_mesh, const scene::Scene& scene, int samples_per_pixel,
-               const fs::path& folder, const std::string& task,
-               const std::function<void(size_t, const render::Rephoto&)>& also = {}) {
-  render::RenderModel model(model_mesh, {}, task);
-  render::RenderOptions options;
-  options.samples_per_pixel = samples_per_pixel;
-  render::Rephoto rephoto;
-  Progress progress(task, scene.views.size());
-  for (size_t i = 0; i < scene.views.size(); ++i) {
-    const scene::View& view = scene.views[i];
-    const auto rays = model.RaysFor(scene.CameraOf(view));
-    render::RenderRephoto(model, *rays, view.cam_from_world, options, &rephoto);
-    if (also) {
-      also(i, rephoto);
-    } else {
-      io::WritePng(folder / (Stem(view.name) + ".png"), rephoto.color);
-    }
-    progress.Advance(view.name);
-  }
-}
-
 mesh::Mesh PointCloudFrom(const mesh::Mesh& truth, size_t step) {
   mesh::Mesh cloud;
   for (size_t v = 0; v < truth.positions.size(); v += step) {
@@ -69,26 +50,44 @@ struct Recipe {
 };
 
 // Photos: the ground truth, finely anti-aliased, with exposure differences and sensor noise,
-// and the masks of what each photo shows of the scene.
+// and the masks of what each photo shows of the scene. A background thread writes each view's
+// two PNGs while the next view renders (PNG encoding is single-threaded); at most one view
+// waits to be written.
 void Photograph(const DemoOptions& options, const mesh::Mesh& truth, const scene::Scene& scene,
                 const fs::path& images_dir, const fs::path& masks_dir) {
+  const std::string task = "demo: photographing";
+  render::RenderModel model(truth, {}, task);
+  render::RenderOptions render_options;
+  render_options.samples_per_pixel = options.photo_samples_per_pixel;
   uint64_t state = options.scene.seed ^ 0xF070ULL;
-  RenderAll(truth, scene, options.photo_samples_per_pixel, images_dir, "demo: photographing",
-            [&](size_t i, const render::Rephoto& clean) {
-              const double gain =
-                  1.0 + options.max_exposure_change * (2 * degrade::UniformDouble(state) - 1);
-              const Image photo = synth::SimulatePhoto(clean.color, gain, options.noise_sigma,
-                                                       options.scene.seed * 1000 + i);
-              io::WritePng(images_dir / scene.views[i].name, photo);
-              // The user's mask of what the photo shows of the scene (not the empty sky), as
-              // people mask the sky or background of real photos: completeness then measures
-              // how much of the scene a reconstruction covers.
-              Mask mask(clean.color.width(), clean.color.height(), 1);
-              for (size_t p = 0; p < mask.pixel_count(); ++p) {
-                mask.data()[p] = clean.color.data()[4 * p + 3] >= 1.f ? 1 : 0;
-              }
-              io::WritePng(masks_dir / (Stem(scene.views[i].name) + ".png"), mask);
-            });
+  render::Rephoto clean;
+  Progress progress(task, scene.views.size());
+  BackgroundWorker writer;
+  std::future<void> written;
+  for (size_t i = 0; i < scene.views.size(); ++i) {
+    const scene::View& view = scene.views[i];
+    render::RenderRephoto(model, *model.RaysFor(scene.CameraOf(view)), view.cam_from_world,
+                          render_options, &clean);
+    const double gain =
+        1.0 + options.max_exposure_change * (2 * degrade::UniformDouble(state) - 1);
+    auto photo = std::make_shared<Image>(synth::SimulatePhoto(
+        clean.color, gain, options.noise_sigma, options.scene.seed * 1000 + i));
+    // The user's mask of what the photo shows of the scene (not the empty sky), as people mask
+    // the sky or background of real photos: completeness then measures how much of the scene a
+    // reconstruction covers.
+    auto mask = std::make_shared<Mask>(clean.color.width(), clean.color.height(), 1);
+    for (size_t p = 0; p < mask->pixel_count(); ++p) {
+      mask->data()[p] = clean.color.data()[4 * p + 3] >= 1.f ? 1 : 0;
+    }
+    if (written.valid()) written.get();  // rethrows a failed write
+    written = writer.Submit([photo, mask, image_path = images_dir / view.name,
+                             mask_path = masks_dir / (Stem(view.name) + ".png")] {
+      io::WritePng(image_path, *photo);
+      io::WritePng(mask_path, *mask);
+    });
+    progress.Advance(view.name);
+  }
+  if (written.valid()) written.get();
 }
 
 // The six reconstructions the demo ranks, each made from the ground truth.
