@@ -56,7 +56,7 @@ def gaussian_model(tmp_path_factory):
     names = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
              "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
     extent = np.percentile(positions, 95, axis=0) - np.percentile(positions, 5, axis=0)
-    log_scale = np.log(0.004 * np.linalg.norm(extent))
+    log_scale = np.log(0.012 * np.linalg.norm(extent))
     rows = np.zeros((len(positions), len(names)), dtype="<f4")
     rows[:, 0:3] = positions
     rows[:, 6:9] = (colours - 0.5) / SH_C0
