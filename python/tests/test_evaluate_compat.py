@@ -135,7 +135,7 @@ def test_evaluate_compat_nerfstudio_from_python(gaussian_model, tmp_path):
     definitions (torchmetrics: reflect padding, 10 log10(1/MSE)) and ns-eval's output.json."""
     out = tmp_path / "ns"
     run = rephoto.evaluate(compat="nerfstudio", scene=SCENE, image_root=IMAGES,
-                           model=gaussian_model, background="1,1,1", metrics=["1-ncc"], out=out)
+                           model=gaussian_model, background=(1, 1, 1), metrics=["1-ncc"], out=out)
     renders = out / "folds" / "fold_00" / "renders"
     psnrs, ssims = [], []
     for stem in ("image000", "image008", "image016"):

@@ -27,7 +27,11 @@ std::string ResultText(const EvaluateResult& result, const fs::path& out) {
   text += run::FormatSummaryTable("", "fold mean", rows);
   if (!result.compat_text.empty()) {
     // The published numbers (--compat), as the reference prints them.
-    text += "\n" + result.compat_text;
+    text += fmt::format("\nWhole-image numbers as papers publish them ({}):\n{}",
+                        result.compat_text.rfind("Scene: ", 0) == 0
+                            ? "graphdeco's metrics.py: results.json, per_view.json"
+                            : "nerfstudio's ns-eval: output.json",
+                        result.compat_text);
   }
   for (const FoldResult& fold : result.folds) {
     if (!fold.ok) text += fmt::format("failed: {}\n", fold.message);

@@ -70,7 +70,7 @@ const std::vector<SettingInfo>& Settings() {
        "their own files (results.json, per_view.json / output.json); default split every:8 "
        "(none = off)"},
       {"compat-metrics", SettingType::kMetricList,
-       "The --compat preset's metrics to compute (psnr,ssim; default: the preset's)"},
+       "The --compat preset's metrics to compute, among psnr,ssim"},
       {"window", SettingType::kInt, "Window side of 1-ncc, zssd, census and completeness (odd)"},
       {"ssim-mode", SettingType::kString,
        "SSIM/DSSIM window: gaussian (11x11, sigma 1.5) or skimage (7x7 uniform)"},
@@ -368,7 +368,14 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     }
     o->gaussian_mode = *mode;
   } else if (n == "background") {
-    const Eigen::Vector3f rgb = splat::ParseBackground(AsString(value, source), source);
+    // "R,G,B", or a list of three numbers (a config array, a Python tuple).
+    std::string text;
+    if (const auto* items = std::get_if<std::vector<std::string>>(&value)) {
+      for (const std::string& item : *items) text += (text.empty() ? "" : ",") + item;
+    } else {
+      text = AsString(value, source);
+    }
+    const Eigen::Vector3f rgb = splat::ParseBackground(text, source);
     o->background = {rgb[0], rgb[1], rgb[2]};
   } else if (n == "min-alpha") {
     const double min_alpha = AsDouble(value, source);
