@@ -31,7 +31,8 @@
 //                    fps) are not written: they time nerfstudio's renderer.
 // Means are of the per-image values (PSNR: the mean of the images' PSNRs), as both references
 // compute them. Values are doubles (the references compute in float32 on the GPU: they differ
-// in about the 6th decimal); a value without a number (PSNR of identical images) is null.
+// in about the 6th decimal); an infinite value (the PSNR of an identical image) is "inf", a
+// missing one (the std of one image) null, where Python writes Infinity and NaN.
 // Without --compat these files are removed from the run folder (they would describe an earlier
 // run).
 //
