@@ -116,8 +116,8 @@ def test_evaluate_compat_3dgs_writes_what_metrics_py_prints(gaussian_model, tmp_
     run = rephoto.load_run(out)
     assert [r["name"] for r in run.per_image] == ["image000", "image008", "image016"]
     for row, s, p in zip(run.per_image, ssims, psnrs):
-        assert float(row["3dgs_ssim"]) == pytest.approx(s, abs=1e-9)
-        assert float(row["3dgs_psnr"]) == pytest.approx(p, abs=1e-7)
+        assert row["3dgs_ssim"] == pytest.approx(s, abs=1e-9)
+        assert row["3dgs_psnr"] == pytest.approx(p, abs=1e-7)
         assert 0 < row["completeness"] <= 1 and np.isfinite(row["1-ncc"])
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scheme"] == "every:8"
@@ -151,7 +151,7 @@ def test_evaluate_compat_nerfstudio_from_python(gaussian_model, tmp_path):
     assert results["psnr_std"] == pytest.approx(np.std(psnrs, ddof=1), abs=1e-7)
     assert results["ssim"] == pytest.approx(np.mean(ssims), abs=1e-9)
     assert results["ssim_std"] == pytest.approx(np.std(ssims, ddof=1), abs=1e-9)
-    assert [float(r["nerfstudio_psnr"]) for r in run.per_image] == pytest.approx(psnrs, abs=1e-7)
+    assert [r["nerfstudio_psnr"] for r in run.per_image] == pytest.approx(psnrs, abs=1e-7)
     assert not (out / "results.json").exists()
     # A rerun without --compat leaves no reference file of the earlier run behind.
     rephoto.evaluate(scene=SCENE, image_root=IMAGES, model=gaussian_model, scheme="every:8",
