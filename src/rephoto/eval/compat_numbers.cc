@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
+#include <string_view>
 #include <utility>
 
 #include "rephoto/core/file.h"
@@ -29,6 +30,12 @@ std::string UpperName(metrics::Metric metric) {
   std::string name(metrics::MetricName(metric));
   for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return name;
+}
+
+bool AllDigits(std::string_view text) {
+  return !text.empty() && std::all_of(text.begin(), text.end(), [](char c) {
+    return std::isdigit(static_cast<unsigned char>(c)) != 0;
+  });
 }
 
 // Sample standard deviation (n - 1), NaN with fewer than two values.
@@ -57,7 +64,8 @@ std::vector<size_t> GraphdecoOrder(const std::vector<metrics::Metric>& list) {
     const std::string name(metrics::MetricName(list[k]));
     return name == "ssim" ? 0 : name == "psnr" ? 1 : name == "lpips" ? 2 : 3;
   };
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return rank(a) < rank(b); });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return rank(a) < rank(b); });
   return order;
 }
 
@@ -68,8 +76,7 @@ std::string SceneFolderName(const EvaluateOptions& o) {
   std::string name = folder.filename().string();
   // "scene/sparse" or "scene/sparse/0": the scene is the folder above COLMAP's.
   fs::path up = folder;
-  while ((name == "sparse" || (!name.empty() && std::all_of(name.begin(), name.end(), ::isdigit))) &&
-         up.has_parent_path() && up.parent_path() != up) {
+  while ((name == "sparse" || AllDigits(name)) && up.has_parent_path() && up.parent_path() != up) {
     up = up.parent_path();
     name = up.filename().string();
   }
@@ -92,8 +99,8 @@ compare::CompareOptions CompatCompareSettings(const EvaluateOptions& o) {
 std::vector<compare::MetricValue> CompareViewCompat(const EvaluateOptions& options,
                                                     const std::string& stem,
                                                     const fs::path& photo_path,
-                                                    const fs::path& render_path,
-                                                    const Image& photo, const Image& render,
+                                                    const fs::path& render_path, const Image& photo,
+                                                    const Image& render,
                                                     compare::CompareWorkspace* workspace) {
   const compare::CompareOptions settings = CompatCompareSettings(options);
   compare::ImageResult result =
@@ -106,8 +113,8 @@ std::vector<std::string> CompatColumns(const EvaluateOptions& o) {
   std::vector<std::string> columns;
   if (!o.compat) return columns;
   for (metrics::Metric m : CompatMetrics(o)) {
-    columns.push_back(fmt::format("{}_{}", metrics::CompatPresetName(*o.compat),
-                                  metrics::MetricName(m)));
+    columns.push_back(
+        fmt::format("{}_{}", metrics::CompatPresetName(*o.compat), metrics::MetricName(m)));
   }
   return columns;
 }
@@ -116,8 +123,7 @@ std::string CompatMethodName(const EvaluateOptions& o) {
   if (o.source() == ModelSource::kModel && !o.model.empty()) {
     const std::string folder = o.model.parent_path().filename().string();
     const std::string prefix = "iteration_";
-    if (folder.size() > prefix.size() && folder.rfind(prefix, 0) == 0 &&
-        std::all_of(folder.begin() + prefix.size(), folder.end(), ::isdigit)) {
+    if (folder.rfind(prefix, 0) == 0 && AllDigits(std::string_view(folder).substr(prefix.size()))) {
       return "ours_" + folder.substr(prefix.size());
     }
   }
@@ -145,8 +151,8 @@ nlohmann::ordered_json WriteCompatNumbers(const RunContext& s, const std::vector
     for (const ViewOutcome& view : folds[f].views) {
       if (!view.ok || view.compat.size() != list.size()) continue;
       const std::string extension = fs::path(view.image.render).extension().string();
-      views.push_back({view.stem, view.stem + (extension.empty() ? ".png" : extension),
-                       &view.compat});
+      views.push_back(
+          {view.stem, view.stem + (extension.empty() ? ".png" : extension), &view.compat});
     }
   }
   std::sort(views.begin(), views.end(),
@@ -191,7 +197,8 @@ nlohmann::ordered_json WriteCompatNumbers(const RunContext& s, const std::vector
     WriteTextFileAtomically(s.run / "metrics.txt", text);
     std::error_code ec;
     fs::remove(s.run / "output.json", ec);
-    files = {{"results", "results.json"}, {"per_view", "per_view.json"}, {"printed", "metrics.txt"}};
+    files = {
+        {"results", "results.json"}, {"per_view", "per_view.json"}, {"printed", "metrics.txt"}};
     result->compat_text = text;
   } else {
     Json results = Json::object();

@@ -19,10 +19,10 @@
 #include "rephoto/eval/evaluate_fixture.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/io/csv.h"
-#include "rephoto/metrics/compat.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
+#include "rephoto/metrics/compat.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/splat/gaussians.h"
@@ -509,10 +509,10 @@ TEST(EvaluateTest, CompatPresetAddsThePublishedNumbersBesideRephotosOwn) {
   const nlohmann::json results = ReadJson(dir / "run/results.json");
   EXPECT_NEAR(results["rephoto"]["PSNR"].get<double>(), mean_psnr, 1e-12);
   EXPECT_NEAR(results["rephoto"]["SSIM"].get<double>(), mean_ssim, 1e-12);
-  EXPECT_EQ(ReadFileToString(dir / "run/metrics.txt"),
-            fmt::format("Scene: {}\nMethod: rephoto\n  SSIM : {:>12.7f}\n  PSNR : {:>12.7f}\n\n",
-                        fs::absolute(dir / "run").lexically_normal().string(), mean_ssim,
-                        mean_psnr));
+  EXPECT_EQ(
+      ReadFileToString(dir / "run/metrics.txt"),
+      fmt::format("Scene: {}\nMethod: rephoto\n  SSIM : {:>12.7f}\n  PSNR : {:>12.7f}\n\n",
+                  fs::absolute(dir / "run").lexically_normal().string(), mean_ssim, mean_psnr));
   ASSERT_EQ(result.compat.size(), 2u);
   EXPECT_NEAR(result.compat[0].over_images.mean, mean_psnr, 1e-12);
   double var = 0;
@@ -535,7 +535,8 @@ TEST(EvaluateTest, CompatPresetAddsThePublishedNumbersBesideRephotosOwn) {
   EXPECT_EQ(ns.counters.views_rendered, 0u);
   EXPECT_FALSE(fs::exists(dir / "run/results.json"));
   const nlohmann::json output = ReadJson(dir / "run/output.json");
-  EXPECT_EQ(output["results"].size(), 4u);  // psnr, psnr_std, ssim, ssim_std
+  // psnr, psnr_std, ssim, ssim_std
+  EXPECT_EQ(output["results"].size(), 4u);
   EXPECT_NE(output["results"]["ssim"].get<double>(), mean_ssim);  // reflect, not zero padding
   EXPECT_EQ(ReadCsv(dir / "run/per_image.csv")[0].back(), "nerfstudio_ssim");
 }
