@@ -66,6 +66,9 @@ TaskSpec ParseTaskSpec(std::string_view text) {
   return task;
 }
 
+// The one place a run's compat metric list is decided: the compare stage (CompatCompareSettings),
+// the view records, the tables and the reference files all take it from here, so a preset that
+// gains a metric (LPIPS with --lpips-weights) flows through every output.
 std::vector<metrics::Metric> CompatMetrics(const EvaluateOptions& options) {
   if (!options.compat) return {};
   if (!options.compat_metrics.empty()) return options.compat_metrics;
