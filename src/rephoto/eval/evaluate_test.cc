@@ -17,6 +17,7 @@
 #include "rephoto/core/file.h"
 #include "rephoto/eval/command_template.h"
 #include "rephoto/eval/evaluate_fixture.h"
+#include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
@@ -523,6 +524,10 @@ TEST(EvaluateTest, CompatPresetAddsThePublishedNumbersBesideRephotosOwn) {
   EXPECT_EQ(summary["compat"]["images"], 3);
   EXPECT_EQ(summary["files"]["per_view"], "per_view.json");
   EXPECT_TRUE(summary["metrics"].contains("1-ncc"));  // rephoto's own, masked, beside them
+
+  // What the CLI prints after a Slurm run, read back from the run folder: the same lines.
+  EXPECT_EQ(ReadEvaluateResult(dir / "run").compat_text, result.compat_text);
+  EXPECT_THAT(ResultText(result, dir / "run"), HasSubstr(result.compat_text));
 
   // A rerun reuses every view with its compat values.
   const EvaluateResult again = RunEvaluate(o);
