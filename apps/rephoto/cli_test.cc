@@ -312,6 +312,29 @@ size_t Count(const std::string& text, const std::string& what) {
   return n;
 }
 
+// issue 30: `evaluate --compat 3dgs` is accepted (it was "arguments were not expected") and
+// prints the numbers as graphdeco's metrics.py does, after rephoto's own table; a bad preset is
+// one line.
+TEST(Cli, EvaluateCompatPrintsThePublishedNumbers) {
+  const fs::path dir = testing::MakeTempDir();
+  const std::string scene = "--scene '" + (DemoScene() / "sparse").string() + "' --model '" +
+                            (DemoScene() / "truth.ply").string() + "'";
+  const Outcome ok =
+      RunCli("evaluate " + scene + " --compat 3dgs --metrics 1-ncc --no-report --out '" +
+             (dir / "run").string() + "'");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_THAT(ok.out, HasSubstr("1-ncc"));
+  EXPECT_THAT(ok.out, HasSubstr("\nMethod: rephoto\n  SSIM : "));
+  EXPECT_THAT(ok.out, HasSubstr("\n  PSNR : "));
+  EXPECT_EQ(Count(ok.out, "Scene: "), 1u);
+  EXPECT_TRUE(fs::is_regular_file(dir / "run/results.json"));
+  EXPECT_THAT(ReadFileToString(dir / "run/per_image.csv"), HasSubstr(",3dgs_psnr,3dgs_ssim\n"));
+  const Outcome bad =
+      RunCli("evaluate " + scene + " --compat mip --out '" + (dir / "bad").string() + "'");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("--compat: 'mip' is not 3dgs, nerfstudio or none"));
+}
+
 // issue 21: rephoto geometry's outputs, and one-line errors for a missing reference or a bad
 // tolerance list.
 TEST(Cli, GeometryWritesItsOutputsAndRefusesBadInputInOneLine) {

@@ -75,6 +75,8 @@ CommandRunner SetupEvaluate(CLI::App& app) {
     std::string default_text;
     if (info.name == "metrics") {
       default_text = "all";
+    } else if (info.name == "compat-metrics") {
+      default_text = "the preset's: psnr,ssim";
     } else if (value.is_string()) {
       default_text = value.get<std::string>();
     } else {

@@ -214,5 +214,13 @@ def evaluate(**options: Any) -> Run:
     scheme="kfold:5", out="runs/a", metrics=["1-ncc", "psnr"], colorize=True``; ``config=`` reads
     a TOML/JSON config file first (flags override it, as on the command line). See
     ``rephoto evaluate --help`` for every setting. Returns :func:`load_run` of ``out``.
+
+    The numbers papers publish, in one call (as ``rephoto evaluate --compat``):
+    ``evaluate(scene=..., model=".../point_cloud/iteration_30000/point_cloud.ply",
+    compat="3dgs", out=...)`` splits every:8 (3DGS's llffhold), computes whole-image PSNR/SSIM as
+    graphdeco's metrics.py does (``compat="nerfstudio"``: as ns-eval) beside rephoto's masked
+    metrics, and writes ``results.json``/``per_view.json`` (``output.json``) into ``out``; the
+    run's ``per_image`` rows hold them as ``3dgs_psnr``, ``3dgs_ssim``. ``background=(1, 1, 1)``
+    for models trained on white.
     """
     return load_run(_rephoto.evaluate(**options))

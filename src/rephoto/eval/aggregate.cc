@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "rephoto/core/file.h"
+#include "rephoto/eval/compat_numbers.h"
 #include "rephoto/eval/run_records.h"
 #include "rephoto/io/csv.h"
 
@@ -29,6 +30,7 @@ Tables StartTables(const EvaluateOptions& o) {
   Tables t;
   std::vector<std::string> header = {"fold"};
   for (std::string& column : compare::PerImageCsvHeader(o.metrics)) header.push_back(column);
+  for (std::string& column : CompatColumns(o)) header.push_back(column);
   t.per_image.AddRow(header);
   t.per_image_columns = header.size();
   std::vector<std::string> fold_header = {"fold", "status", "test_images", "evaluated_images",
@@ -63,6 +65,9 @@ FoldResult AggregateFold(const RunContext& ctx, const FoldPlan& plan, const Fold
       // The photo by its scene name (relative to the scene's image root), not by a path into
       // this run's cache: two runs of the same inputs give byte-identical tables.
       row[3] = test.name;
+      for (const compare::MetricValue& value : outcome->compat) {
+        row.push_back(io::CsvNumber(value.mean));
+      }
       completeness.push_back(outcome->image.completeness.value);
       for (size_t k = 0; k < metric_count; ++k) means[k].push_back(outcome->image.metrics[k].mean);
       t.all_images.push_back(outcome->image);
@@ -193,7 +198,13 @@ void Aggregate(const RunContext& s, const std::vector<FoldPlan>& plans,
   }
   WriteTextFileAtomically(s.run / "per_image.csv", t.per_image.text());
   WriteTextFileAtomically(s.run / "per_fold.csv", t.per_fold.text());
-  run::WriteJsonRecord(s.run / "summary.json", SummaryJson(s, plans.size(), t, *result));
+  Json summary = SummaryJson(s, plans.size(), t, *result);
+  const Json compat = WriteCompatNumbers(s, plans, folds, result);
+  if (!compat.is_null()) {
+    summary["compat"] = compat;
+    for (const auto& [key, file] : compat.at("files").items()) summary["files"][key] = file;
+  }
+  run::WriteJsonRecord(s.run / "summary.json", summary);
   tally.AddSeconds(&EvaluateTimings::aggregate, Seconds(start));
 }
 

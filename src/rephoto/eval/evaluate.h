@@ -39,9 +39,10 @@
 // (stdout and stderr of the command). The run then returns ExitCode::kIncomplete and lists
 // the failed folds in summary.json and per_fold.csv.
 //
-// Split scheme: split/split.h syntax. Default: "none" for a model alone without colorize (all
-// photos are test photos of the one model: a fit error, paper 4.4), otherwise "kfold:5" (or
-// "loo" when there are fewer than 5 photos).
+// Split scheme: split/split.h syntax. Default: "every:8" with a --compat preset (the test views
+// of published tables), else "none" for a model alone without colorize (all photos are test
+// photos of the one model: a fit error, paper 4.4), otherwise "kfold:5" (or "loo" when there
+// are fewer than 5 photos).
 //
 // Photos missing on disk (a view whose image file does not exist) are left out of the split:
 // they can neither train nor be compared. They are listed as warnings, in run.json and in
@@ -114,6 +115,10 @@
 //                  (project::ProjectErrors; one model for all folds, else per fold
 //                  fold_XX.<metric>.ply when there are several), mesh and point models only.
 //   report.html    report::WriteRunReport of the run directory.
+//   results.json, per_view.json, metrics.txt (--compat 3dgs) or output.json (--compat
+//                  nerfstudio): the numbers papers publish, in the reference tool's own format,
+//                  beside per_image.csv's <preset>_<metric> columns and summary.json "compat"
+//                  (eval/compat_numbers.h).
 //   cache/         file hashes and downscaled photos (safe to delete: only costs time; a sweep
 //                  shares SWEEP/cache among its settings instead, EvaluateOptions::cache_dir).
 // Outputs of an earlier run with another split (folds, test views) are removed.

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -15,11 +17,13 @@
 #include "rephoto/core/file.h"
 #include "rephoto/eval/command_template.h"
 #include "rephoto/eval/evaluate_fixture.h"
+#include "rephoto/eval/result_text.h"
 #include "rephoto/eval/settings.h"
 #include "rephoto/io/csv.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
 #include "rephoto/mesh/read_mesh.h"
+#include "rephoto/metrics/compat.h"
 #include "rephoto/render/render.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/splat/gaussians.h"
@@ -454,6 +458,92 @@ TEST(EvaluateTest, GaussianSplattingModelsAreRenderedComparedAndProjected) {
   EXPECT_EQ(forced_result.exit_code, ExitCode::kIncomplete);
   EXPECT_THAT(forced_result.folds[0].message,
               HasSubstr("truth.ply: PLY vertices have no Gaussian properties"));
+}
+
+// issue 30: `evaluate --compat 3dgs` on a Gaussian model: the default split every:8, the preset's
+// values from the PNG written and the photo (composited over the training background), in
+// per_image.csv, the view records, summary.json and metrics.py's files; a rerun reuses them and
+// another preset recomputes the values from the same renderings.
+TEST(EvaluateTest, CompatPresetAddsThePublishedNumbersBesideRephotosOwn) {
+  const fs::path dir = testing::MakeTempDir();
+  splat::WriteInriaPly(dir / "point_cloud.ply", GaussiansOfTheTruth());
+  EvaluateOptions o = BaseOptions(dir / "run");
+  o.model = dir / "point_cloud.ply";
+  o.compat = metrics::CompatPreset::k3dgs;
+  o.background = {1, 1, 1};
+  const EvaluateResult first = RunEvaluate(o);
+  ASSERT_EQ(first.exit_code, ExitCode::kOk);
+  EXPECT_EQ(ReadJson(dir / "run/summary.json")["scheme"], "every:8");
+  EXPECT_EQ(first.images, 1u);  // 6 photos: index 0 only
+
+  o.scheme = "every:2";  // three test views: image 0, 2, 4 by name
+  const EvaluateResult result = RunEvaluate(o);
+  ASSERT_EQ(result.exit_code, ExitCode::kOk);
+  ASSERT_EQ(result.evaluated_images, 3u);
+  std::vector<scene::View> views = Files().scene.views;
+  std::sort(views.begin(), views.end(),
+            [](const scene::View& a, const scene::View& b) { return a.name < b.name; });
+  std::vector<double> psnr, ssim;
+  const auto rows = ReadCsv(dir / "run/per_image.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  ASSERT_EQ(rows[0][rows[0].size() - 2], "3dgs_psnr");
+  ASSERT_EQ(rows[0].back(), "3dgs_ssim");
+  const nlohmann::json per_view = ReadJson(dir / "run/per_view.json");
+  for (size_t i = 0; i < 3; ++i) {
+    const std::string stem = fs::path(views[2 * i].name).stem().string();
+    const fs::path rendered = dir / "run/folds/fold_00/renders" / (stem + ".png");
+    const fs::path photo = views[2 * i].image_path;
+    const metrics::CompatResult expected = metrics::ComputeCompatMetrics(
+        metrics::CompatPreset::k3dgs,
+        metrics::CompositeOverBackground(io::ReadImage(photo), o.background),
+        io::ReadImage(rendered));
+    psnr.push_back(expected.psnr);
+    ssim.push_back(expected.ssim);
+    EXPECT_EQ(rows[i + 1][1], stem);
+    EXPECT_EQ(rows[i + 1][rows[0].size() - 2], io::CsvNumber(expected.psnr));
+    EXPECT_EQ(rows[i + 1].back(), io::CsvNumber(expected.ssim));
+    EXPECT_DOUBLE_EQ(per_view["rephoto"]["PSNR"][stem + ".png"].get<double>(), expected.psnr);
+    EXPECT_DOUBLE_EQ(per_view["rephoto"]["SSIM"][stem + ".png"].get<double>(), expected.ssim);
+  }
+  const double mean_psnr = (psnr[0] + psnr[1] + psnr[2]) / 3;
+  const double mean_ssim = (ssim[0] + ssim[1] + ssim[2]) / 3;
+  const nlohmann::json results = ReadJson(dir / "run/results.json");
+  EXPECT_NEAR(results["rephoto"]["PSNR"].get<double>(), mean_psnr, 1e-12);
+  EXPECT_NEAR(results["rephoto"]["SSIM"].get<double>(), mean_ssim, 1e-12);
+  EXPECT_EQ(
+      ReadFileToString(dir / "run/metrics.txt"),
+      fmt::format("Scene: {}\nMethod: rephoto\n  SSIM : {:>12.7f}\n  PSNR : {:>12.7f}\n\n",
+                  fs::absolute(dir / "run").lexically_normal().string(), mean_ssim, mean_psnr));
+  ASSERT_EQ(result.compat.size(), 2u);
+  EXPECT_NEAR(result.compat[0].over_images.mean, mean_psnr, 1e-12);
+  double var = 0;
+  for (double v : psnr) var += (v - mean_psnr) * (v - mean_psnr) / 2;
+  EXPECT_NEAR(result.compat[0].std, std::sqrt(var), 1e-12);
+  const nlohmann::json summary = ReadJson(dir / "run/summary.json");
+  EXPECT_EQ(summary["compat"]["preset"], "3dgs");
+  EXPECT_EQ(summary["compat"]["images"], 3);
+  EXPECT_EQ(summary["files"]["per_view"], "per_view.json");
+  EXPECT_TRUE(summary["metrics"].contains("1-ncc"));  // rephoto's own, masked, beside them
+
+  // What the CLI prints after a Slurm run, read back from the run folder: the same lines.
+  EXPECT_EQ(ReadEvaluateResult(dir / "run").compat_text, result.compat_text);
+  EXPECT_THAT(ResultText(result, dir / "run"), HasSubstr(result.compat_text));
+
+  // A rerun reuses every view with its compat values.
+  const EvaluateResult again = RunEvaluate(o);
+  EXPECT_EQ(again.counters.views_reused, 3u);
+  EXPECT_EQ(ReadJson(dir / "run/results.json"), results);
+  // Another preset: the views are compared again from the renderings on disk.
+  o.compat = metrics::CompatPreset::kNerfstudio;
+  const EvaluateResult ns = RunEvaluate(o);
+  EXPECT_EQ(ns.counters.views_reused, 0u);
+  EXPECT_EQ(ns.counters.views_rendered, 0u);
+  EXPECT_FALSE(fs::exists(dir / "run/results.json"));
+  const nlohmann::json output = ReadJson(dir / "run/output.json");
+  // psnr, psnr_std, ssim, ssim_std
+  EXPECT_EQ(output["results"].size(), 4u);
+  EXPECT_NE(output["results"]["ssim"].get<double>(), mean_ssim);  // reflect, not zero padding
+  EXPECT_EQ(ReadCsv(dir / "run/per_image.csv")[0].back(), "nerfstudio_ssim");
 }
 
 TEST(EvaluateTest, ReconstructCommandGetsQuotedPlaceholdersAndIsResumed) {

@@ -51,6 +51,11 @@ std::string CompareSettingsKey(const EvaluateOptions& o) {
     h.Add("error-image-metrics");
     for (metrics::Metric m : error_images) h.Add(metrics::MetricName(m));
   }
+  if (o.compat) {  // (absent otherwise: the keys of runs made before --compat stay valid)
+    h.Add("compat").Add(metrics::CompatPresetName(*o.compat));
+    for (metrics::Metric m : CompatMetrics(o)) h.Add(metrics::MetricName(m));
+    for (float c : o.background) h.AddDouble(c);
+  }
   h.Add(compare::ToolVersion());
   return h.Hex();
 }

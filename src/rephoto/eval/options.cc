@@ -4,6 +4,7 @@
 #include <charconv>
 
 #include "rephoto/compare/compare.h"
+#include "rephoto/compare/compat_compare.h"
 #include "rephoto/eval/command_template.h"
 #include "rephoto/split/split.h"
 
@@ -65,6 +66,15 @@ TaskSpec ParseTaskSpec(std::string_view text) {
   return task;
 }
 
+// The one place a run's compat metric list is decided: the compare stage (CompatCompareSettings),
+// the view records, the tables and the reference files all take it from here, so a preset that
+// gains a metric (LPIPS with --lpips-weights) flows through every output.
+std::vector<metrics::Metric> CompatMetrics(const EvaluateOptions& options) {
+  if (!options.compat) return {};
+  if (!options.compat_metrics.empty()) return options.compat_metrics;
+  return {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+}
+
 const std::vector<std::string>& CommandPlaceholders() {
   static const std::vector<std::string> names = {
       "train",       "sparse",          "transforms", "images", "train_list", "test",
@@ -74,6 +84,8 @@ const std::vector<std::string>& CommandPlaceholders() {
 
 std::string ResolvedScheme(const EvaluateOptions& options, size_t photo_count) {
   if (!options.scheme.empty()) return options.scheme;
+  // 3DGS's llffhold 8 and nerfstudio's eval_interval 8: the test sets of published tables.
+  if (options.compat) return "every:8";
   if (options.source() == ModelSource::kModel && !options.colorize && !options.texture) {
     return "none";
   }
@@ -148,6 +160,17 @@ void EvaluateOptions::Check() const {
     throw UsageError("evaluate: counts and sizes must not be negative");
   }
   if (metrics.empty()) throw UsageError("evaluate: no metric selected");
+  if (!compat && !compat_metrics.empty()) {
+    throw UsageError("evaluate: --compat-metrics needs a --compat preset (3dgs, nerfstudio)");
+  }
+  if (compat) {
+    compare::CheckCompatMetrics(*compat, CompatMetrics(*this));
+    if (resize) {
+      throw UsageError(
+          "evaluate: --compat compares each rendering at its photo's size, as the reference "
+          "scripts do; --resize does not apply");
+    }
+  }
   if (error_image_metrics && *error_image_metrics != metrics::AllMetrics()) {
     for (metrics::Metric m : *error_image_metrics) {
       if (std::find(metrics.begin(), metrics.end(), m) == metrics.end()) {

@@ -19,6 +19,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/degrade/degrade.h"
+#include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/metrics/validity.h"
 #include "rephoto/render/view_renderer.h"
@@ -94,6 +95,18 @@ struct EvaluateOptions {
   // the same samples, which gives the same values. Off by default.
   bool depth_images = false;
 
+  // ---- the numbers papers publish (`--compat`, eval/compat_numbers.h)
+  // With a preset, every evaluated view is also compared as the field's evaluation script does
+  // (compare::CompareOptions::compat: whole image, no masks; photos with alpha composited over
+  // `background`, the training background), beside rephoto's own masked `metrics`: the
+  // per_image.csv columns <preset>_<metric>, summary.json "compat" and the reference's own
+  // files (3dgs: results.json, per_view.json and metrics.txt as graphdeco's metrics.py writes
+  // and prints them; nerfstudio: output.json as ns-eval writes it). The default split becomes
+  // every:8 (llffhold 8, ResolvedScheme).
+  std::optional<metrics::CompatPreset> compat;
+  // The preset's metrics to compute (CompatMetrics: empty = the preset's default).
+  std::vector<metrics::Metric> compat_metrics;
+
   // ---- built-in rendering (as `rephoto render`)
   int samples_per_pixel = 4;
   bool backfaces = true;
@@ -105,7 +118,9 @@ struct EvaluateOptions {
   // `background` (RGB in [0, 1]; 3DGS trains black or white). Completeness counts the pixels
   // whose alpha (1 - transmittance) reaches `min_alpha`: a splat's soft edge covers a pixel
   // only partly, and 0.5 counts a pixel as the model's when the model makes most of its colour.
-  // Not with --colorize or defects (they change meshes).
+  // Not with --colorize or defects (they change meshes). `background` is also what --compat
+  // composites photos with alpha over (the reference scripts composite over the training
+  // background), for any model source.
   splat::GaussianMode gaussian_mode = splat::GaussianMode::kClassic;  // "classic", "antialiased"
   std::array<float, 3> background = {0, 0, 0};
   double min_alpha = 0.5;
@@ -213,12 +228,25 @@ struct EvaluateTimings {
   }
 };
 
+// One metric of the --compat preset over the evaluated views, as the reference reports it: the
+// mean of the per-image values (PSNR: of the images' PSNRs, not of a pooled MSE) and their
+// sample standard deviation (n - 1, torch.std_mean's default; NaN with fewer than 2 images).
+struct CompatAggregate {
+  metrics::Metric metric = metrics::Metric::kPsnr;
+  Summary over_images;
+  double std = 0;
+};
+
 struct EvaluateResult {
   std::vector<FoldResult> folds;
   std::vector<std::string> missing_photos;  // view names whose photo does not exist
   Summary completeness_across_folds;
   Summary completeness_over_images;
   std::vector<MetricAggregate> metrics;  // in EvaluateOptions::metrics order
+  // With EvaluateOptions::compat: its metrics (CompatMetrics order) and the lines the
+  // reference prints (3dgs: metrics.py's "  SSIM : ..." block; nerfstudio: the results).
+  std::vector<CompatAggregate> compat;
+  std::string compat_text;
   EvaluateCounters counters;
   EvaluateTimings timings;
   size_t images = 0;                   // test images over all folds
@@ -260,7 +288,8 @@ struct EvaluatePlan {
 };
 
 // The split scheme a run uses: options.scheme, or the default described above for
-// `photo_count` photos on disk.
+// `photo_count` photos on disk ("every:8" with a --compat preset: 3DGS's llffhold and
+// nerfstudio's eval_interval).
 std::string ResolvedScheme(const EvaluateOptions& options, size_t photo_count);
 
 // The --only task `text` ("fold:F", "views:F:FIRST:COUNT", "aggregate") parsed; throws
@@ -277,6 +306,10 @@ std::string_view GaussianModeName(splat::GaussianMode mode);
 
 // True when options.degrade asks for any defect.
 bool HasDefects(const degrade::DegradeOptions& degrade);
+
+// The metrics of the --compat preset a run computes: options.compat_metrics, else the
+// preset's default (psnr, ssim); empty without a preset.
+std::vector<metrics::Metric> CompatMetrics(const EvaluateOptions& options);
 
 // The placeholder names the command templates may use (see above).
 const std::vector<std::string>& CommandPlaceholders();

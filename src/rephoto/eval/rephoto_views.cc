@@ -13,6 +13,7 @@
 #include "rephoto/core/limits.h"
 #include "rephoto/core/process.h"
 #include "rephoto/eval/command_template.h"
+#include "rephoto/eval/compat_numbers.h"
 #include "rephoto/eval/keys.h"
 #include "rephoto/eval/run_records.h"
 #include "rephoto/io/image_io.h"
@@ -170,6 +171,11 @@ void CompareView(const RunContext& s, Tally& tally, ViewWorkspace& ws, const Pre
       settings, test.stem, view.photo_path, fs::path(s.Relative(view.render_path)), view.eval_photo,
       view.render, view.mask ? &*view.mask : nullptr, nullptr, errors_dir, &ws.compare,
       error_images);
+  if (s.options.compat) {  // the numbers papers publish, from the same rendering and photo
+    outcome.compat = CompareViewCompat(s.options, test.stem, view.photo_path,
+                                       fs::path(s.Relative(view.render_path)), view.eval_photo,
+                                       view.render, &ws.compare);
+  }
   const double seconds = Seconds(start);
   outcome.compare_seconds += seconds;
   tally.AddSeconds(&EvaluateTimings::compare, seconds);

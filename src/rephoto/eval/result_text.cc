@@ -25,6 +25,14 @@ std::string ResultText(const EvaluateResult& result, const fs::path& out) {
     rows.push_back({std::string(metrics::MetricName(m.metric)), m.across_folds, m.pooled});
   }
   text += run::FormatSummaryTable("", "fold mean", rows);
+  if (!result.compat_text.empty()) {
+    // The published numbers (--compat), as the reference prints them.
+    text += fmt::format("\nWhole-image numbers as papers publish them ({}):\n{}",
+                        result.compat_text.rfind("Scene: ", 0) == 0
+                            ? "graphdeco's metrics.py: results.json, per_view.json"
+                            : "nerfstudio's ns-eval: output.json",
+                        result.compat_text);
+  }
   for (const FoldResult& fold : result.folds) {
     if (!fold.ok) text += fmt::format("failed: {}\n", fold.message);
   }
@@ -88,6 +96,18 @@ EvaluateResult ReadEvaluateResult(const fs::path& run_dir) {
   }
   for (const Json& missing : summary->value("missing", Json::array())) {
     result.missing_photos.push_back(missing.value("name", ""));
+  }
+  if (summary->contains("compat") && summary->at("compat").is_object()) {
+    // What the run printed of the --compat numbers (its reference files).
+    const Json& compat = summary->at("compat");
+    std::error_code ec;
+    if (compat.value("preset", "") == "3dgs" && fs::is_regular_file(run_dir / "metrics.txt", ec)) {
+      result.compat_text = ReadFileToString(run_dir / "metrics.txt");
+    } else if (const std::optional<Json> output = run::ReadJsonRecord(run_dir / "output.json")) {
+      result.compat_text = fmt::format("{}\nSaved results to: {}\n",
+                                       output->value("results", Json::object()).dump(2),
+                                       (run_dir / "output.json").string());
+    }
   }
   // The folds as run/run_data.h reads per_fold.csv.
   const run::RunData run = run::LoadRun(run_dir);

@@ -33,6 +33,17 @@ void WriteViewRecord(const RunContext& s, const FoldPlan& fold, const ViewOutcom
         {"mean", JsonNumber(image.metrics[k].mean)}, {"evaluated", image.metrics[k].evaluated}};
   }
   j["metrics"] = metrics_json;
+  if (s.options.compat) {
+    const std::vector<metrics::Metric> compat = CompatMetrics(s.options);
+    Json compat_json = Json::object();
+    for (size_t k = 0; k < compat.size() && k < outcome.compat.size(); ++k) {
+      compat_json[std::string(metrics::MetricName(compat[k]))] = {
+          {"value", JsonNumber(outcome.compat[k].mean)},
+          {"evaluated", outcome.compat[k].evaluated}};
+    }
+    j["compat"] = {{"preset", metrics::CompatPresetName(*s.options.compat)},
+                   {"metrics", compat_json}};
+  }
   j["render_seconds"] = outcome.render_seconds;
   j["compare_seconds"] = outcome.compare_seconds;
   run::WriteJsonRecord(outcome.record, j);
@@ -59,6 +70,15 @@ bool ReadViewRecord(const RunContext& s, const fs::path& path, const std::option
       const Json& entry = m.at(std::string(metrics::MetricName(metric)));
       image.metrics.push_back(
           {run::NumberFromJson(entry.at("mean")), entry.at("evaluated").get<size_t>()});
+    }
+    outcome->compat.clear();
+    if (s.options.compat) {
+      const Json& c = json->at("compat").at("metrics");
+      for (metrics::Metric metric : CompatMetrics(s.options)) {
+        const Json& entry = c.at(std::string(metrics::MetricName(metric)));
+        outcome->compat.push_back(
+            {run::NumberFromJson(entry.at("value")), entry.at("evaluated").get<size_t>()});
+      }
     }
     outcome->render_seconds = json->value("render_seconds", 0.0);
     outcome->compare_seconds = json->value("compare_seconds", 0.0);

@@ -64,6 +64,13 @@ const std::vector<SettingInfo>& Settings() {
        "Render and compare at this shorter side in pixels (0 = original)"},
       {"metrics", SettingType::kMetricList,
        "Metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim) or all"},
+      {"compat", SettingType::kString,
+       "Also compute the numbers papers publish, as 3dgs (graphdeco's metrics.py) or "
+       "nerfstudio (ns-eval) does: whole-image PSNR/SSIM beside rephoto's masked metrics, in "
+       "their own files (results.json, per_view.json / output.json); default split every:8 "
+       "(none = off)"},
+      {"compat-metrics", SettingType::kMetricList,
+       "The --compat preset's metrics to compute, among psnr,ssim"},
       {"window", SettingType::kInt, "Window side of 1-ncc, zssd, census and completeness (odd)"},
       {"ssim-mode", SettingType::kString,
        "SSIM/DSSIM window: gaussian (11x11, sigma 1.5) or skimage (7x7 uniform)"},
@@ -87,7 +94,8 @@ const std::vector<SettingInfo>& Settings() {
       {"gaussian-mode", SettingType::kString,
        "Gaussian splatting models: classic (graphdeco's rasterizer) or antialiased (gsplat's)"},
       {"background", SettingType::kString,
-       "Gaussian splatting models: background colour R,G,B in [0,1], black or white"},
+       "Training background R,G,B in [0,1], black or white: Gaussian splatting models are "
+       "rendered over it, and --compat composites photos with alpha over it"},
       {"min-alpha", SettingType::kDouble,
        "Gaussian splatting models: a pixel counts as rendered (completeness) when its alpha "
        "reaches this"},
@@ -292,6 +300,25 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     o->eval_short_side = CheckedInt(value, source, 0, kMaxPixels);
   } else if (n == "metrics") {
     o->metrics = AsMetrics(value, source);
+  } else if (n == "compat") {
+    const std::string name = AsString(value, source);
+    if (name.empty() || name == "none") {
+      o->compat.reset();
+    } else {
+      o->compat = metrics::ParseCompatPreset(name);
+      if (!o->compat) {
+        throw UsageError(fmt::format("{}: '{}' is not 3dgs, nerfstudio or none", source, name));
+      }
+    }
+  } else if (n == "compat-metrics") {
+    // An empty list (as SettingsJson writes it without a preset) is the preset's default.
+    const auto* items = std::get_if<std::vector<std::string>>(&value);
+    const auto* text = std::get_if<std::string>(&value);
+    if ((items && items->empty()) || (text && text->empty())) {
+      o->compat_metrics.clear();
+    } else {
+      o->compat_metrics = AsMetrics(value, source);
+    }
   } else if (n == "window") {
     const int window = CheckedInt(value, source, 3, 101);
     if (window % 2 == 0) throw UsageError(fmt::format("{}: the window must be odd", source));
@@ -341,7 +368,14 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     }
     o->gaussian_mode = *mode;
   } else if (n == "background") {
-    const Eigen::Vector3f rgb = splat::ParseBackground(AsString(value, source), source);
+    // "R,G,B", or a list of three numbers (a config array, a Python tuple).
+    std::string text;
+    if (const auto* items = std::get_if<std::vector<std::string>>(&value)) {
+      for (const std::string& item : *items) text += (text.empty() ? "" : ",") + item;
+    } else {
+      text = AsString(value, source);
+    }
+    const Eigen::Vector3f rgb = splat::ParseBackground(text, source);
     o->background = {rgb[0], rgb[1], rgb[2]};
   } else if (n == "min-alpha") {
     const double min_alpha = AsDouble(value, source);
@@ -515,6 +549,10 @@ Json SettingsJson(const EvaluateOptions& o) {
   Json metric_names = Json::array();
   for (metrics::Metric m : o.metrics) metric_names.push_back(metrics::MetricName(m));
   j["metrics"] = metric_names;
+  j["compat"] = o.compat ? std::string(metrics::CompatPresetName(*o.compat)) : std::string();
+  Json compat_names = Json::array();
+  for (metrics::Metric m : CompatMetrics(o)) compat_names.push_back(metrics::MetricName(m));
+  j["compat-metrics"] = compat_names;
   j["window"] = o.metric_options.window;
   j["ssim-mode"] = o.metric_options.ssim_gaussian ? "gaussian" : "skimage";
   j["dark"] = o.exposure.dark_threshold;

@@ -78,6 +78,8 @@ struct ViewOutcome {
   bool ok = false;
   std::string message;         // when !ok
   compare::ImageResult image;  // when ok
+  // With --compat, when ok: the preset's values (CompatMetrics order; whole image).
+  std::vector<compare::MetricValue> compat;
   std::string key;
   std::string render_key;     // built-in renderings: what the rendering depends on
   bool reuse_render = false;  // the rendering on disk has render_key: compare only

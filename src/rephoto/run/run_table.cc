@@ -6,6 +6,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/io/csv.h"
+#include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/run/records.h"
 
@@ -22,6 +23,13 @@ ColumnKind KindOfColumn(std::string_view column) {
   }
   if (column == "completeness" || column == "seconds") return ColumnKind::kNumber;
   if (metrics::ParseMetric(column)) return ColumnKind::kNumber;
+  // evaluate --compat: "<preset>_<metric>" ("3dgs_psnr", "nerfstudio_ssim").
+  const size_t underscore = column.find('_');
+  if (underscore != std::string_view::npos &&
+      metrics::ParseCompatPreset(column.substr(0, underscore)) &&
+      metrics::ParseMetric(column.substr(underscore + 1))) {
+    return ColumnKind::kNumber;
+  }
   constexpr std::string_view kEvaluated = "_evaluated";
   if (column.size() > kEvaluated.size() &&
       column.substr(column.size() - kEvaluated.size()) == kEvaluated &&

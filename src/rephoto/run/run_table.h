@@ -7,8 +7,9 @@
 //            know (kept as written, so a newer file still reads)
 //   integer  width, height, resized, test_images, evaluated_images, valid_photo_windows,
 //            valid_both_windows, <metric>_evaluated: an empty field is 0 (nothing measured)
-//   number   completeness, seconds, and the metric names (metrics::ParseMetric): an empty field
-//            is NaN (not evaluated), "inf" / "+inf" / "-inf" are infinities
+//   number   completeness, seconds, the metric names (metrics::ParseMetric) and evaluate
+//            --compat's <preset>_<metric> (metrics::ParseCompatPreset, "3dgs_psnr"): an empty
+//            field is NaN (not evaluated), "inf" / "+inf" / "-inf" are infinities
 // A field of an integer or number column that is not such a value is an Error naming the file,
 // the line and the column; so is a row with more fields than the header. A row with fewer
 // fields reads the missing ones as empty.

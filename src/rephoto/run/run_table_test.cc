@@ -27,6 +27,12 @@ TEST(RunTable, KindsFollowTheColumnNamesOnly) {
   // Not a metric: a column of a newer version, kept as text.
   EXPECT_EQ(KindOfColumn("lpips_evaluated_x"), ColumnKind::kText);
   EXPECT_EQ(KindOfColumn("_evaluated"), ColumnKind::kText);
+  // evaluate --compat's columns: <preset>_<metric>.
+  for (const char* number : {"3dgs_psnr", "3dgs_ssim", "nerfstudio_psnr"}) {
+    EXPECT_EQ(KindOfColumn(number), ColumnKind::kNumber) << number;
+  }
+  EXPECT_EQ(KindOfColumn("3dgs_bogus"), ColumnKind::kText);
+  EXPECT_EQ(KindOfColumn("mip_psnr"), ColumnKind::kText);
 }
 
 TEST(RunTable, EmptyNumbersAreNanEmptyCountsZeroAndShortRowsPadded) {
