@@ -121,10 +121,11 @@ TEST(CrossIsa, MetricsAgreeOnEveryPath) {
   }
 }
 
-// 8-bit inputs stand for the floats v / 255.f (io::ReadImage's values); the kernels convert
-// them without a division (kernels.cc ByteToFloat). Images holding every 8-bit value in every
-// channel (an RGB photo, an RGBA rendering) give, on every path, the same means and error images
-// as the floats v / 255.f.
+// 8-bit inputs stand for the floats v / 255.f (io::ReadImage's values), which the 8-bit paths
+// make themselves (kernels.cc BytesToFloats, iCID's decoding table): images holding every
+// 8-bit value in every channel (an RGB photo, an RGBA rendering) give, on every path, the same
+// means and error images as the floats v / 255.f. (A conversion by multiplication with 1/255.f
+// fails here: it differs from the division for 126 of the 256 values.)
 TEST(CrossIsa, BytesGiveTheResultsOfTheirFloats) {
   const int w = 256, h = 37;
   Image8 photo8(w, h, 3), rephoto8(w, h, 4);
