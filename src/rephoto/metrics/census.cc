@@ -1,5 +1,18 @@
 // Census kernels (kernels.h): one template, inlined into a 16-wide AVX-512 function and an
 // 8-wide function cloned for AVX2 and the baseline.
+//
+// Cost (issue 29). Every centre needs 80 "darker than the centre" bits per image: 160 float
+// compares per pixel, whatever the formulation (bit-packed signatures need the same compares
+// before their popcount; sharing a pair's compare between its two centres does not work with
+// ties, which 8-bit images are full of). This loop does them 8 (AVX2) or 16 (AVX-512) lanes at a
+// time with one xor and one subtract per compare pair, ~1.9 cycles per step of 4 loads and 4
+// compares on the AMD EPYC measured: ~60 ms of the ~105 ms CPU of 8-bit census at 12 MP on the
+// AVX2 path; the rest is the band's 8-bit -> float rows, luma, validity and the masked sums.
+// Tried and not kept (same values, measured slower or no faster in a standalone harness or
+// perf): two centre rows per pass sharing the row loads (57-88 ms against 62 ms: GCC reloads or
+// spills the centres), the rows unrolled, integer compares of the float bits (no faster:
+// compares are not the only bound), software prefetch of the rows, luma straight from the bytes
+// by tables for census alone (30 ms scalar against 15 + 15 ms for conversion and luma).
 #include "rephoto/metrics/kernels.h"
 #include "rephoto/metrics/simd.h"
 

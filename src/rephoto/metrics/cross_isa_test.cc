@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,54 @@ TEST(CrossIsa, MetricsAgreeOnEveryPath) {
           }
         }
       }
+    }
+  }
+}
+
+// 8-bit inputs stand for the floats v / 255.f (io::ReadImage's values), which the 8-bit paths
+// make themselves (kernels.cc BytesToFloats, iCID's decoding table): images holding every
+// 8-bit value in every channel (an RGB photo, an RGBA rendering) give, on every path, the same
+// means and error images as the floats v / 255.f. (A conversion by multiplication with 1/255.f
+// fails here: it differs from the division for 126 of the 256 values.)
+TEST(CrossIsa, BytesGiveTheResultsOfTheirFloats) {
+  const int w = 256, h = 37;
+  Image8 photo8(w, h, 3), rephoto8(w, h, 4);
+  Image photo(w, h, 3), rephoto(w, h, 3);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const int p = (x + 91 * c + 7 * y) % 256, q = (x * 3 + 17 * c + 11 * y) % 256;
+        photo8.data()[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<uint8_t>(p);
+        rephoto8.data()[(static_cast<size_t>(y) * w + x) * 4 + c] = static_cast<uint8_t>(q);
+        photo.at(x, y, c) = static_cast<float>(p) / 255.f;
+        rephoto.at(x, y, c) = static_cast<float>(q) / 255.f;
+      }
+      rephoto8.data()[(static_cast<size_t>(y) * w + x) * 4 + 3] = 255;
+    }
+  }
+  const Mask valid;
+  for (core::Isa isa : core::SupportedIsas()) {
+    core::ScopedIsa scoped(isa);
+    std::vector<MetricResult> from_floats, from_bytes;
+    ComputeMetrics(photo, rephoto, valid, AllMetrics(), MetricOptions(), &from_floats);
+    std::vector<Image> band_errors(AllMetrics().size(), Image(w, h, 1));
+    const ErrorBandSink sink = [&](int y0, int y1, std::span<const float* const> errors) {
+      for (size_t m = 0; m < errors.size(); ++m) {
+        std::memcpy(band_errors[m].data() + static_cast<size_t>(y0) * w, errors[m],
+                    static_cast<size_t>(y1 - y0) * w * sizeof(float));
+      }
+    };
+    ComputeMetricsInBands(photo8, rephoto8, valid, AllMetrics(), MetricOptions(), sink,
+                          &from_bytes);
+    ASSERT_EQ(from_floats.size(), from_bytes.size());
+    for (size_t m = 0; m < from_floats.size(); ++m) {
+      SCOPED_TRACE(std::string(core::IsaName(isa)) + " " +
+                   std::string(MetricName(AllMetrics()[m])));
+      EXPECT_EQ(from_floats[m].mean, from_bytes[m].mean);
+      const Image& a = from_floats[m].error;
+      const Image& b = band_errors[m];
+      ASSERT_EQ(a.size(), b.size());
+      EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float)));
     }
   }
 }

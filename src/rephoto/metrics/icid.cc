@@ -127,8 +127,12 @@ inline double CbrtPositive(double x) {
           xm)) *
         xm));
   const double t2 = u * u * u;
-  const double q = std::trunc(xe / 3.0);  // C's xe / 3 (exact for these small integers)
-  const double m = xe - 3.0 * q;          // C's xe % 3, in -2..2
+  // C's xe / 3 for these small integers: trunc(xe * (1/3)) equals trunc(xe / 3.0) for every
+  // exponent xe in [-1022, 1025] (the product of a multiple of 3 rounds to the exact quotient;
+  // other quotients are at least 1/3 from an integer; all 2048 checked), without a division
+  // (vdivpd was the bound of the quantities loop: 16 per 4 pixels, 6 of them these).
+  const double q = std::trunc(xe * (1.0 / 3.0));
+  const double m = xe - 3.0 * q;  // C's xe % 3, in -2..2
   // glibc's factor[2 + xe % 3].
   double factor = 1.0;
   factor = m == -2.0 ? 1.0 / 1.5874010519681994748 : factor;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include "rephoto/metrics/simd.h"
+
 namespace rephoto::metrics::internal {
 
 WindowValidityRows::WindowValidityRows(const Mask& valid, int width, int height, int radius)
@@ -155,23 +157,44 @@ std::vector<float> FilterWeights(int radius, double sigma) {
   return out;
 }
 
-// Eight partial sums break the add latency chain; their order is fixed.
-[[gnu::always_inline]] inline double MaskRangeBody(const float* __restrict values,
-                                                   const uint8_t* __restrict ok, int begin, int end,
-                                                   float* __restrict out) {
-  for (int x = begin; x < end; ++x) out[x] = ok[x] ? values[x] : kNaN;
-  double acc[8] = {};
+namespace {
+
+// Eight partial sums break the add latency chain; their order is fixed: acc[j] holds the
+// values at x = begin + 8 i + j, with +0.0 added where ok is 0. The masked values go through a
+// scratch row (`kept`, vectorised select) and are summed as two 4-wide double vectors
+// (acc[0..3], acc[4..7]): the same additions as the scalar loop `acc[j] += ok ? double(v) : 0.0`
+// it replaces, which GCC left scalar.
+typedef double V4d __attribute__((vector_size(32)));
+typedef float V4f __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline double MaskRangeKeptBody(const float* __restrict values,
+                                                       const uint8_t* __restrict ok, int begin,
+                                                       int end, float* __restrict out,
+                                                       float* __restrict kept) {
+  for (int x = begin; x < end; ++x) {
+    out[x] = ok[x] ? values[x] : kNaN;
+    kept[x] = ok[x] ? values[x] : 0.0f;
+  }
+  V4d acc0 = {}, acc1 = {};
   int x = begin;
   for (; x + 8 <= end; x += 8) {
-    for (int j = 0; j < 8; ++j) acc[j] += ok[x + j] ? static_cast<double>(values[x + j]) : 0.0;
+    acc0 += __builtin_convertvector(REPHOTO_LOAD(V4f, kept + x), V4d);
+    acc1 += __builtin_convertvector(REPHOTO_LOAD(V4f, kept + x + 4), V4d);
   }
-  for (; x < end; ++x) acc[0] += ok[x] ? static_cast<double>(values[x]) : 0.0;
+  double acc[8] = {acc0[0], acc0[1], acc0[2], acc0[3], acc1[0], acc1[1], acc1[2], acc1[3]};
+  for (; x < end; ++x) acc[0] += kept[x];
   return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
-REPHOTO_ISA_DISPATCH(double, MaskRange,
+REPHOTO_ISA_DISPATCH(double, MaskRangeKept,
                      (const float* __restrict values, const uint8_t* __restrict ok, int begin,
-                      int end, float* __restrict out),
-                     (values, ok, begin, end, out))
+                      int end, float* __restrict out, float* __restrict kept),
+                     (values, ok, begin, end, out, kept))
+
+}  // namespace
+
+double MaskRange(const float* values, const uint8_t* ok, int begin, int end, float* out) {
+  thread_local std::vector<float> kept;
+  return MaskRangeKept(values, ok, begin, end, out, Scratch(kept, static_cast<size_t>(end)));
+}
 
 void FillNaN(float* row, int width) { std::fill(row, row + width, kNaN); }
 
