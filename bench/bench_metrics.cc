@@ -30,6 +30,7 @@
 #include <utility>
 
 #include "rephoto/core/parallel.h"
+#include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/kernels.h"
 #include "rephoto/metrics/metrics.h"
 
@@ -233,5 +234,24 @@ BENCHMARK(BM_AllMetricsBytesInBandsOneThread<SsimKernel::kFiveQuantities>)
     ->Apply(BigSize);
 
 }  // namespace
+
+// --compat 3dgs's PSNR and SSIM (metrics/compat.h: whole image, double sums, 11x11 Gaussian
+// window with zero padding) of the float pair on one thread, as `evaluate --compat` computes
+// them once per test view beside rephoto's own metrics.
+void BM_Compat3dgsOneThread(benchmark::State& state) {
+  rephoto::ThreadLimit limit(1);
+  Pair& p = GetPair(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  for (auto _ : state) {
+    const auto result =
+        rephoto::metrics::ComputeCompatMetrics(rephoto::metrics::CompatPreset::k3dgs, p.photo,
+                                               p.rephoto);
+    benchmark::DoNotOptimize(result.ssim);
+  }
+}
+BENCHMARK(BM_Compat3dgsOneThread)
+    ->Args({4000, 3000})
+    ->UseRealTime()
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

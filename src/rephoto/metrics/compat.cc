@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 
 namespace rephoto::metrics {
@@ -48,6 +49,110 @@ struct Sums {
   }
 };
 
+// One band of rows [y0, y1) of one channel: adds each pixel's SSIM of channel c to
+// ssim_band (row-major, (y1 - y0) x width). The window sums are those of direct loops over the
+// 11 taps, k in increasing order, accumulated from 0 (a zero-padded tap adds w * 0 = +0, which
+// leaves a sum unchanged): every output gets the same operations in the same order on every
+// path, and the loops over x vectorize (k outer, x inner; planar sums).
+struct SsimBand {
+  CompatPreset preset;
+  const Image* photo;
+  const Image* render;
+  const double* w;  // 2 kRadius + 1 weights
+  int width, height, y0, y1, c;
+  std::vector<double>* padded;  // 2 rows of width + 2 kRadius
+  std::vector<double>* h;       // 5 planes of (y1 - y0 + 2 kRadius) rows of width
+  std::vector<double>* m;       // 5 rows of width
+  double* ssim_band;
+};
+
+[[gnu::always_inline]] inline void SsimBandChannelBody(const SsimBand& b) {
+  const int width = b.width, rows = b.y1 - b.y0 + 2 * kRadius;
+  const int pc = b.photo->channels(), rc = b.render->channels();
+  const size_t ext = static_cast<size_t>(width) + 2 * kRadius;
+  const size_t plane = static_cast<size_t>(rows) * width;
+  b.padded->resize(2 * ext);
+  b.h->resize(5 * plane);
+  b.m->resize(5 * static_cast<size_t>(width));
+  double* pa = b.padded->data();
+  double* pb = pa + ext;
+  const double* w = b.w;
+  for (int r = 0; r < rows; ++r) {
+    double* h0 = b.h->data() + static_cast<size_t>(r) * width;
+    double* h1 = h0 + plane;
+    double* h2 = h1 + plane;
+    double* h3 = h2 + plane;
+    double* h4 = h3 + plane;
+    const int sy = PaddedIndex(b.y0 - kRadius + r, b.height, b.preset);
+    if (sy < 0) {
+      for (double* hq : {h0, h1, h2, h3, h4}) std::fill(hq, hq + width, 0.0);
+      continue;
+    }
+    const float* prow = b.photo->row(sy);
+    const float* rrow = b.render->row(sy);
+    for (int i = 0; i < width + 2 * kRadius; ++i) {
+      const int sx = PaddedIndex(i - kRadius, width, b.preset);
+      pa[i] = sx < 0 ? 0.0 : static_cast<double>(prow[static_cast<size_t>(sx) * pc + b.c]);
+      pb[i] = sx < 0 ? 0.0 : static_cast<double>(rrow[static_cast<size_t>(sx) * rc + b.c]);
+    }
+    for (int x = 0; x < width; ++x) h0[x] = h1[x] = h2[x] = h3[x] = h4[x] = 0.0;
+    for (int k = 0; k <= 2 * kRadius; ++k) {
+      const double wk = w[k];
+      const double* __restrict a = pa + k;
+      const double* __restrict bb = pb + k;
+#pragma GCC ivdep  // the planes and the padded rows do not overlap
+      for (int x = 0; x < width; ++x) {
+        h0[x] += wk * a[x];
+        h1[x] += wk * bb[x];
+        h2[x] += wk * a[x] * a[x];
+        h3[x] += wk * bb[x] * bb[x];
+        h4[x] += wk * a[x] * bb[x];
+      }
+    }
+  }
+  double* m0 = b.m->data();
+  double* m1 = m0 + width;
+  double* m2 = m1 + width;
+  double* m3 = m2 + width;
+  double* m4 = m3 + width;
+  const bool clamp = b.preset == CompatPreset::kNerfstudio;
+  for (int y = b.y0; y < b.y1; ++y) {
+    for (int x = 0; x < width; ++x) m0[x] = m1[x] = m2[x] = m3[x] = m4[x] = 0.0;
+    for (int k = 0; k <= 2 * kRadius; ++k) {
+      const double wk = w[k];
+      const double* __restrict in0 = b.h->data() + static_cast<size_t>(y - b.y0 + k) * width;
+      const double* __restrict in1 = in0 + plane;
+      const double* __restrict in2 = in1 + plane;
+      const double* __restrict in3 = in2 + plane;
+      const double* __restrict in4 = in3 + plane;
+#pragma GCC ivdep
+      for (int x = 0; x < width; ++x) {
+        m0[x] += wk * in0[x];
+        m1[x] += wk * in1[x];
+        m2[x] += wk * in2[x];
+        m3[x] += wk * in3[x];
+        m4[x] += wk * in4[x];
+      }
+    }
+    double* ssim_row = b.ssim_band + static_cast<size_t>(y - b.y0) * width;
+#pragma GCC ivdep
+    for (int x = 0; x < width; ++x) {
+      const double mu_x = m0[x], mu_y = m1[x];
+      double var_x = m2[x] - mu_x * mu_x;
+      double var_y = m3[x] - mu_y * mu_y;
+      if (clamp) {
+        var_x = var_x < 0.0 ? 0.0 : var_x;  // std::max(var_x, 0.0), as a select
+        var_y = var_y < 0.0 ? 0.0 : var_y;
+      }
+      const double cov = m4[x] - mu_x * mu_y;
+      ssim_row[x] += ((2 * mu_x * mu_y + kC1) * (2 * cov + kC2)) /
+                     ((mu_x * mu_x + mu_y * mu_y + kC1) * (var_x + var_y + kC2));
+    }
+  }
+}
+
+REPHOTO_ISA_DISPATCH(void, SsimBandChannel, (const SsimBand& b), (b))
+
 }  // namespace
 
 std::optional<CompatPreset> ParseCompatPreset(std::string_view name) {
@@ -87,12 +192,10 @@ CompatResult ComputeCompatMetrics(CompatPreset preset, const Image& photo, const
   const Sums sums = ParallelSum<Sums>(0, bands, 1, [&](int64_t band_begin, int64_t band_end) {
     Sums total;
     // Horizontal sums of x, y, x^2, y^2, xy for the band's rows plus the window margin.
-    std::vector<double> h;
+    std::vector<double> padded, h, m;
     for (int64_t band = band_begin; band < band_end; ++band) {
       const int y0 = static_cast<int>(band) * kBandRows;
       const int y1 = std::min(height, y0 + kBandRows);
-      const int rows = y1 - y0 + 2 * kRadius;
-      h.assign(static_cast<size_t>(rows) * width * 5, 0.0);
       for (int y = y0; y < y1; ++y) {
         double row_se = 0;
         for (int x = 0; x < width; ++x) {
@@ -108,52 +211,8 @@ CompatResult ComputeCompatMetrics(CompatPreset preset, const Image& photo, const
       }
       std::vector<double> ssim_band(static_cast<size_t>(y1 - y0) * width, 0.0);
       for (int c = 0; c < 3; ++c) {
-        for (int r = 0; r < rows; ++r) {
-          double* out = h.data() + static_cast<size_t>(r) * width * 5;
-          const int sy = PaddedIndex(y0 - kRadius + r, height, preset);
-          if (sy < 0) {
-            std::fill(out, out + static_cast<size_t>(width) * 5, 0.0);
-            continue;
-          }
-          const float* prow = photo.row(sy);
-          const float* rrow = render.row(sy);
-          for (int x = 0; x < width; ++x) {
-            double s[5] = {0, 0, 0, 0, 0};
-            for (int k = -kRadius; k <= kRadius; ++k) {
-              const int sx = PaddedIndex(x + k, width, preset);
-              if (sx < 0) continue;
-              const double a = prow[static_cast<size_t>(sx) * pc + c];
-              const double b = rrow[static_cast<size_t>(sx) * rc + c];
-              const double wk = w[k + kRadius];
-              s[0] += wk * a;
-              s[1] += wk * b;
-              s[2] += wk * a * a;
-              s[3] += wk * b * b;
-              s[4] += wk * a * b;
-            }
-            for (int q = 0; q < 5; ++q) out[static_cast<size_t>(x) * 5 + q] = s[q];
-          }
-        }
-        for (int y = y0; y < y1; ++y) {
-          double* ssim_row = ssim_band.data() + static_cast<size_t>(y - y0) * width;
-          for (int x = 0; x < width; ++x) {
-            double m[5] = {0, 0, 0, 0, 0};
-            for (int k = 0; k <= 2 * kRadius; ++k) {
-              const double* in = h.data() + (static_cast<size_t>(y - y0 + k) * width + x) * 5;
-              for (int q = 0; q < 5; ++q) m[q] += w[k] * in[q];
-            }
-            const double mu_x = m[0], mu_y = m[1];
-            double var_x = m[2] - mu_x * mu_x;
-            double var_y = m[3] - mu_y * mu_y;
-            if (preset == CompatPreset::kNerfstudio) {
-              var_x = std::max(var_x, 0.0);
-              var_y = std::max(var_y, 0.0);
-            }
-            const double cov = m[4] - mu_x * mu_y;
-            ssim_row[x] += ((2 * mu_x * mu_y + kC1) * (2 * cov + kC2)) /
-                           ((mu_x * mu_x + mu_y * mu_y + kC1) * (var_x + var_y + kC2));
-          }
-        }
+        SsimBandChannel(SsimBand{preset, &photo, &render, w.data(), width, height, y0, y1, c,
+                                 &padded, &h, &m, ssim_band.data()});
       }
       for (int y = y0; y < y1; ++y) {
         const double* ssim_row = ssim_band.data() + static_cast<size_t>(y - y0) * width;
