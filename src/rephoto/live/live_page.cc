@@ -9,7 +9,7 @@ namespace rephoto::live {
 const std::string& LivePageHtml() {
   static const std::string html = R"HTML(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>rephoto live</title>
-<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="viewport" content="width=device-width, initial-scale=1"><link rel="icon" href="data:,">
 <style>
 body{font-family:system-ui,sans-serif;margin:1em 2em;color:#222}
 h1{font-size:1.4em} h2{font-size:1.1em;margin-top:1.4em}
