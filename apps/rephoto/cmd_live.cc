@@ -25,6 +25,7 @@
 
 namespace rephoto::cli {
 namespace {
+namespace fs = std::filesystem;
 
 struct LiveArguments {
   live::LiveOptions options;
@@ -61,8 +62,11 @@ CommandRunner SetupLive(CLI::App& app) {
     options.show_progress = true;
     std::unique_ptr<live::Registrar> registrar;
     if (args->colmap) {
-      registrar = live::MakeColmapRegistrar(args->out + "/colmap", args->colmap_binary,
-                                            args->colmap_bootstrap);
+      live::ColmapRegistrarOptions co;
+      co.workspace = fs::path(args->out) / "colmap";
+      co.colmap = args->colmap_binary;
+      if (args->colmap_bootstrap > 0) co.bootstrap = args->colmap_bootstrap;
+      registrar = live::MakeColmapRegistrar(co);
       options.registrar = registrar.get();
     }
     sigset_t signals;

@@ -39,6 +39,10 @@ bool NearestPointToAxes(const std::vector<camera::Pose>& poses, Eigen::Vector3d*
   return in_front * 2 > static_cast<int>(poses.size());
 }
 
+namespace {
+constexpr double kFacing = 0.1;  // cosine: the camera sees the direction from outside
+}  // namespace
+
 Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
                        const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options) {
   REPHOTO_CHECK(!poses.empty(), "envelope: no photos");
@@ -48,6 +52,7 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
   // Depth points.
   std::vector<Eigen::Vector3d> points;
   std::vector<int> source;
+  std::vector<Eigen::Vector3d> seen_from;  // camera centre of each point
   for (size_t k = 0; k < depths.size(); ++k) {
     const EnvelopeInput& in = depths[k];
     const Image& d = *in.depth;
@@ -62,6 +67,7 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
         const Eigen::Vector3d cam = *ray / ray->z() * z;
         points.push_back(origin + world_from_cam * cam);
         source.push_back(static_cast<int>(k));
+        seen_from.push_back(origin);
       }
     }
   }
@@ -113,6 +119,10 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
     const Eigen::Vector3d d = points[i] - c;
     const double r = d.norm();
     if (!(r > 1e-9)) continue;
+    // A point counts for its direction only when its camera looked at it from outside the
+    // envelope (from the side the direction points to): background seen past the object
+    // (ground behind it) is not the object's far side.
+    if ((seen_from[i] - points[i]).normalized().dot(d / r) < kFacing) continue;
     const size_t b = bin_of(d / r);
     dist[b].push_back(static_cast<float>(r));
     views[b].insert(source[i]);
@@ -207,6 +217,120 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
     for (uint32_t v : t) env.area[v] += a;
   }
   return env;
+}
+
+}  // namespace rephoto::live
+
+#include "rephoto/render/render_model.h"
+#include "rephoto/suggest/next_views.h"
+
+namespace rephoto::live {
+
+std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const Envelope& env,
+                                       const std::vector<float>& need,
+                                       const std::vector<camera::Pose>& photos,
+                                       const camera::Camera& camera, const PlanOptions& options) {
+  REPHOTO_CHECK(!photos.empty() && need.size() == env.mesh.positions.size(),
+                "plan: no photos or a need per vertex missing");
+  const Eigen::Vector3d& c = env.center;
+  const Eigen::Vector3d& up = env.up;
+  // Photo directions and elevations seen from the look-at point.
+  std::vector<Eigen::Vector3d> taken;
+  std::vector<double> dist;
+  double el_lo = 1e9, el_hi = -1e9;
+  for (const camera::Pose& p : photos) {
+    const Eigen::Vector3d d = p.Center() - c;
+    dist.push_back(d.norm());
+    taken.push_back(d.normalized());
+    const double el = std::asin(std::clamp(taken.back().dot(up), -1.0, 1.0));
+    el_lo = std::min(el_lo, el);
+    el_hi = std::max(el_hi, el);
+  }
+  std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
+  const double distance = dist[dist.size() / 2];
+  const double margin = options.elevation_margin_degrees * M_PI / 180;
+  const double low = el_lo > 0 ? std::max(0.0, el_lo - margin) : el_lo - margin;
+  const double high = el_hi + margin;
+  // Candidates.
+  const Eigen::Vector3d ex = up.unitOrthogonal(), ey = up.cross(ex);
+  const double golden = M_PI * (3 - std::sqrt(5.0));
+  std::vector<Eigen::Vector3d> dirs;
+  for (int i = 0; i < options.candidates; ++i) {
+    const double z = 1 - 2 * (i + 0.5) / options.candidates;
+    const double r = std::sqrt(std::max(0.0, 1 - z * z)), phi = golden * i;
+    const double el = std::asin(z);
+    if (el < low || el > high) continue;
+    dirs.push_back(z * up + r * (std::cos(phi) * ex + std::sin(phi) * ey));
+  }
+  // Vertex normals (area weighted) for the visibility rule.
+  std::vector<Eigen::Vector3f> normals(env.mesh.positions.size(), Eigen::Vector3f::Zero());
+  for (const auto& t : env.mesh.faces) {
+    const Eigen::Vector3f n = (env.mesh.positions[t[1]] - env.mesh.positions[t[0]])
+                                  .cross(env.mesh.positions[t[2]] - env.mesh.positions[t[0]]);
+    for (uint32_t v : t) normals[v] += n;
+  }
+  for (auto& n : normals) n.normalize();
+  auto pose_of = [&](const Eigen::Vector3d& d) {
+    const Eigen::Vector3d centre = c + distance * d;
+    const Eigen::Vector3d z = (c - centre).normalized();
+    Eigen::Vector3d x = z.cross(up);
+    if (x.norm() < 1e-6) x = ex;
+    x.normalize();
+    const Eigen::Vector3d y = z.cross(x);
+    camera::Pose p;
+    p.rotation.row(0) = x.transpose();
+    p.rotation.row(1) = y.transpose();
+    p.rotation.row(2) = z.transpose();
+    p.translation = -p.rotation * centre;
+    return p;
+  };
+  const camera::UsableField field(camera);
+  std::vector<std::vector<uint8_t>> seen(dirs.size());
+  std::vector<camera::Pose> poses(dirs.size());
+  for (size_t k = 0; k < dirs.size(); ++k) {
+    poses[k] = pose_of(dirs[k]);
+    seen[k] = suggest::VisibleVertices(surface, normals, camera, poses[k], &field);
+  }
+  std::vector<double> weight(need.size());
+  for (size_t v = 0; v < need.size(); ++v) weight[v] = env.area[v] * need[v];
+  std::vector<PlannedView> out;
+  std::vector<uint8_t> used(dirs.size(), 0);
+  for (int pick = 0; pick < options.count; ++pick) {
+    for (double max_gap = options.max_gap_degrees; max_gap <= 180; max_gap *= 2) {
+      const double cos_min = std::cos(options.min_gap_degrees * M_PI / 180);
+      const double cos_max = std::cos(max_gap * M_PI / 180);
+      double best = -1;
+      size_t best_k = 0;
+      for (size_t k = 0; k < dirs.size(); ++k) {
+        if (used[k]) continue;
+        double nearest = -1;
+        for (const Eigen::Vector3d& t : taken) nearest = std::max(nearest, dirs[k].dot(t));
+        if (nearest > cos_min || nearest < cos_max) continue;
+        double s = 0;
+        for (size_t v = 0; v < weight.size(); ++v)
+          if (seen[k][v]) s += weight[v];
+        if (s > best) {
+          best = s;
+          best_k = k;
+        }
+      }
+      if (best < 0) continue;
+      PlannedView pv;
+      pv.cam_from_world = poses[best_k];
+      pv.score = best;
+      for (size_t v = 0; v < weight.size(); ++v) {
+        if (!seen[best_k][v]) continue;
+        ++pv.visible_vertices;
+        if (need[v] >= 1 && weight[v] > 0) pv.unseen_area += env.area[v];
+        weight[v] = 0;
+      }
+      used[best_k] = 1;
+      taken.push_back(dirs[best_k]);
+      out.push_back(pv);
+      break;
+    }
+  }
+  return out;
 }
 
 }  // namespace rephoto::live

@@ -12,6 +12,9 @@
 // (the nearest surface wins over the background behind it, robust to a few stereo outliers
 // in front), so the envelope is the star-shaped surface around c that the photos saw.
 //
+// A point counts only when its camera saw it from outside, i.e. the unit vector from the point
+// to its camera has a cosine >= 0.1 with the point's direction from c (within 84 degrees):
+// background seen past the object (the ground behind it) is not the object's far side.
 // Unseen surface. A direction is *observed* when its bin holds at least `min_points` points
 // from at least `min_views` different photos. Every other direction stands for surface no
 // photo has looked at yet: the far side of the object (directions no camera looked from), the
@@ -69,5 +72,46 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
 
 // The point nearest (least squares) to the optical axes; false when that is ill-conditioned.
 bool NearestPointToAxes(const std::vector<camera::Pose>& poses, Eigen::Vector3d* point);
+
+}  // namespace rephoto::live
+
+namespace rephoto::render {
+class RenderModel;
+}
+
+namespace rephoto::live {
+
+// Next views on the envelope, for a capture in progress (`rephoto live`). Like
+// suggest::SuggestViews (candidates on a Fibonacci sphere around the look-at point at the
+// photos' median distance, within `elevation_margin_degrees` of the photos' elevation range
+// about `up` and not below the horizon when every photo is above it; greedy choice of the
+// candidate seeing the most weight, whose vertices' weights then drop to 0; visibility by
+// suggest::VisibleVertices), with one difference: a candidate must lie within
+// [min_gap_degrees, max_gap_degrees] (seen from the look-at point) of the nearest photo taken
+// or suggested before it. A live capture can only use a new photo that overlaps earlier ones
+// (plane-sweep stereo needs a neighbour within 60 degrees of viewing direction, COLMAP needs
+// matches to register it), so the suggestions extend the covered region from its frontier
+// instead of jumping to the far side where nothing could be matched. When no candidate
+// satisfies the band, max_gap doubles until one does.
+// Weight of a vertex = area * need, need in [0, 1] given by the caller.
+struct PlanOptions {
+  int count = 3;
+  int candidates = 200;
+  double elevation_margin_degrees = 20;
+  double min_gap_degrees = 8;
+  double max_gap_degrees = 30;
+};
+
+struct PlannedView {
+  camera::Pose cam_from_world;
+  double score = 0;           // weight it added when chosen
+  double unseen_area = 0;     // area of need-1 vertices it newly sees
+  size_t visible_vertices = 0;
+};
+
+std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const Envelope& env,
+                                       const std::vector<float>& need,
+                                       const std::vector<camera::Pose>& photos,
+                                       const camera::Camera& camera, const PlanOptions& options);
 
 }  // namespace rephoto::live

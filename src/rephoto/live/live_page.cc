@@ -93,7 +93,7 @@ function render(s) {
     const f = el("figure", {class: "suggestion"});
     if (g.has_render) f.appendChild(el("img", {src: file("suggestion", g.name, s.version), alt: g.name}));
     f.appendChild(el("figcaption", {}, (i + 1) + ". " + g.how));
-    f.appendChild(el("figcaption", {}, "newly seen unobserved area " + fmt(g.unobserved_area, 3) + ", mean error there " + fmt(g.mean_error, 3)));
+    f.appendChild(el("figcaption", {}, "newly sees " + pct(g.unseen_area_fraction) + " of the model (unseen so far)"));
     const c = el("code"); c.textContent = JSON.stringify({camera: g.camera, qvec: g.qvec.map(v => +v.toFixed(6)), tvec: g.tvec.map(v => +v.toFixed(6))});
     f.appendChild(c); sg.appendChild(f);
   });

@@ -9,7 +9,9 @@
 //      bad_name (control characters), duplicate (same SHA-256 as a registered photo),
 //      bad_sidecar (its <stem>.json is invalid or its camera's aspect ratio is not the photo's),
 //      no_pose (no sidecar after `sidecar_wait` seconds and no registration engine),
-//      unregistered (the registration engine could not place it), blurred (sharpness, the
+//      unregistered (the registration engine could not place it; photos it defers, e.g.
+//      before COLMAP's first reconstruction, wait and are looked up again after every later
+//      registered photo), blurred (sharpness, the
 //      variance of the Laplacian of its grey image at 256 pixels wide, below blur_ratio times
 //      the median of the registered photos', once 3 are registered).
 //   2. Pose: the sidecar <stem>.json (sidecar.h), else the registration engine (Registrar).
@@ -56,23 +58,32 @@
 #include <vector>
 
 #include "rephoto/camera/camera.h"
+#include "rephoto/ibr/image_based_renderer.h"
 #include "rephoto/live/live_model.h"
 
 namespace rephoto::live {
 
-// A registration engine for photos without a sidecar (colmap_registrar.h). Register returns the
-// photo's camera and pose, or nullopt with `message` set when it cannot place the photo.
+// A registration engine for photos without a sidecar (colmap_registrar.h). Register adds the
+// photo and returns its camera and pose when it could be placed; kDeferred when the engine
+// cannot tell yet (e.g. before its initial reconstruction: the session asks again with
+// Lookup after later photos); kFailed with `message` set when it cannot place the photo.
 class Registrar {
  public:
   virtual ~Registrar() = default;
   struct Result {
+    enum Status { kRegistered, kDeferred, kFailed } status = kFailed;
     camera::Camera camera;
     camera::Pose cam_from_world;
+    std::string message;
   };
-  virtual std::optional<Result> Register(const std::filesystem::path& photo, std::string* message) = 0;
-  // Poses of already registered photos may move (bundle adjustment): name -> pose.
-  virtual std::vector<std::pair<std::string, Result>> UpdatedPoses() { return {}; }
+  virtual Result Register(const std::filesystem::path& photo) = 0;
+  // The pose of a photo added before, once the engine has placed it (kRegistered), else
+  // kDeferred or kFailed.
+  virtual Result Lookup(const std::string& name) = 0;
 };
+
+// The image-based rendering settings of the predictions and suggestion rephotos.
+ibr::ImageBasedOptions PredictionIbrOptions();
 
 struct LiveOptions {
   std::filesystem::path watch;

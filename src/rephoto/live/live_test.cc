@@ -263,10 +263,6 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     EXPECT_TRUE(fs::exists(run / "suggestions" / "transforms.json"));
     EXPECT_TRUE(fs::exists(run / "model.ply"));
     EXPECT_GT(api["model"]["unseen_fraction"].get<double>(), 0.2);
-    if (std::getenv("REPHOTO_LIVE_KEEP")) {
-      fs::remove_all(std::getenv("REPHOTO_LIVE_KEEP"));
-      fs::copy(base, std::getenv("REPHOTO_LIVE_KEEP"), fs::copy_options::recursive);
-    }
   }
   // Resume: a new session reads live.jsonl; handing it the same files again redoes nothing.
   const std::string before = ReadFileToString(run / "live.jsonl");
