@@ -150,7 +150,7 @@ std::vector<camera::Pose> Candidates(int count) {
 }  // namespace
 
 ClosedLoopResult RunClosedLoop(const ClosedLoopOptions& options) {
-  REPHOTO_CHECK_USAGE(options.steps >= 1 && options.random_seeds >= 1 && options.width >= 64 &&
+  REPHOTO_CHECK_USAGE(options.steps >= 1 && options.random_seeds >= 0 && options.width >= 64 &&
                           options.height >= 48,
                       "closed loop: invalid options");
   fs::create_directories(options.work);
@@ -168,7 +168,8 @@ ClosedLoopResult RunClosedLoop(const ClosedLoopOptions& options) {
                                    return ParseSidecar(api["suggestions"][0].dump(), "suggestion")
                                        .cam_from_world;
                                  });
-  result.ring = RunSequence("ring", options, capture, heldout, [](const LiveSession&, int k) {
+  if (options.ring)
+    result.ring = RunSequence("ring", options, capture, heldout, [](const LiveSession&, int k) {
     return RingPose(60.0 + 20.0 * k, 3.2, 1.5);
   });
   const std::vector<camera::Pose> candidates = Candidates(options.candidates);
@@ -180,7 +181,7 @@ ClosedLoopResult RunClosedLoop(const ClosedLoopOptions& options) {
                                         [order](const LiveSession&, int k) { return order[k - 1]; }));
   }
   result.random_median.name = "random_median";
-  for (size_t k = 0; k < result.suggested.steps.size(); ++k) {
+  for (size_t k = 0; k < result.suggested.steps.size() && !result.random.empty(); ++k) {
     auto median = [&](auto field) {
       std::vector<double> v;
       for (const Sequence& s : result.random) v.push_back(field(s.steps[k]));
@@ -224,9 +225,11 @@ std::string ClosedLoopSvg(const ClosedLoopResult& r) {
     const char* colour;
     const char* label;
   };
-  const std::vector<Line> lines = {{&r.suggested, "#d62728", "suggested"},
-                                   {&r.random_median, "#7f7f7f", "random (median of seeds)"},
-                                   {&r.ring, "#1f77b4", "continuing the ring"}};
+  std::vector<Line> lines;
+  for (const Line& l : {Line{&r.suggested, "#d62728", "suggested"},
+                        Line{&r.random_median, "#7f7f7f", "random (median of seeds)"},
+                        Line{&r.ring, "#1f77b4", "continuing the ring"}})
+    if (!l.s->steps.empty()) lines.push_back(l);
   const int n = static_cast<int>(r.suggested.steps.size());
   for (int p = 0; p < 2; ++p) {
     const int x0 = p * (panel + 30) + L, w = panel - L, h = H - T - B;

@@ -39,7 +39,8 @@ struct ClosedLoopOptions {
   int width = 480;
   int height = 360;
   int steps = 8;
-  int random_seeds = 5;
+  int random_seeds = 5;         // 0 = no random sequences
+  bool ring = true;             // run the ring sequence
   int candidates = 200;
   int suggest_candidates = 200;
 };

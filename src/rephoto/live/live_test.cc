@@ -252,13 +252,23 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
       EXPECT_TRUE(fs::exists(run / "predictions" / (order[k] + ".png")));
       EXPECT_TRUE(fs::exists(run / "errors" / (order[k] + ".1-ncc.exr")));
     }
-    // Suggestions: K = 3, each in the sidecar's shape, looking at the object from a side the
-    // ring has not covered (the ring spans azimuths 0..1.2 rad).
+    // Suggestions: K = 3, each in the sidecar's shape. The first one extends the covered
+    // region from its frontier: 8-30 degrees (seen from the look-at point) from the nearest
+    // photo, outside the ring's own directions, and it newly sees unseen model surface.
     ASSERT_EQ(api["suggestions"].size(), 3u);
     const PoseSidecar s = ParseSidecar(api["suggestions"][0].dump(), "suggestion");
-    const Eigen::Vector3d c = s.cam_from_world.Center();
-    const double azimuth = std::atan2(c.y(), c.x());
-    EXPECT_TRUE(azimuth > 1.6 || azimuth < -0.4) << azimuth;
+    const Eigen::Vector3d look(api["model"]["center"][0], api["model"]["center"][1],
+                               api["model"]["center"][2]);
+    const Eigen::Vector3d d = (s.cam_from_world.Center() - look).normalized();
+    double nearest = 180;
+    for (int k = 0; k < 5; ++k) {
+      const double a = k * 0.3;
+      const Eigen::Vector3d p = (Eigen::Vector3d(3.2 * std::cos(a), 3.2 * std::sin(a), 1.5) - look).normalized();
+      nearest = std::min(nearest, std::acos(std::clamp(d.dot(p), -1.0, 1.0)) * 180 / M_PI);
+    }
+    EXPECT_GE(nearest, 8 - 0.5);
+    EXPECT_LE(nearest, 30 + 0.5);
+    EXPECT_GT(api["suggestions"][0]["unseen_area_fraction"].get<double>(), 0.0);
     EXPECT_TRUE(fs::exists(run / "suggestions" / "sparse" / "images.txt"));
     EXPECT_TRUE(fs::exists(run / "suggestions" / "transforms.json"));
     EXPECT_TRUE(fs::exists(run / "model.ply"));
