@@ -17,7 +17,8 @@ table{border-collapse:collapse;font-size:.9em} td,th{padding:2px 8px;border-bott
 .status-registered{color:#080} .bad{color:#b00}
 .row{display:flex;gap:1em;flex-wrap:wrap} figure{margin:0} figcaption{font-size:.85em;color:#555}
 img{max-width:320px;border:1px solid #ccc;background:#eee}
-code{font-size:.85em} .figure{font-size:1.3em;font-weight:600}
+code{font-size:.8em;word-break:break-all} .figure{font-size:1.3em;font-weight:600}
+figure.suggestion{max-width:330px}
 </style></head><body>
 <h1>rephoto live <span id="version" style="font-size:.6em;color:#888"></span></h1>
 <p id="summary">waiting for the first update…</p>

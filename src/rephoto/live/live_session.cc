@@ -518,7 +518,7 @@ struct LiveSession::State {
     suggestions = list;
     this->model = model_json;
   }
-  static constexpr float kWellCovered = 0.3f;
+  static constexpr double kWellCovered = 0.3;
   // Observed vertices weigh at most this much of an unseen one: unseen surface first, then
   // the highest projected error.
   static constexpr float kErrorNeed = 0.1f;
