@@ -718,6 +718,13 @@ struct LiveSession::State {
       if (it != by_name.end() && photos[it->second].sha256 == p.sha256 &&
           FinalStatus(photos[it->second].status))
         return;  // already processed (a restart)
+      if (it != by_name.end() && photos[it->second].status == "registered") {
+        // Its depth map and prediction belong to the first content: keep the registration.
+        LogWarning(fmt::format("{}: changed after it was registered; the new content is ignored "
+                               "(give the new photo another name)",
+                               name));
+        return;
+      }
     }
     if (!io::IsImageFile(path)) {
       p.status = "not_an_image";

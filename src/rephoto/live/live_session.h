@@ -14,6 +14,9 @@
 //      registered photo), blurred (sharpness, the
 //      variance of the Laplacian of its grey image at 256 pixels wide, below blur_ratio times
 //      the median of the registered photos', once 3 are registered).
+//      A file rewritten later is processed again, except a registered photo: it keeps its
+//      registration and the new content is ignored with a warning (its depth map and
+//      prediction belong to the first content).
 //   2. Pose: the sidecar <stem>.json (sidecar.h), else the registration engine (Registrar).
 //   3. Prediction: image-based rendering (ibr/image_based_renderer.h, IBR) from the
 //      `neighbors` registered photos nearest to it (camera distance plus viewing-angle
