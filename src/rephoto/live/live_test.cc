@@ -228,6 +228,27 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     }
     session.HandleReady("odd.png");
 
+    // The photo first, its sidecar a moment later: the photo waits, the sidecar releases it.
+    {
+      const camera::Pose pose = LookAt({3.2 * std::cos(1.5), 3.2 * std::sin(1.5), 1.5}, target);
+      io::WritePng(watch / "late.png", capture.Photograph(pose, 77));
+      session.HandleReady("late.png");
+      EXPECT_EQ(session.waiting(), 1u);
+      EXPECT_EQ(StatusOf(session.Api(), "late.png"), "(none)");
+      WriteSidecarOnly(watch / "late.json", capture.camera(), pose);
+      session.HandleReady("late.json");
+      EXPECT_EQ(session.waiting(), 0u);
+      EXPECT_EQ(StatusOf(session.Api(), "late.png"), "registered");
+    }
+    // A registered photo rewritten with other content keeps its registration.
+    {
+      const std::string jsonl = ReadFileToString(run / "live.jsonl");
+      fs::copy_file(watch / "ring_3.png", watch / "ring_0.png", fs::copy_options::overwrite_existing);
+      session.HandleReady("ring_0.png");
+      EXPECT_EQ(ReadFileToString(run / "live.jsonl"), jsonl);
+      EXPECT_EQ(StatusOf(session.Api(), "ring_0.png"), "registered");
+    }
+
     const nlohmann::json api = session.Api();
     EXPECT_EQ(StatusOf(api, "notes.txt"), "not_an_image");
     EXPECT_EQ(StatusOf(api, "broken.png"), "unreadable");
@@ -241,8 +262,9 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     std::vector<nlohmann::json> reg;
     for (const auto& p : api["photos"])
       if (p["status"] == "registered") reg.push_back(p);
-    ASSERT_EQ(reg.size(), 5u);
+    ASSERT_EQ(reg.size(), 6u);  // the ring and late.png
     for (size_t k = 0; k < 5; ++k) EXPECT_EQ(reg[k]["name"], order[k]);
+    EXPECT_EQ(reg[5]["name"], "late.png");
     EXPECT_EQ(reg[0]["completeness"], 0.0);
     EXPECT_TRUE(reg[0]["error"].is_null());
     for (size_t k = 2; k < 5; ++k) {
@@ -261,8 +283,7 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
                                api["model"]["center"][2]);
     const Eigen::Vector3d d = (s.cam_from_world.Center() - look).normalized();
     double nearest = 180;
-    for (int k = 0; k < 5; ++k) {
-      const double a = k * 0.3;
+    for (double a : {0.0, 0.3, 0.6, 0.9, 1.2, 1.5}) {  // the ring and late.png
       const Eigen::Vector3d p = (Eigen::Vector3d(3.2 * std::cos(a), 3.2 * std::sin(a), 1.5) - look).normalized();
       nearest = std::min(nearest, std::acos(std::clamp(d.dot(p), -1.0, 1.0)) * 180 / M_PI);
     }
@@ -284,7 +305,7 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     const nlohmann::json api = session.Api();
     size_t registered = 0;
     for (const auto& p : api["photos"]) registered += p["status"] == "registered";
-    EXPECT_EQ(registered, 5u);
+    EXPECT_EQ(registered, 6u);
     EXPECT_EQ(api["suggestions"].size(), 3u);  // restored from suggestions/suggestions.json
     EXPECT_GT(api["model"]["unseen_fraction"].get<double>(), 0.2);
   }
