@@ -1,0 +1,43 @@
+// rephoto live-experiment --out DIR [--width W --height H --steps N --seeds S] [--no-ring]
+// The closed-loop experiment of `rephoto live` on the demo scene (src/rephoto/live/closed_loop.h):
+// suggested next views against random ones and against continuing the ring. Writes
+// DIR/closed_loop.csv, DIR/closed_loop.svg and the sequences' watch/run folders.
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "command.h"
+#include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/live/closed_loop.h"
+
+namespace rephoto::cli {
+namespace {
+
+CommandRunner SetupLiveExperiment(CLI::App& app) {
+  auto o = std::make_shared<live::ClosedLoopOptions>();
+  auto out = std::make_shared<std::string>();
+  app.add_option("--out", *out, "Output folder")->required();
+  app.add_option("--width", o->width, "Photo width")->capture_default_str();
+  app.add_option("--height", o->height, "Photo height")->capture_default_str();
+  app.add_option("--steps", o->steps, "Photos added after the 4 start photos")->capture_default_str();
+  app.add_option("--seeds", o->random_seeds, "Random sequences (median per step; 0 = none)")->capture_default_str();
+  app.add_flag("!--no-ring", o->ring, "Skip the sequence continuing the ring");
+  return [o, out]() {
+    live::ClosedLoopOptions options = *o;
+    options.work = *out;
+    const live::ClosedLoopResult r = live::RunClosedLoop(options);
+    WriteTextFileAtomically(options.work / "closed_loop.csv", live::ClosedLoopCsv(r));
+    WriteTextFileAtomically(options.work / "closed_loop.svg", live::ClosedLoopSvg(r));
+    fmt::print("{}", live::ClosedLoopCsv(r));
+    return static_cast<int>(ExitCode::kOk);
+  };
+}
+
+}  // namespace
+
+REPHOTO_COMMAND(58, "live-experiment",
+                "Closed loop of rephoto live on the demo scene (suggested vs random vs ring)",
+                SetupLiveExperiment);
+
+}  // namespace rephoto::cli

@@ -1,0 +1,91 @@
+// rephoto live with COLMAP registration (colmap_registrar.h) on real photos
+// (../shared/data/llff_fern/images_8): 6 photos in a shuffled order register (the first ones are
+// deferred until the initial reconstruction, then placed), and a photo of another scene (the
+// demo scene) cannot register and gets the status "unregistered", not a crash. The relative
+// poses COLMAP finds are checked against the dataset's own COLMAP model up to a similarity:
+// camera-centre distance ratios agree within 10 %. Needs `colmap` (scripts/install-deps.sh).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "rephoto/core/file.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/live/colmap_registrar.h"
+#include "rephoto/live/demo_capture.h"
+#include "rephoto/live/live_session.h"
+#include "rephoto/live/sidecar.h"
+#include "rephoto/scene/colmap.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto::live {
+namespace {
+namespace fs = std::filesystem;
+
+TEST(LiveColmapTest, ShuffledRealPhotosRegisterAndAStrangerDoesNot) {
+  REPHOTO_REQUIRE_DATA("llff_fern/images_8");
+  ASSERT_EQ(std::system("command -v colmap >/dev/null"), 0) << "install colmap (scripts/install-deps.sh)";
+  const fs::path images = testing::SharedDataDir() / "llff_fern" / "images_8";
+  const fs::path base = testing::MakeTempDir();
+  const fs::path watch = base / "watch", run = base / "run";
+  fs::create_directories(watch);
+  std::vector<std::string> names = {"image000.png", "image003.png", "image006.png",
+                                    "image009.png", "image012.png", "image015.png"};
+  std::shuffle(names.begin(), names.end(), std::mt19937_64(7));
+  ColmapRegistrarOptions co;
+  co.workspace = run / "colmap";
+  co.bootstrap = 4;
+  const std::unique_ptr<Registrar> registrar = MakeColmapRegistrar(co);
+  LiveOptions o;
+  o.watch = watch;
+  o.out = run;
+  o.registrar = registrar.get();
+  o.predict_width = 252;
+  o.depth_width = 252;
+  o.candidates = 100;
+  LiveSession session(o);
+  for (const std::string& n : names) {
+    fs::copy_file(images / n, watch / n);
+    session.HandleReady(n);
+  }
+  // A photo of another scene.
+  DemoCapture capture(504, 378);
+  io::WritePng(watch / "stranger.png", capture.Photograph(LookAt({3, 0, 1.5}, {0, 0, 0.45}), 1));
+  session.HandleReady("stranger.png");
+  const nlohmann::json api = session.Api();
+  std::map<std::string, nlohmann::json> by;
+  for (const auto& p : api["photos"]) by[p["name"]] = p;
+  for (const std::string& n : names) {
+    ASSERT_TRUE(by.count(n)) << n;
+    EXPECT_EQ(by[n]["status"], "registered") << by[n].dump();
+    EXPECT_EQ(by[n]["pose_source"], "colmap");
+  }
+  ASSERT_TRUE(by.count("stranger.png"));
+  EXPECT_EQ(by["stranger.png"]["status"], "unregistered") << by["stranger.png"].dump();
+  EXPECT_FALSE(by["stranger.png"]["message"].get<std::string>().empty());
+  // Reference: the dataset's poses (LLFF poses_bounds.npy converted to COLMAP text beside it;
+  // independent of this run's COLMAP).
+  const scene::ColmapModel ref =
+      scene::ReadColmapModel(testing::SharedDataDir() / "llff_fern" / "sparse_text_images_8_derived");
+  std::map<std::string, Eigen::Vector3d> ref_centre, live_centre;
+  for (const auto& im : ref.images)
+    ref_centre[im.name] = camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1],
+                                                       im.quaternion[2], im.quaternion[3],
+                                                       im.translation).Center();
+  for (const std::string& n : names)
+    live_centre[n] = ParseSidecar(by[n].dump(), n).cam_from_world.Center();
+  auto ref_of = [&](const std::string& n) { return ref_centre.at(n); };
+  std::vector<double> ratios;
+  for (size_t a = 0; a < names.size(); ++a)
+    for (size_t b = a + 1; b < names.size(); ++b) {
+      const std::string& sa = names[a];
+      const std::string& sb = names[b];
+      ratios.push_back((live_centre[sa] - live_centre[sb]).norm() / (ref_of(sa) - ref_of(sb)).norm());
+    }
+  std::sort(ratios.begin(), ratios.end());
+  const double median = ratios[ratios.size() / 2];
+  for (double r : ratios) EXPECT_NEAR(r / median, 1.0, 0.1);
+}
+
+}  // namespace
+}  // namespace rephoto::live

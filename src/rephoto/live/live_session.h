@@ -1,0 +1,138 @@
+// `rephoto live`: follows a capture while it happens (paper Sections 3 and 6.2). Every new
+// photo is predicted from the photos before it (prequential evaluation: the paper's
+// rephotography applied in time order), then joins them; after each photo the per-photo
+// errors are projected onto the current model and the next views are suggested.
+//
+// Per photo, in arrival order (docs/live.md has the reasons and the measurements):
+//   1. Checks, each ending in a status instead of a crash (RUN/live.jsonl and the page):
+//      not_an_image (extension not .png/.jpg/.jpeg/.exr/.pfm), unreadable (cannot be decoded),
+//      bad_name (control characters), duplicate (same SHA-256 as a registered photo),
+//      bad_sidecar (its <stem>.json is invalid or its camera's aspect ratio is not the photo's),
+//      no_pose (no sidecar after `sidecar_wait` seconds and no registration engine),
+//      unregistered (the registration engine could not place it; photos it defers, e.g.
+//      before COLMAP's first reconstruction, wait and are looked up again after every later
+//      registered photo), blurred (sharpness, the
+//      variance of the Laplacian of its grey image at 256 pixels wide, below blur_ratio times
+//      the median of the registered photos', once 3 are registered).
+//      A file rewritten later is processed again, except a registered photo: it keeps its
+//      registration and the new content is ignored with a warning (its depth map and
+//      prediction belong to the first content).
+//   2. Pose: the sidecar <stem>.json (sidecar.h), else the registration engine (Registrar).
+//   3. Prediction: image-based rendering (ibr/image_based_renderer.h, IBR) from the
+//      `neighbors` registered photos nearest to it (camera distance plus viewing-angle
+//      difference), each with its stored plane-sweep depth map, rendered at the photo's camera
+//      scaled to at most `predict_width` pixels wide and compared with the photo reduced to
+//      that size (compare::CompareInMemory, 1-NCC, default window): completeness (windows the
+//      prediction covers / valid photo windows) and mean 1-NCC over the covered windows. The
+//      first photos have nothing to predict from: completeness 0, error null.
+//   4. Joining: its depth map by plane sweep (ibr::EstimateDepthMaps at `depth_width`) against
+//      the registered photos nearest to it, and the depth maps of registered photos that had
+//      none yet (no neighbour when they came); then the record is appended to live.jsonl.
+//   5. Model and suggestions: the envelope of all depth maps (live_model.h), the per-photo error
+//      images projected onto it (project::ProjectErrors), and suggest::SuggestViews on it with
+//      the need of unobserved envelope directions forced to 1 (they stand for unseen surface),
+//      K suggestions, each rendered by IBR from its nearest photos.
+// Cost per photo is bounded by the neighbour counts and working widths, except the envelope
+// and the projection, which grow linearly with the photos (small: depth maps are subsampled,
+// error images are at predict_width).
+//
+// Run folder RUN (one writer: run::OpenRunFolder kind "live"; kill -9 and restart resume):
+//   live.jsonl             one JSON record per processed file version, appended (a torn last
+//                          line is ignored at restart); the last record of a name counts
+//   live.json              the state the page shows (= GET /api/live), replaced atomically
+//   photos/<name>.png      the photo at predict_width;  predictions/<name>.png its prediction
+//   errors/<name>.1-ncc.exr / .png   per-pixel error (NaN = not covered) and its colours
+//   depth/<name>.bin       plane-sweep depth (COLMAP .bin)
+//   model.ply              the envelope with projected errors (project::WriteProjectedPly)
+//   suggestions/suggestions.json, suggest_XX.png, suggest_XX.json (sidecar shape),
+//   suggestions/sparse/{cameras,images,points3D}.txt, suggestions/transforms.json
+// <name> is the photo's file name in the watched folder.
+//
+// Thread safety: HandleReady/Tick from one thread; Api() and FilePath() from any thread.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rephoto/camera/camera.h"
+#include "rephoto/ibr/image_based_renderer.h"
+#include "rephoto/live/live_model.h"
+
+namespace rephoto::live {
+
+// A registration engine for photos without a sidecar (colmap_registrar.h). Register adds the
+// photo and returns its camera and pose when it could be placed; kDeferred when the engine
+// cannot tell yet (e.g. before its initial reconstruction: the session asks again with
+// Lookup after later photos); kFailed with `message` set when it cannot place the photo.
+class Registrar {
+ public:
+  virtual ~Registrar() = default;
+  struct Result {
+    enum Status { kRegistered, kDeferred, kFailed } status = kFailed;
+    camera::Camera camera;
+    camera::Pose cam_from_world;
+    std::string message;
+  };
+  virtual Result Register(const std::filesystem::path& photo) = 0;
+  // The pose of a photo added before, once the engine has placed it (kRegistered), else
+  // kDeferred or kFailed.
+  virtual Result Lookup(const std::string& name) = 0;
+};
+
+// The image-based rendering settings of the predictions and suggestion rephotos.
+ibr::ImageBasedOptions PredictionIbrOptions();
+
+struct LiveOptions {
+  std::filesystem::path watch;
+  std::filesystem::path out;
+  int suggestions = 3;      // K
+  int candidates = 200;     // suggest candidates
+  int predict_width = 640;  // prediction and error images (pixels, >= 16)
+  int depth_width = 320;    // plane-sweep working width
+  int depth_planes = 64;
+  int neighbors = 6;        // photos per prediction / suggestion rephoto
+  double blur_ratio = 0.2;  // see "blurred" above; 0 = never
+  double sidecar_wait = 10; // seconds
+  EnvelopeOptions envelope;
+  Registrar* registrar = nullptr;  // not owned; null = sidecars only
+  bool show_progress = false;
+  void Check() const;
+};
+
+class LiveSession {
+ public:
+  // Opens (creates) the run folder with its lock and resumes from live.jsonl. Throws Error when
+  // the folder is locked by another writer or holds something else.
+  explicit LiveSession(const LiveOptions& options);
+  ~LiveSession();
+
+  // One file of the watched folder became ready (watcher.h). Never throws for a bad photo (it
+  // gets a status); throws Error only when the run folder cannot be written.
+  void HandleReady(const std::string& name);
+  // Photos whose sidecar wait ran out become no_pose. Returns true when something changed.
+  bool Tick();
+  // Photos waiting for their sidecar.
+  size_t waiting() const;
+
+  // The /api/live document (see docs/live.md).
+  nlohmann::json Api() const;
+  // The file of the page's image `kind` ("photo", "prediction", "error", "suggestion") for
+  // `name` when the state has it (names are looked up, never joined unchecked).
+  std::optional<std::filesystem::path> FilePath(const std::string& kind,
+                                                const std::string& name) const;
+  // Number of state updates so far (the page polls for a change).
+  uint64_t version() const;
+
+  struct State;
+
+ private:
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace rephoto::live

@@ -1,0 +1,315 @@
+// rephoto live: sidecars, the folder watcher (partial files, temporary names), the per-photo
+// pipeline on a simulated capture of the demo scene (statuses of bad files, prediction before
+// joining, suggestions in the sidecar's shape), resume and the one-writer lock.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
+#include "rephoto/io/image_io.h"
+#include "rephoto/live/demo_capture.h"
+#include "rephoto/live/live_model.h"
+#include "rephoto/live/live_session.h"
+#include "rephoto/live/sidecar.h"
+#include "rephoto/live/watcher.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto::live {
+namespace {
+namespace fs = std::filesystem;
+
+TEST(SidecarTest, RoundTripAndErrors) {
+  camera::Camera cam{camera::CameraModel::kPinhole, 640, 480, {600, 610, 320, 240}};
+  const camera::Pose pose = LookAt({3, 0, 1.5}, {0, 0, 0.5});
+  const PoseSidecar s = ParseSidecar(SidecarJson(cam, pose).dump(), "a.json");
+  EXPECT_EQ(s.camera, cam);
+  EXPECT_LT((s.cam_from_world.rotation - pose.rotation).norm(), 1e-12);
+  EXPECT_LT((s.cam_from_world.translation - pose.translation).norm(), 1e-12);
+  // Centre of the camera = (3, 0, 1.5) as given (COLMAP world-to-camera convention).
+  EXPECT_LT((s.cam_from_world.Center() - Eigen::Vector3d(3, 0, 1.5)).norm(), 1e-12);
+  EXPECT_NE(testing::ErrorOf([] { ParseSidecar("{", "b.json"); }).find("b.json: not valid JSON"),
+            std::string::npos);
+  std::string bad = SidecarJson(cam, pose).dump();
+  bad = testing::Replace(bad, "PINHOLE", "PINHOLO");
+  EXPECT_NE(testing::ErrorOf([&] { ParseSidecar(bad, "c.json"); }).find("unknown camera model"),
+            std::string::npos);
+  nlohmann::json j = SidecarJson(cam, pose);
+  j["qvec"] = {2, 0, 0, 0};
+  EXPECT_NE(testing::ErrorOf([&] { ParseSidecar(j.dump(), "d.json"); }).find("unit quaternion"),
+            std::string::npos);
+  j = SidecarJson(cam, pose);
+  j["camera"]["params"] = {1, 2, 3};
+  EXPECT_NE(testing::ErrorOf([&] { ParseSidecar(j.dump(), "e.json"); }).find("4 numbers"),
+            std::string::npos);
+}
+
+TEST(WatcherTest, TemporaryNames) {
+  for (const char* n : {".hidden.jpg", "~a.jpg", "a.jpg~", "a.jpg.part", "a.tmp", "a.png.tmp-123",
+                        "a.crdownload"})
+    EXPECT_TRUE(IsTemporaryName(n)) << n;
+  for (const char* n : {"a.jpg", "IMG_0001.JPG", "a.json", "tmp.png"}) EXPECT_FALSE(IsTemporaryName(n)) << n;
+}
+
+TEST(WatcherTest, PartialFileIsNotReadUntilClosedOrStable) {
+  const fs::path dir = testing::MakeTempDir();
+  FolderWatcher w(dir, /*stable_seconds=*/1.5);
+  // A file being written (open, not closed): not ready while it grows, nor before it is stable.
+  const int fd = ::open((dir / "partial.jpg").c_str(), O_WRONLY | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::write(fd, "abc", 3), 3);
+  EXPECT_TRUE(w.Poll(0.2).empty());
+  ASSERT_EQ(::write(fd, "def", 3), 3);
+  EXPECT_TRUE(w.Poll(0.2).empty());
+  // A temporary name is never delivered; a closed file at once.
+  testing::WriteFile(dir / "x.jpg.part", "zz");
+  testing::WriteFile(dir / "done.png", "12345");
+  std::vector<std::string> r = w.Poll(0.2);
+  ASSERT_EQ(r, std::vector<std::string>{"done.png"});
+  // Closing the partial file makes it ready (IN_CLOSE_WRITE) with its full content.
+  ::close(fd);
+  r = w.Poll(0.5);
+  EXPECT_EQ(r, std::vector<std::string>{"partial.jpg"});
+  EXPECT_EQ(fs::file_size(dir / "partial.jpg"), 6u);
+  // Size-stable rule: a file that existed before the watcher started is delivered once its size
+  // stayed the same for stable_seconds (no event for it).
+  const fs::path dir2 = testing::MakeTempDir() / "w2";
+  fs::create_directories(dir2);
+  testing::WriteFile(dir2 / "old.jpg", "1");
+  FolderWatcher w2(dir2, 0.6);
+  EXPECT_TRUE(w2.Poll(0.0).empty());
+  usleep(700000);
+  EXPECT_EQ(w2.Poll(0.0), std::vector<std::string>{"old.jpg"});
+  EXPECT_TRUE(w2.Poll(0.0).empty());  // once per version
+  // Renamed into the folder (IN_MOVED_TO): ready at once.
+  WriteTextFileAtomically(dir2 / "moved.json", "{}");
+  EXPECT_EQ(w2.Poll(0.5), std::vector<std::string>{"moved.json"});
+}
+
+TEST(EnvelopeTest, SphereDepthGivesSphereAndUnseenBackside) {
+  // Depth maps of a sphere (radius 0.5 at the origin) seen by 6 cameras on one side: the
+  // envelope's observed radii are 0.5 (closed form), its back side is unobserved.
+  camera::Camera cam{camera::CameraModel::kPinhole, 160, 120, {160, 160, 80, 60}};
+  std::vector<camera::Pose> poses;
+  std::vector<Image> depths;
+  for (int k = 0; k < 6; ++k) {
+    const double a = k * 0.25;
+    poses.push_back(LookAt({3 * std::cos(a), 3 * std::sin(a), 0.3}, {0, 0, 0}));
+    Image d(160, 120, 1, std::nanf(""));
+    const Eigen::Vector3d c = poses.back().Center();
+    const Eigen::Matrix3d wfc = poses.back().rotation.transpose();
+    for (int y = 0; y < 120; ++y)
+      for (int x = 0; x < 160; ++x) {
+        const Eigen::Vector3d ray = *cam.CamFromImg({x + 0.5, y + 0.5});
+        const Eigen::Vector3d dir = (wfc * ray).normalized();
+        const double b = dir.dot(c), disc = b * b - (c.squaredNorm() - 0.25);
+        if (disc < 0) continue;
+        const double t = -b - std::sqrt(disc);
+        d.at(x, y) = static_cast<float>((t * dir).dot(wfc.col(2)));
+      }
+    depths.push_back(d);
+  }
+  std::vector<EnvelopeInput> in;
+  for (size_t k = 0; k < poses.size(); ++k) in.push_back({cam, poses[k], &depths[k]});
+  EnvelopeOptions eo;
+  eo.stride = 1;
+  const Envelope env = BuildEnvelope(poses, in, eo);
+  EXPECT_LT(env.center.norm(), 0.05);  // axes meet at the origin
+  size_t observed = 0;
+  for (size_t v = 0; v < env.observed.size(); ++v) {
+    if (!env.observed[v]) continue;
+    ++observed;
+    EXPECT_NEAR((env.mesh.positions[v].cast<double>() - env.center).norm(), 0.5, 0.03);
+    // Observed directions lie on the part of the sphere some camera sees: within
+    // acos(0.5 / 3) = 80.4 degrees of a camera's direction (closed form), give or take a
+    // grid cell (7.5 degrees).
+    const Eigen::Vector3d d = (env.mesh.positions[v].cast<double>() - env.center).normalized();
+    double best = -1;
+    for (const auto& p : poses) best = std::max(best, d.dot(p.Center().normalized()));
+    EXPECT_GT(best, std::cos((80.4 + 8) * M_PI / 180));
+  }
+  EXPECT_GT(observed, 50u);
+  EXPECT_GT(env.ObservedFraction(), 0.15);
+  EXPECT_LT(env.ObservedFraction(), 0.6);
+}
+
+void WriteSidecarOnly(const fs::path& path, const camera::Camera& cam, const camera::Pose& pose) {
+  WriteTextFileAtomically(path, SidecarJson(cam, pose).dump());
+}
+
+std::string StatusOf(const nlohmann::json& api, const std::string& name) {
+  for (const auto& p : api["photos"])
+    if (p["name"] == name) return p["status"];
+  return "(none)";
+}
+
+TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
+  const fs::path base = testing::MakeTempDir();
+  const fs::path watch = base / "watch", run = base / "run";
+  fs::create_directories(watch);
+  DemoCapture capture(240, 180);
+  const Eigen::Vector3d target(0, 0, 0.45);
+  LiveOptions o;
+  o.watch = watch;
+  o.out = run;
+  o.predict_width = 240;
+  o.depth_width = 240;
+  o.candidates = 100;
+  o.sidecar_wait = 0;
+  std::vector<std::string> order;
+  {
+    LiveSession session(o);
+    // One writer per run folder.
+    EXPECT_NE(testing::ErrorOf([&] { LiveSession second(o); }).find("another rephoto live"),
+              std::string::npos);
+    for (int k = 0; k < 5; ++k) {
+      const double a = k * 0.3;
+      const std::string stem = fmt::format("ring_{}", k);
+      capture.Drop(watch, stem, LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5}, target), k);
+      session.HandleReady(stem + ".json");  // sidecar first: nothing happens
+      session.HandleReady(stem + ".png");
+      order.push_back(stem + ".png");
+    }
+    // Bad files.
+    testing::WriteFile(watch / "notes.txt", "not a photo");
+    session.HandleReady("notes.txt");
+    testing::WriteFile(watch / "broken.png", "\x89PNG\r\n\x1a\n truncated");
+    session.HandleReady("broken.png");
+    fs::copy_file(watch / "ring_1.png", watch / "copy_of_ring_1.png");
+    session.HandleReady("copy_of_ring_1.png");
+    // A blurred photo: the view of ring_2 box-filtered (15 px).
+    {
+      const Image sharp = io::ReadImage(watch / "ring_2.png");
+      Image blurred = sharp;
+      const int r = 7;
+      for (int y = 0; y < sharp.height(); ++y)
+        for (int x = 0; x < sharp.width(); ++x)
+          for (int c = 0; c < 3; ++c) {
+            double s = 0;
+            int n = 0;
+            for (int dy = -r; dy <= r; ++dy)
+              for (int dx = -r; dx <= r; ++dx) {
+                const int xx = std::clamp(x + dx, 0, sharp.width() - 1),
+                          yy = std::clamp(y + dy, 0, sharp.height() - 1);
+                s += sharp.at(xx, yy, c);
+                ++n;
+              }
+            blurred.at(x, y, c) = static_cast<float>(s / n);
+          }
+      fs::copy_file(watch / "ring_2.json", watch / "shaky.json");
+      io::WritePng(watch / "shaky.png", blurred);
+      session.HandleReady("shaky.png");
+    }
+    // No sidecar and no registration engine: no_pose once the wait ran out.
+    fs::copy_file(watch / "ring_3.png", watch / "lost.png");
+    {
+      // different content so it is not a duplicate
+      Image im = io::ReadImage(watch / "lost.png");
+      im.at(0, 0, 0) = 1 - im.at(0, 0, 0);
+      io::WritePng(watch / "lost.png", im);
+    }
+    session.HandleReady("lost.png");
+    EXPECT_EQ(session.waiting(), 1u);
+    EXPECT_TRUE(session.Tick());
+    // A sidecar whose camera does not match the photo.
+    fs::copy_file(watch / "ring_4.png", watch / "odd.png");
+    {
+      Image im = io::ReadImage(watch / "odd.png");
+      im.at(1, 1, 1) = 1 - im.at(1, 1, 1);
+      io::WritePng(watch / "odd.png", im);
+      camera::Camera wrong = capture.camera();
+      wrong.width = 100;
+      wrong.height = 100;
+      wrong.params = {100, 100, 50, 50};
+      WriteSidecarOnly(watch / "odd.json", wrong, LookAt({3, 0, 1}, target));
+    }
+    session.HandleReady("odd.png");
+
+    // The photo first, its sidecar a moment later: the photo waits, the sidecar releases it.
+    {
+      const camera::Pose pose = LookAt({3.2 * std::cos(1.5), 3.2 * std::sin(1.5), 1.5}, target);
+      io::WritePng(watch / "late.png", capture.Photograph(pose, 77));
+      session.HandleReady("late.png");
+      EXPECT_EQ(session.waiting(), 1u);
+      EXPECT_EQ(StatusOf(session.Api(), "late.png"), "(none)");
+      WriteSidecarOnly(watch / "late.json", capture.camera(), pose);
+      session.HandleReady("late.json");
+      EXPECT_EQ(session.waiting(), 0u);
+      EXPECT_EQ(StatusOf(session.Api(), "late.png"), "registered");
+    }
+    // A registered photo rewritten with other content keeps its registration.
+    {
+      const std::string jsonl = ReadFileToString(run / "live.jsonl");
+      fs::copy_file(watch / "ring_3.png", watch / "ring_0.png", fs::copy_options::overwrite_existing);
+      session.HandleReady("ring_0.png");
+      EXPECT_EQ(ReadFileToString(run / "live.jsonl"), jsonl);
+      EXPECT_EQ(StatusOf(session.Api(), "ring_0.png"), "registered");
+    }
+
+    const nlohmann::json api = session.Api();
+    EXPECT_EQ(StatusOf(api, "notes.txt"), "not_an_image");
+    EXPECT_EQ(StatusOf(api, "broken.png"), "unreadable");
+    EXPECT_EQ(StatusOf(api, "copy_of_ring_1.png"), "duplicate");
+    EXPECT_EQ(StatusOf(api, "shaky.png"), "blurred");
+    EXPECT_EQ(StatusOf(api, "lost.png"), "no_pose");
+    EXPECT_EQ(StatusOf(api, "odd.png"), "bad_sidecar");
+    // Registered photos in arrival order; the first has nothing to predict from, later ones
+    // are predicted (completeness > 0.1 on a ring with 17 degree steps: plane-sweep depth at
+    // 240 x 180 leaves holes) with a finite error.
+    std::vector<nlohmann::json> reg;
+    for (const auto& p : api["photos"])
+      if (p["status"] == "registered") reg.push_back(p);
+    ASSERT_EQ(reg.size(), 6u);  // the ring and late.png
+    for (size_t k = 0; k < 5; ++k) EXPECT_EQ(reg[k]["name"], order[k]);
+    EXPECT_EQ(reg[5]["name"], "late.png");
+    EXPECT_EQ(reg[0]["completeness"], 0.0);
+    EXPECT_TRUE(reg[0]["error"].is_null());
+    for (size_t k = 2; k < 5; ++k) {
+      EXPECT_GT(reg[k]["completeness"].get<double>(), 0.1) << reg[k].dump();
+      EXPECT_GT(reg[k]["error"].get<double>(), 0.0);
+      EXPECT_LT(reg[k]["error"].get<double>(), 0.6);
+      EXPECT_TRUE(fs::exists(run / "predictions" / (order[k] + ".png")));
+      EXPECT_TRUE(fs::exists(run / "errors" / (order[k] + ".1-ncc.exr")));
+    }
+    // Suggestions: K = 3, each in the sidecar's shape. The first one extends the covered
+    // region from its frontier: 8-30 degrees (seen from the look-at point) from the nearest
+    // photo, outside the ring's own directions, and it newly sees unseen model surface.
+    ASSERT_EQ(api["suggestions"].size(), 3u);
+    const PoseSidecar s = ParseSidecar(api["suggestions"][0].dump(), "suggestion");
+    const Eigen::Vector3d look(api["model"]["center"][0], api["model"]["center"][1],
+                               api["model"]["center"][2]);
+    const Eigen::Vector3d d = (s.cam_from_world.Center() - look).normalized();
+    double nearest = 180;
+    for (double a : {0.0, 0.3, 0.6, 0.9, 1.2, 1.5}) {  // the ring and late.png
+      const Eigen::Vector3d p = (Eigen::Vector3d(3.2 * std::cos(a), 3.2 * std::sin(a), 1.5) - look).normalized();
+      nearest = std::min(nearest, std::acos(std::clamp(d.dot(p), -1.0, 1.0)) * 180 / M_PI);
+    }
+    EXPECT_GE(nearest, 8 - 0.5);
+    EXPECT_LE(nearest, 30 + 0.5);
+    EXPECT_GT(api["suggestions"][0]["unseen_area_fraction"].get<double>(), 0.0);
+    EXPECT_TRUE(fs::exists(run / "suggestions" / "sparse" / "images.txt"));
+    EXPECT_TRUE(fs::exists(run / "suggestions" / "transforms.json"));
+    EXPECT_TRUE(fs::exists(run / "model.ply"));
+    EXPECT_GT(api["model"]["unseen_fraction"].get<double>(), 0.2);
+  }
+  // Resume: a new session reads live.jsonl; handing it the same files again redoes nothing.
+  const std::string before = ReadFileToString(run / "live.jsonl");
+  {
+    LiveSession session(o);
+    for (const std::string& n : order) session.HandleReady(n);
+    session.HandleReady("notes.txt");
+    EXPECT_EQ(ReadFileToString(run / "live.jsonl"), before);
+    const nlohmann::json api = session.Api();
+    size_t registered = 0;
+    for (const auto& p : api["photos"]) registered += p["status"] == "registered";
+    EXPECT_EQ(registered, 6u);
+    EXPECT_EQ(api["suggestions"].size(), 3u);  // restored from suggestions/suggestions.json
+    EXPECT_GT(api["model"]["unseen_fraction"].get<double>(), 0.2);
+  }
+}
+
+}  // namespace
+}  // namespace rephoto::live
