@@ -41,7 +41,19 @@ std::string Base64Of(const T* data, size_t count) {
 
 Json NumberOrNull(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
-Json CameraJson(const View3dCamera& c) {
+// Thumbnails stored once per view ("images"), cameras refer to them by index: the same photo's
+// thumbnail appears in every run of a comparison.
+struct ImageTable {
+  Json images = Json::array();
+  std::map<std::string, size_t> index;
+  Json Add(const std::string& uri) {
+    auto [it, added] = index.try_emplace(uri, images.size());
+    if (added) images.push_back(uri);
+    return it->second;
+  }
+};
+
+Json CameraJson(const View3dCamera& c, ImageTable& table) {
   Json j;
   j["name"] = c.name;
   j["role"] = c.role;
@@ -56,9 +68,9 @@ Json CameraJson(const View3dCamera& c) {
   j["t"] = {c.translation.x(), c.translation.y(), c.translation.z()};
   j["error"] = NumberOrNull(c.error);
   if (!c.note.empty()) j["note"] = c.note;
-  if (!c.photo_uri.empty()) j["photo"] = c.photo_uri;
-  if (!c.rephoto_uri.empty()) j["rephoto"] = c.rephoto_uri;
-  if (!c.error_uri.empty()) j["error_image"] = c.error_uri;
+  if (!c.photo_uri.empty()) j["photo"] = table.Add(c.photo_uri);
+  if (!c.rephoto_uri.empty()) j["rephoto"] = table.Add(c.rephoto_uri);
+  if (!c.error_uri.empty()) j["error_image"] = table.Add(c.error_uri);
   return j;
 }
 
@@ -72,7 +84,7 @@ bool SameArray(const std::vector<T>& a, const std::vector<T>& b) {
 // Model `index` of `models` as JSON; an array equal to an earlier model's (runs of one mesh:
 // the ground truth and its texture noise share positions and faces) is written as a reference
 // "<name>_of": <earlier index> instead of a second copy.
-Json ModelJson(const std::vector<View3dModel>& models, size_t index) {
+Json ModelJson(const std::vector<View3dModel>& models, size_t index, ImageTable& table) {
   const View3dModel& m = models[index];
   REPHOTO_CHECK(!m.positions.empty(), "3D view: model '{}' has no vertices", m.label);
   const size_t n = m.positions.size();
@@ -119,7 +131,7 @@ Json ModelJson(const std::vector<View3dModel>& models, size_t index) {
   if (!m.unseen.empty()) j["unseen"] = Base64Of(m.unseen.data(), n);
   j["folds"] = m.folds;
   Json cameras = Json::array();
-  for (const View3dCamera& c : m.cameras) cameras.push_back(CameraJson(c));
+  for (const View3dCamera& c : m.cameras) cameras.push_back(CameraJson(c, table));
   j["cameras"] = cameras;
   if (!m.note.empty()) j["note"] = m.note;
   return j;
@@ -497,11 +509,15 @@ std::string View3dHtml(const View3dData& data, const std::string& id) {
   Json j;
   j["title"] = data.title;
   Json models = Json::array();
-  for (size_t k = 0; k < data.models.size(); ++k) models.push_back(ModelJson(data.models, k));
+  ImageTable table;
+  for (size_t k = 0; k < data.models.size(); ++k) {
+    models.push_back(ModelJson(data.models, k, table));
+  }
   j["models"] = models;
   Json suggested = Json::array();
-  for (const View3dCamera& c : data.suggested) suggested.push_back(CameraJson(c));
+  for (const View3dCamera& c : data.suggested) suggested.push_back(CameraJson(c, table));
   j["suggested"] = suggested;
+  j["images"] = table.images;
   // JSON inside <script>: "</" must not appear (it could close the element); "<\/" is the
   // same JSON string.
   std::string text = j.dump(-1, ' ', false, Json::error_handler_t::replace);

@@ -35,7 +35,8 @@
 //
 // Data. Large arrays are little-endian typed arrays in base64 inside a JSON element
 // <script type="application/json">: positions float32 xyz, triangle indices uint32, errors
-// float32 (NaN = not seen), colours uint8 RGB; an array equal to an earlier model's of the same
+// float32 (NaN = not seen), colours uint8 RGB; the cameras' thumbnails are stored once per view
+// (an "images" table; cameras refer to entries by index); an array equal to an earlier model's of the same
 // view (runs of one mesh) refers to it instead of repeating it. Meshes above `max_faces`
 // triangles are simplified for the browser by vertex clustering (meshoptimizer's
 // meshopt_simplifySloppy: even triangles, no slivers across flat regions; it keeps a subset

@@ -222,6 +222,7 @@
       foldSelect.appendChild(e);
     });
     this.fold = -1;
+    this.selected = null;
     this.buildFrusta();
     this.placeCamera();
     this.updateColourBar();
@@ -319,11 +320,12 @@
       var g = new THREE.BufferGeometry().setFromPoints(p);
       var line = new THREE.LineSegments(g, new THREE.LineBasicMaterial({color: colour}));
       group.add(line);
-      if (f.cam.role === 'suggested') {
+      if (f.cam.role === 'suggested' || f.cam === self.selected) {
         // Thick lines are not portable in WebGL: a translucent filled image rectangle instead.
         var rect = new THREE.BufferGeometry().setFromPoints([q[0], q[1], q[2], q[0], q[2], q[3]]);
         group.add(new THREE.Mesh(rect, new THREE.MeshBasicMaterial(
-            {color: colour, transparent: true, opacity: 0.35, side: THREE.DoubleSide})));
+            {color: colour, transparent: true, opacity: f.cam === self.selected ? 0.6 : 0.35,
+             side: THREE.DoubleSide})));
       }
       self.frusta.push({name: f.cam.name, role: f.cam.role, cam: f.cam,
                         apex: [a.x, a.y, a.z], corners: q.map(function (v) { return [v.x, v.y, v.z]; })});
@@ -403,6 +405,9 @@
 
   View.prototype.showCamera = function (c) {
     var info = this.root.querySelector('.v3-info');
+    this.selected = c;  // drawn with a filled image rectangle
+    this.buildFrusta();
+    this.render();
     var role;
     if (c.role === 'suggested') role = 'suggested next view';
     else if (this.fold >= 0) role = c.test_fold === this.fold ? 'evaluation photo of ' + this.model.folds[this.fold] : 'training photo of ' + this.model.folds[this.fold];
@@ -410,8 +415,12 @@
     var html = '<h4 class="v3-selected" data-name="' + esc(c.name) + '">' + esc(c.name) + '</h4><p>' +
         esc(role) + (c.error !== null ? '<br>' + esc(this.model.metric) + (c.role === 'suggested' ? ' (mean projected error it looks at) ' : ' ') + fmt(c.error) : '') +
         (c.note ? '<br>' + esc(c.note) : '') + '</p>';
+    var images = this.data.images || [];
     [['photo', 'photo'], ['rephoto', 'rephoto'], ['error_image', this.model.metric + ' error']].forEach(function (p) {
-      if (c[p[0]]) html += '<div>' + esc(p[1]) + '<img src="' + c[p[0]] + '" alt="' + esc(p[1]) + '"></div>';
+      var uri = typeof c[p[0]] === 'number' ? images[c[p[0]]] : null;
+      if (uri && /^data:image\/(jpeg|png);base64,/.test(uri)) {
+        html += '<div>' + esc(p[1]) + '<img src="' + uri + '" alt="' + esc(p[1]) + '"></div>';
+      }
     });
     info.innerHTML = html;
   };
