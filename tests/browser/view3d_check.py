@@ -356,7 +356,9 @@ def main():
                 f.write(base64.b64decode(shot))
             print(f"wrote {args.screenshot}")
 
-        # 2. Colours at three vertices, each seen close up from beyond it along its direction.
+        # 2. Colours at three vertices, each seen close up from beyond it along its direction
+        # (in the error mode; a page may open in another).
+        browser.evaluate(f"{js_view}.setMode('error')")
         picks, extent = choose_vertices(model)
         checked = 0
         for index, p, u, error, t in picks:

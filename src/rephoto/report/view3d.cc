@@ -507,7 +507,10 @@ std::string View3dHtml(const View3dData& data, const std::string& id) {
                 "3D view: invalid element id '{}'", id);
   REPHOTO_CHECK(!data.models.empty(), "3D view '{}': no model", id);
   Json j;
+  REPHOTO_CHECK(data.mode == "error" || data.mode == "model" || data.mode == "unseen",
+                "3D view '{}': unknown colour mode '{}'", id, data.mode);
   j["title"] = data.title;
+  j["mode"] = data.mode;
   Json models = Json::array();
   ImageTable table;
   for (size_t k = 0; k < data.models.size(); ++k) {

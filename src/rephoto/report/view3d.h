@@ -109,6 +109,7 @@ struct View3dData {
   std::vector<View3dModel> models;          // selectable (one per run); at least one
   std::vector<View3dCamera> suggested;      // shown with every model
   std::string title;                        // heading inside the view ("" = none)
+  std::string mode = "error";               // colour mode shown first: error, model, unseen
 };
 
 struct View3dLimits {

@@ -73,7 +73,7 @@
     var self = this;
     this.root = root;
     this.data = data;
-    this.mode = 'error';
+    this.mode = data.mode || 'error';
     this.fold = -1;
     this.modelIndex = 0;
     this.frusta = [];
@@ -118,6 +118,7 @@
     });
     window.addEventListener('resize', function () { self.resize(); self.render(); });
     this.select(0);
+    this.setMode(this.mode);
   }
 
   View.prototype.resize = function () {

@@ -78,6 +78,7 @@ report::View3dData SuggestView3d(const scene::Scene& scene, const render::Render
     m.cameras.push_back(camera_of(scene.CameraOf(view), view, "photo"));
   }
   report::View3dData data;
+  data.mode = "unseen";  // what the suggestions are about
   data.models.push_back(std::move(m));
   for (size_t k = 0; k < suggested.views.size(); ++k) {
     report::View3dCamera c =
