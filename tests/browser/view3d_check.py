@@ -288,6 +288,8 @@ def main():
     ap.add_argument("--width", type=int, default=1280)
     ap.add_argument("--height", type=int, default=900)
     ap.add_argument("--note-visible", action="store_true")
+    ap.add_argument("--surface-click", action="store_true",
+                    help="click a vertex and compare the listed views (models without occlusion)")
     ap.add_argument("--boxplot-labels", action="store_true",
                     help="check that every boxplot category label lies inside its plot")
     ap.add_argument("--min-checks", type=int, default=3)
@@ -385,6 +387,32 @@ def main():
                       f"(t {t:.3f}): pixel ({x}, {y}) is {got}, jet gives {want}")
             checked += ok
         check(checked >= args.min_checks, f"{checked} vertex colours matched (need {args.min_checks})")
+
+        # 2b. With --surface-click (a model nothing can hide a point of from any camera, such
+        # as the fixture's plane): clicking the last vertex lists the views whose image it falls
+        # in, in front of them (computed here from K, R, t).
+        if args.surface_click and picks:
+            index, p, u, error, t = picks[-1]
+            s = project(matrix, p, rect)
+            browser.call("Input.dispatchMouseEvent", type="mousePressed", x=s[0], y=s[1],
+                         button="left", clickCount=1)
+            browser.call("Input.dispatchMouseEvent", type="mouseReleased", x=s[0], y=s[1],
+                         button="left", clickCount=1)
+            listed = browser.evaluate(
+                f"Array.from({js_view}.info.querySelectorAll('tbody tr td:first-child'))"
+                ".map(function(td){return td.textContent;})")
+            expected = []
+            for c in model["cameras"] + data.get("suggested", []):
+                R, T, K = c["R"], c["t"], c["K"]
+                x = [sum(R[3 * r + k] * p[k] for k in range(3)) + T[r] for r in range(3)]
+                if x[2] <= 0:
+                    continue
+                px, py = K[0] * x[0] / x[2] + K[2], K[1] * x[1] / x[2] + K[3]
+                if 0 <= px < K[4] and 0 <= py < K[5]:
+                    expected.append(c["name"])
+            check(sorted(listed or []) == sorted(expected),
+                  f"clicking the surface at vertex {index} lists {sorted(listed or [])}, "
+                  f"expected {sorted(expected)}")
 
         # 3. Click a photo camera's frustum apex: from the view's own viewpoint, else from
         # farther back along it.

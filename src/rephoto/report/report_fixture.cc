@@ -139,7 +139,7 @@ void WriteView3dRun(const fs::path& dir) {
   camera.model = camera::CameraModel::kPinhole;
   camera.width = 640;
   camera.height = 480;
-  camera.params = {500, 500, 320, 240};
+  camera.params = {1000, 1000, 320, 240};  // narrow: not every camera sees the whole plane
   const std::vector<std::pair<std::string, Eigen::Vector3d>> centres = {
       {"cam_a.png", {1.5, 1.5, 3}}, {"cam_b.png", {-1.5, 1.5, 3}},
       {"cam_c.png", {-1.5, -1.5, 3}}, {"cam_d.png", {1.5, -1.5, 3}}};

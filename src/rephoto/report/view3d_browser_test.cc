@@ -2,7 +2,7 @@
 // comparison report built from the fixture of report_fixture.h by the same code as every
 // report, checked by tests/browser/view3d_check.py (vertex colours against the jet map of
 // their errors at their projected screen positions, a click on a camera frustum naming its
-// photo, no console errors; for the comparison report also the ranking notes within a 1280 px
+// photo, a click on the surface listing the views that see the point, no console errors; for the comparison report also the ranking notes within a 1280 px
 // window and the boxplot labels inside their plots). The demo's report is checked the same way
 // by hand (docs/view3d.md). Needs chromium and python3-websocket (scripts/install-deps.sh).
 #include <gtest/gtest.h>
@@ -72,7 +72,8 @@ TEST(View3dBrowser, ColoursAndCameraPickingInHeadlessChromium) {
                           .run_dir = root / "Simplified (3 of 4 folds, coarse)"}},
                         root / "collection.html", {.suggestions = next});
   const fs::path run_log = root / "run.log", collection_log = root / "collection.log";
-  EXPECT_EQ(RunCheck(root / "run.html", "--screenshot '" + (root / "run.png").string() + "'",
+  EXPECT_EQ(RunCheck(root / "run.html",
+                     "--surface-click --screenshot '" + (root / "run.png").string() + "'",
                      run_log),
             0)
       << ReadFileToString(run_log);

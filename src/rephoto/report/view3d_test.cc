@@ -105,7 +105,7 @@ TEST(View3d, LoadsTheProjectedModelCamerasAndColoursOfARun) {
   EXPECT_EQ(by_name["cam_d.png"]->test_fold, 1);
   EXPECT_DOUBLE_EQ(by_name["cam_b.png"]->error, 0.2);
   EXPECT_DOUBLE_EQ(by_name["cam_d.png"]->error, 0.4);
-  EXPECT_DOUBLE_EQ(by_name["cam_a.png"]->fx, 500);
+  EXPECT_DOUBLE_EQ(by_name["cam_a.png"]->fx, 1000);
   // Its centre: -R^T t = (1.5, 1.5, 3).
   const Eigen::Vector3d centre =
       -by_name["cam_a.png"]->rotation.transpose() * by_name["cam_a.png"]->translation;
