@@ -101,8 +101,18 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
   if (options.view3d) {
     const int primary = PrimaryIndex(run, options.primary_metric);
     const std::string metric = primary >= 0 ? run.metrics[primary] : options.primary_metric;
-    if (std::optional<View3dModel> model =
-            LoadRunView3d(run, metric, options.view3d_thumbnail_width, options.view3d_limits)) {
+    // A projected PLY that cannot be read costs the view, not the report.
+    std::optional<View3dModel> model;
+    try {
+      model = LoadRunView3d(run, metric, options.view3d_thumbnail_width, options.view3d_limits);
+    } catch (const Error& e) {
+      LogWarning(std::string("report: no 3D view: ") + e.what());
+      html += fmt::format(
+          "<section id=\"view3d-section\"><h2>The error on the model</h2><p "
+          "class=\"problems\">No 3D view: {}</p></section>\n",
+          HtmlEscape(e.what()));
+    }
+    if (model) {
       model->label = DirName(run_dir);
       View3dData data;
       data.models.push_back(std::move(*model));
@@ -436,16 +446,27 @@ std::vector<BoxPlot> CollectionPlots(const Collection& c,
 std::string CollectionView3dHtml(const Collection& c, const CollectionOptions& options) {
   if (!options.view3d) return "";
   View3dData data;
+  std::string problems;
   for (const Loaded& l : c.runs) {
-    std::optional<View3dModel> model = LoadRunView3d(
-        l.run, options.primary_metric, options.view3d_thumbnail_width, options.view3d_limits);
+    std::optional<View3dModel> model;
+    try {
+      model = LoadRunView3d(l.run, options.primary_metric, options.view3d_thumbnail_width,
+                            options.view3d_limits);
+    } catch (const Error& e) {  // costs this run's entry in the view, not the report
+      LogWarning(std::string("report: no 3D view of ") + l.entry.label + ": " + e.what());
+      problems += "<li>" + HtmlEscape(l.entry.label) + ": " + HtmlEscape(e.what()) + "</li>";
+    }
     if (!model) continue;
     model->label = l.entry.label;
     data.models.push_back(std::move(*model));
   }
   if (data.models.empty()) return "";
   if (!options.suggestions.empty()) data.suggested = LoadSuggestedCameras(options.suggestions);
-  return View3dSectionHtml(data, options.primary_metric);
+  std::string html = View3dSectionHtml(data, options.primary_metric);
+  if (!problems.empty()) {
+    html += "<div class=\"problems\"><p>Not in the 3D view:</p><ul>" + problems + "</ul></div>\n";
+  }
+  return html;
 }
 
 // Stems of per_image.csv names ("view_000"), as the side-by-side strip matches photos by.

@@ -75,6 +75,8 @@ struct ReportOptions {
   // The interactive 3D view (view3d.h, section "The error on the model") when the run has
   // projected/<primary metric>.ply: the model coloured by the error, the run's cameras (from
   // RUN/split), thumbnails of the evaluated photos `view3d_thumbnail_width` wide (0 = none).
+  // A projected PLY that cannot be read replaces the view by the reason (the report is still
+  // written).
   bool view3d = true;
   int view3d_thumbnail_width = 200;
   View3dLimits view3d_limits;

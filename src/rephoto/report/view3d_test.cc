@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <cstring>
@@ -282,6 +284,40 @@ TEST(RunReportSettings, ShowTheFolderAndSummaryNotStaleRunJsonValues) {
   EXPECT_EQ(plain.find("REVISION"), std::string::npos);
   EXPECT_NE(plain.find("outputs.projected (in the run folder)</td><td class=\"path\">(none)"),
             std::string::npos);
+  // A projected PLY that cannot be read costs the view (with the reason), not the report.
+  WriteTextFileAtomically(dir / "projected" / "1-ncc.ply", "ply\nformat ascii 1.0\nbroken\n");
+  WriteRunReport(dir, dir / "report3.html");
+  const std::string broken = ReadFileToString(dir / "report3.html");
+  EXPECT_NE(broken.find("<p class=\"problems\">No 3D view: "), std::string::npos);
+  EXPECT_NE(broken.find("1-ncc.ply"), std::string::npos);
+}
+
+// A Gaussian splatting run: projected/1-ncc.ply is the Gaussians' PLY with an "error"
+// property (graphdeco's layout); the view shows the Gaussians as points at their means.
+TEST(View3d, GaussiansAsPoints) {
+  const fs::path dir = rephoto::testing::MakeTempDir() / "run";
+  testing::WriteView3dRun(dir);
+  std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+      "property float f_dc_0\nproperty float f_dc_1\nproperty float f_dc_2\n"
+      "property float opacity\nproperty float scale_0\nproperty float scale_1\n"
+      "property float scale_2\nproperty float rot_0\nproperty float rot_1\nproperty float rot_2\n"
+      "property float rot_3\nproperty float error\nend_header\n";
+  for (int i = 0; i < 3; ++i) {
+    ply += fmt::format("{} 0 0 0 0 1 0.5 0.5 0.5 2 -3 -3 -3 1 0 0 0 {}\n", i, i == 1 ? "nan" : "0.25");
+  }
+  WriteTextFileAtomically(dir / "projected" / "1-ncc.ply", ply);
+  const std::optional<View3dModel> model = LoadRunView3d(run::LoadRun(dir), "1-ncc", 0);
+  ASSERT_TRUE(model.has_value());
+  EXPECT_TRUE(model->faces.empty());
+  ASSERT_EQ(model->positions.size(), 3u);
+  EXPECT_EQ(model->positions[2].x(), 2.f);
+  EXPECT_EQ(model->error[0], 0.25f);
+  EXPECT_TRUE(std::isnan(model->error[1]));
+  // No "colour range" comment: the 2.5 / 97.5 % percentiles of the errors (all 0.25).
+  EXPECT_EQ(model->low, 0.25f);
+  EXPECT_EQ(model->high, 0.25f);
 }
 
 // Issue 32: the comparison report's side-by-side strip (the photos on which the runs disagree
