@@ -102,9 +102,10 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
     const int primary = PrimaryIndex(run, options.primary_metric);
     const std::string metric = primary >= 0 ? run.metrics[primary] : options.primary_metric;
     // A projected PLY that cannot be read costs the view, not the report.
-    std::optional<View3dModel> model;
+    std::vector<View3dModel> models;
     try {
-      model = LoadRunView3d(run, metric, options.view3d_thumbnail_width, options.view3d_limits);
+      models =
+          LoadRunView3dModels(run, metric, options.view3d_thumbnail_width, options.view3d_limits);
     } catch (const Error& e) {
       LogWarning(std::string("report: no 3D view: ") + e.what());
       html += fmt::format(
@@ -112,10 +113,12 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
           "class=\"problems\">No 3D view: {}</p></section>\n",
           HtmlEscape(e.what()));
     }
-    if (model) {
-      model->label = DirName(run_dir);
+    if (!models.empty()) {
+      for (View3dModel& m : models) {
+        m.label = models.size() == 1 ? DirName(run_dir) : DirName(run_dir) + " " + m.label;
+      }
       View3dData data;
-      data.models.push_back(std::move(*model));
+      data.models = std::move(models);
       html += View3dSectionHtml(data, metric);
       with_view = true;
     }
@@ -448,17 +451,18 @@ std::string CollectionView3dHtml(const Collection& c, const CollectionOptions& o
   View3dData data;
   std::string problems;
   for (const Loaded& l : c.runs) {
-    std::optional<View3dModel> model;
+    std::vector<View3dModel> models;
     try {
-      model = LoadRunView3d(l.run, options.primary_metric, options.view3d_thumbnail_width,
-                            options.view3d_limits);
+      models = LoadRunView3dModels(l.run, options.primary_metric, options.view3d_thumbnail_width,
+                                   options.view3d_limits);
     } catch (const Error& e) {  // costs this run's entry in the view, not the report
       LogWarning(std::string("report: no 3D view of ") + l.entry.label + ": " + e.what());
       problems += "<li>" + HtmlEscape(l.entry.label) + ": " + HtmlEscape(e.what()) + "</li>";
     }
-    if (!model) continue;
-    model->label = l.entry.label;
-    data.models.push_back(std::move(*model));
+    for (View3dModel& model : models) {
+      model.label = models.size() == 1 ? l.entry.label : l.entry.label + " " + model.label;
+      data.models.push_back(std::move(model));
+    }
   }
   if (data.models.empty()) return "";
   if (!options.suggestions.empty()) data.suggested = LoadSuggestedCameras(options.suggestions);

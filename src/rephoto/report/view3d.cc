@@ -414,11 +414,11 @@ void DecimateForBrowser(View3dModel& m, const View3dLimits& limits) {
   if (keep.size() != m.positions.size()) KeepVertices(m, keep);
 }
 
-std::optional<View3dModel> LoadRunView3d(const run::RunData& run, const std::string& metric,
-                                         int thumbnail_width, const View3dLimits& limits) {
-  const fs::path ply = run.dir / "projected" / (metric + ".ply");
-  std::error_code ec;
-  if (!fs::is_regular_file(ply, ec)) return std::nullopt;
+namespace {
+
+// One projected PLY of a run as a model of the view (see LoadRunView3d).
+View3dModel LoadProjected(const run::RunData& run, const fs::path& ply, const std::string& metric,
+                          int thumbnail_width, const View3dLimits& limits, bool model_colours) {
   const mesh::Mesh projected = mesh::ReadMesh(ply);
   View3dModel model;
   model.label = run.dir.filename().empty() ? run.dir.parent_path().filename().string()
@@ -442,11 +442,54 @@ std::optional<View3dModel> LoadRunView3d(const run::RunData& run, const std::str
       if (parsed && metrics::HigherIsBetter(*parsed)) std::swap(model.low, model.high);
     }
   }
-  AddModelColours(run, projected, model);
+  if (model_colours) {
+    AddModelColours(run, projected, model);
+  } else {
+    model.note = "model colours: not shown for per-fold models";
+  }
   DecimateForBrowser(model, limits);
   AddRunCameras(run, model);
   AddImages(run, metric, thumbnail_width, model);
   return model;
+}
+
+}  // namespace
+
+std::optional<View3dModel> LoadRunView3d(const run::RunData& run, const std::string& metric,
+                                         int thumbnail_width, const View3dLimits& limits) {
+  const fs::path ply = run.dir / "projected" / (metric + ".ply");
+  std::error_code ec;
+  if (!fs::is_regular_file(ply, ec)) return std::nullopt;
+  return LoadProjected(run, ply, metric, thumbnail_width, limits, /*model_colours=*/true);
+}
+
+std::vector<View3dModel> LoadRunView3dModels(const run::RunData& run, const std::string& metric,
+                                             int thumbnail_width, const View3dLimits& limits) {
+  std::vector<View3dModel> models;
+  if (std::optional<View3dModel> one = LoadRunView3d(run, metric, thumbnail_width, limits)) {
+    models.push_back(std::move(*one));
+    return models;
+  }
+  std::vector<fs::path> folds;
+  std::error_code ec;
+  const std::string suffix = "." + metric + ".ply";
+  for (fs::directory_iterator it(run.dir / "projected", ec), end; !ec && it != end;
+       it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind("fold_", 0) == 0 && name.size() > suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      folds.push_back(it->path());
+    }
+  }
+  std::sort(folds.begin(), folds.end());
+  for (const fs::path& ply : folds) {
+    View3dModel model =
+        LoadProjected(run, ply, metric, thumbnail_width, limits, /*model_colours=*/false);
+    const std::string name = ply.filename().string();
+    model.label = name.substr(0, name.size() - suffix.size());
+    models.push_back(std::move(model));
+  }
+  return models;
 }
 
 std::vector<View3dCamera> LoadSuggestedCameras(const fs::path& dir) {

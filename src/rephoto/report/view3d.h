@@ -134,6 +134,12 @@ void DecimateForBrowser(View3dModel& model, const View3dLimits& limits = {});
 std::optional<View3dModel> LoadRunView3d(const run::RunData& run, const std::string& metric,
                                          int thumbnail_width, const View3dLimits& limits = {});
 
+// All the models a run has projected errors on: LoadRunView3d's one, else (runs with
+// --reconstruct: one model per fold) each RUN/projected/fold_XX.<metric>.ply, in fold order,
+// labelled "fold_XX" (without model colours). Empty when there is none.
+std::vector<View3dModel> LoadRunView3dModels(const run::RunData& run, const std::string& metric,
+                                             int thumbnail_width, const View3dLimits& limits = {});
+
 // The suggested views of a `rephoto suggest` folder: DIR/suggestions.json (names, poses) and
 // DIR/sparse (intrinsics). Empty when DIR has no suggestions.json; Error naming the file when
 // it is malformed.

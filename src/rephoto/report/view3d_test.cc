@@ -320,6 +320,29 @@ TEST(View3d, GaussiansAsPoints) {
   EXPECT_EQ(model->high, 0.25f);
 }
 
+// Runs with --reconstruct project onto each fold's model: one entry per fold.
+TEST(View3d, PerFoldModelsOfReconstructRuns) {
+  const fs::path dir = rephoto::testing::MakeTempDir() / "run";
+  testing::WriteView3dRun(dir);
+  fs::rename(dir / "projected" / "1-ncc.ply", dir / "projected" / "fold_01.1-ncc.ply");
+  fs::copy_file(dir / "projected" / "fold_01.1-ncc.ply", dir / "projected" / "fold_00.1-ncc.ply");
+  fs::copy_file(dir / "projected" / "fold_01.1-ncc.ply", dir / "projected" / "fold_00.psnr.ply");
+  const run::RunData run = run::LoadRun(dir);
+  EXPECT_FALSE(LoadRunView3d(run, "1-ncc", 0).has_value());
+  const std::vector<View3dModel> models = LoadRunView3dModels(run, "1-ncc", 0);
+  ASSERT_EQ(models.size(), 2u);
+  EXPECT_EQ(models[0].label, "fold_00");
+  EXPECT_EQ(models[1].label, "fold_01");
+  EXPECT_EQ(models[1].faces.size(), 3200u);
+  EXPECT_TRUE(models[0].colors.empty());
+  EXPECT_EQ(models[0].cameras.size(), 4u);
+  WriteRunReport(dir, dir / "report.html");
+  const nlohmann::json data = ViewData(ReadFileToString(dir / "report.html"));
+  ASSERT_EQ(data["models"].size(), 2u);
+  EXPECT_EQ(data["models"][1]["label"], "run fold_01");
+  EXPECT_EQ(data["models"][1]["positions_of"], 0);
+}
+
 // Issue 32: the comparison report's side-by-side strip (the photos on which the runs disagree
 // most, one row per photo with every run) and its one 3D view over the runs, sharing the arrays
 // of identical meshes and showing the suggested views.
