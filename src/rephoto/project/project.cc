@@ -270,9 +270,18 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
   ProjectResult result;
   // Per face (meshes): the mean over views of each view's mean over the face's interior
   // sample points (see project.h).
-  const size_t face_count = points ? 0 : mesh.faces.size();
+  const size_t face_count = points || !options.face_errors ? 0 : mesh.faces.size();
   std::vector<double> face_sums(face_count, 0.0);
   std::vector<uint32_t> face_views(face_count, 0);
+  std::vector<float> longest_edge(face_count, 0.f);
+  for (size_t f = 0; f < face_count; ++f) {
+    const mesh::Triangle& t = mesh.faces[f];
+    const Eigen::Vector3f &a = mesh.positions[t[0]], &b = mesh.positions[t[1]],
+                          &c = mesh.positions[t[2]];
+    longest_edge[f] = std::max({(a - b).norm(), (b - c).norm(), (c - a).norm()});
+  }
+  // This view's sample of each vertex (NaN = none), for the faces smaller than 4 pixels.
+  std::vector<float> vertex_sample(face_count > 0 ? n : 0, kNaN);
   result.view_count.assign(n, 0);
   result.view_seen_vertices.assign(views.size(), 0);
   std::vector<uint8_t> visible(n, 0);
@@ -319,6 +328,9 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
           for (int64_t i = begin; i < end; ++i) {
             const double radius = points && !radii.empty() ? radii[i] : 0.0;
             const Sample s = SampleVertex(context, mesh.positions[i].cast<double>(), radius);
+            if (!vertex_sample.empty()) {
+              vertex_sample[i] = s.visible && s.has_error ? static_cast<float>(s.error) : kNaN;
+            }
             if (!s.visible) continue;
             visible[i] = 1;
             if (!s.has_error) continue;
@@ -328,6 +340,7 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
           }
           return seen;
         });
+    const double focal = std::max(camera.FocalLengthX(), camera.FocalLengthY());
     ParallelFor(0, static_cast<int64_t>(face_count), 4096, [&](int64_t begin, int64_t end) {
       for (int64_t f = begin; f < end; ++f) {
         const mesh::Triangle& face = mesh.faces[f];
@@ -336,11 +349,23 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
         const Eigen::Vector3d c = mesh.positions[face[2]].cast<double>();
         double sum = 0;
         int count = 0;
-        for (const auto& w : kFaceSamples) {
-          const Sample sample = SampleVertex(context, w[0] * a + w[1] * b + w[2] * c, 0.0);
-          if (sample.has_error) {
-            sum += sample.error;
-            ++count;
+        const double z = view.cam_from_world.CamFromWorld((a + b + c) / 3).z();
+        if (!(z > 0)) continue;
+        if (longest_edge[f] * focal / z < 4.0) {
+          // Smaller than 4 pixels: its corners' samples of this view describe it.
+          for (uint32_t index : face) {
+            if (std::isfinite(vertex_sample[index])) {
+              sum += vertex_sample[index];
+              ++count;
+            }
+          }
+        } else {
+          for (const auto& w : kFaceSamples) {
+            const Sample sample = SampleVertex(context, w[0] * a + w[1] * b + w[2] * c, 0.0);
+            if (sample.has_error) {
+              sum += sample.error;
+              ++count;
+            }
           }
         }
         if (count > 0) {

@@ -42,11 +42,15 @@
 // so the result is bit-for-bit independent of the thread count.
 // Per face (meshes). A vertex samples the error only where it lies, so on a coarse mesh a
 // viewer interpolating its vertices' colours smears a few samples across large triangles
-// (streaks). Each face therefore also gets its own error: per view, the face's 4 sample points
-// (the centroids of the 4 triangles of its midpoint subdivision, barycentric (1/3, 1/3, 1/3),
-// (2/3, 1/6, 1/6) and its permutations) are sampled exactly like vertices (same visibility
-// test, bilinear sample); the view's value is the mean over the points that gave one; the
-// face's error is the plain mean over the views that gave a value (face_error; NaN = none).
+// (streaks). Each face therefore also gets its own error: per view, a face whose longest edge
+// spans 4 pixels or more (edge length * focal length / depth of its centroid) has its 4 sample
+// points (the centroids of the 4 triangles of its midpoint subdivision, barycentric
+// (1/3, 1/3, 1/3), (2/3, 1/6, 1/6) and its permutations) sampled exactly like vertices (same
+// visibility test, bilinear sample); a smaller face takes its corners' samples of that view
+// (bilinear samples at most 4 pixels apart describe it; no extra cost, so dense meshes pay
+// little for their face errors); the view's value is
+// the mean over the points that gave one; the face's error is the plain mean over the views
+// that gave a value (face_error; NaN = none).
 // WriteProjectedPly writes it as the faces' colour and error (MeshLab: Render > Color > Per
 // Face shows it without streaks).
 // Colours. low and high are the low_percentile and high_percentile percentiles (linear
@@ -106,6 +110,9 @@ struct ProjectOptions {
   // clouds must match the rendering the errors come from (point_radius, neighbours, scale, cap).
   // Textures are never loaded (only depth is rendered).
   render::ModelOptions model_options;
+  // Per-face errors of meshes (ProjectResult::face_error, see "Per face" above); false skips
+  // them.
+  bool face_errors = true;
   bool show_progress = false;  // a Progress line per view
 };
 

@@ -570,6 +570,27 @@ TEST(ProjectErrors, FacesCarryTheMeanOfTheirInteriorSamples) {
   float stored = 0;
   std::memcpy(&stored, text.data() + face0 + 16, 4);
   EXPECT_FLOAT_EQ(stored, result.face_error[0]);
+  // A face under 4 pixels takes its corners' samples of the view: a 3.2 x 1.2 pixel rectangle
+  // (x = +-0.02, y = +-0.0075 at z = 5: pixels 98.4 .. 101.6, 99.4 .. 100.6; each corner 0.1 px
+  // inside its pixel's centre, diagonal 3.4 px). Its left corners sample only pixel 98 (the
+  // pixel left of it is not covered): 0; its right corners only pixel 101: 1. Face (a, b, d)
+  // (0 + 1 + 1) / 3, face (a, d, c) (0 + 1 + 0) / 3 (the 4 interior points would give 0.75
+  // and 0.25).
+  mesh::Mesh small = quad;
+  for (Eigen::Vector3f& p : small.positions) {
+    p.x() = p.x() > 0 ? 0.02f : -0.02f;
+    p.y() = p.y() > 0 ? 0.0075f : -0.0075f;
+  }
+  const ProjectResult tiny =
+      ProjectErrors(small, {{Pinhole(), At(0), dir / "half.exr", "half"}}, {});
+  EXPECT_NEAR(tiny.vertex_error[0], 0, 1e-6);
+  EXPECT_NEAR(tiny.vertex_error[1], 1, 1e-6);
+  EXPECT_NEAR(tiny.face_error[0], 2.0 / 3, 1e-6);
+  EXPECT_NEAR(tiny.face_error[1], 1.0 / 3, 1e-6);
+  ProjectOptions no_faces;
+  no_faces.face_errors = false;
+  EXPECT_TRUE(ProjectErrors(small, {{Pinhole(), At(0), dir / "half.exr", "half"}}, no_faces)
+                  .face_error.empty());
   // Point clouds have no faces.
   mesh::Mesh points = quad;
   points.faces.clear();
