@@ -7,16 +7,16 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <limits>
 #include <regex>
 #include <unordered_map>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/parallel.h"
-#include "rephoto/core/progress.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/metrics/metrics.h"
@@ -159,7 +159,10 @@ void KeepVertices(View3dModel& m, const std::vector<uint32_t>& keep) {
 
 // "comment colour range (jet) low L high H; ..." of project::WriteProjectedPly.
 bool ReadColourRange(const fs::path& ply, float* low, float* high) {
-  std::string head = ReadFileToString(ply).substr(0, 4096);  // the header comes first
+  std::ifstream in(ply, std::ios::binary);  // the header is the first few hundred bytes
+  std::string head(4096, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
   const size_t end = head.find("end_header");
   if (end != std::string::npos) head.resize(end);
   static const std::regex range(R"(colour range \(jet\) low (\S+) high (\S+?);)");
