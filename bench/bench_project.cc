@@ -70,8 +70,11 @@ Fixture& GetFixture() {
   return fixture;
 }
 
+// Argument 1: with per-face errors (the default), 0: vertices only.
 void BM_ProjectPrebuiltModel(benchmark::State& state) {
   Fixture& f = GetFixture();
+  rephoto::project::ProjectOptions options;
+  options.face_errors = state.range(0) != 0;
   rephoto::render::ModelOptions model_options;
   model_options.load_textures = false;
   const rephoto::render::RenderModel model(f.mesh, model_options);
@@ -80,7 +83,7 @@ void BM_ProjectPrebuiltModel(benchmark::State& state) {
   size_t seen = 0;
   for (auto _ : state) {
     const rephoto::project::ProjectResult result =
-        rephoto::project::ProjectErrors(model, f.views, {});
+        rephoto::project::ProjectErrors(model, f.views, options);
     render += result.render_seconds;
     project += result.project_seconds;
     seen = result.seen_vertices;
@@ -93,7 +96,12 @@ void BM_ProjectPrebuiltModel(benchmark::State& state) {
   state.counters["triangles"] = static_cast<double>(f.mesh.face_count());
   state.counters["seen"] = static_cast<double>(seen);
 }
-BENCHMARK(BM_ProjectPrebuiltModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
+BENCHMARK(BM_ProjectPrebuiltModel)
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(2);
 
 void BM_ProjectFromMesh(benchmark::State& state) {
   Fixture& f = GetFixture();

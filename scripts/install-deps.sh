@@ -16,7 +16,7 @@ packages=(
   python3-dev python3-pybind11 pybind11-dev python3-pytest python3-venv python3-pip
   python3-setuptools python3-wheel python3-pandas python3-matplotlib
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  chromium
+  chromium libjs-three
   slurmctld slurmd slurm-client munge
   libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev python3-websocket
   nginx-light openssl

@@ -21,7 +21,9 @@ trap 'rm -rf "$profile"' EXIT
 url="file://$(realpath "$report")"
 out_abs="$(realpath -m "$out")"
 # --no-sandbox: needed when running as root (containers); the page is a local file.
-timeout 120 "$browser" --headless --no-sandbox --disable-gpu --hide-scrollbars \
+# Software WebGL (SwiftShader) for the reports' 3D view (docs/view3d.md).
+timeout 120 "$browser" --headless --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader \
+  --hide-scrollbars \
   --no-first-run --no-default-browser-check --disable-extensions --mute-audio \
   --user-data-dir="$profile" --window-size="$width,$height" \
   --screenshot="$out_abs" "$url" >/dev/null 2>"$profile/stderr" || {

@@ -219,6 +219,11 @@ DemoSuggestions SuggestNextPhotos(const DemoOptions& options, const mesh::Mesh& 
   run.scene_label = so_far.string();
   run.model_label = (options.out / "models" / "ground_truth.ply").string();
   run.suggest.count = options.suggestions;
+  // The ground truth's projected 1-NCC (its evaluation above, on the same vertices): without
+  // it the suggestions have no "mean error" (only the surface no photo sees counts).
+  const fs::path truth_run = options.out / "runs" / "ground_truth";
+  std::error_code ec;
+  if (fs::is_regular_file(truth_run / "projected" / "1-ncc.ply", ec)) run.run = truth_run;
   LogInfo(fmt::format("demo: suggesting {} views to add to the {} photos from one side",
                       options.suggestions, one_side.views.size()));
   const render::RenderModel model(truth, {}, run.model_label);
@@ -238,7 +243,9 @@ void WriteDemoReport(const DemoOptions& options, const DemoResult& result) {
   }
   report::CollectionOptions report_options;
   report_options.title = "rephoto demo: six reconstructions of the procedural scene";
-  report_options.image_folders = {options.out / "scene" / "images"};
+  // The photos, and the models (their colours in the 3D view).
+  report_options.image_folders = {options.out / "scene" / "images", options.out / "models"};
+  if (result.suggestions) report_options.suggestions = result.suggestions->folder;
   if (result.suggestions) {
     report_options.sections.push_back(
         {.id = "next-photos",

@@ -17,7 +17,9 @@
 //    half of the ring had been taken (camera centres with x above the model's bounding-box
 //    centre), `rephoto suggest` (suggest/suggest_run.h) proposes `suggestions` new views of the
 //    ground-truth model, standing in for a reconstruction, that see the surface those photos
-//    miss; the comparison report shows them ("Where to photograph next").
+//    miss, weighing the seen surface by the ground truth's projected 1-NCC of step 3
+//    (runs/ground_truth/projected/1-ncc.ply: the suggestions' "mean error"); the comparison
+//    report shows them ("Where to photograph next", and as magenta frusta in its 3D view).
 //
 // Output folder layout (all files written atomically):
 //   scene/images/view_XXX.png     the photos

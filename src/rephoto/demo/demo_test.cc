@@ -74,6 +74,12 @@ TEST(Demo, SmallDemoRanksGroundTruthFirstAndWritesItsOutputs) {
     ++rows;
   }
   EXPECT_EQ(rows, 3u);
+  // Issue 32: the suggestions weigh the ground truth's projected error, so each has a mean
+  // error (the column was all "–"); the report's 3D view shows the runs and the suggestions.
+  EXPECT_EQ(html.find("data-mean-error=\"\""), std::string::npos);
+  EXPECT_NE(html.find("<div class=\"view3d\" id=\"view3d\">"), std::string::npos);
+  EXPECT_NE(html.find("\"role\":\"suggested\""), std::string::npos);
+  EXPECT_NE(html.find("<section id=\"side-by-side\">"), std::string::npos);
 }
 
 }  // namespace

@@ -107,6 +107,13 @@ struct ViewContext {
   double fx, fy;
 };
 
+// Barycentric weights of a face's sample points: the centroids of the 4 triangles of its
+// midpoint subdivision (equal areas, so the mean over them is an area-uniform estimate).
+constexpr double kFaceSamples[4][3] = {{1.0 / 3, 1.0 / 3, 1.0 / 3},
+                                       {2.0 / 3, 1.0 / 6, 1.0 / 6},
+                                       {1.0 / 6, 2.0 / 3, 1.0 / 6},
+                                       {1.0 / 6, 1.0 / 6, 2.0 / 3}};
+
 inline bool DepthAgrees(float d, double z, double tolerance) {
   return std::isfinite(d) && std::abs(z - static_cast<double>(d)) <= tolerance;
 }
@@ -261,6 +268,20 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
 
   std::vector<double> sums(n, 0.0);
   ProjectResult result;
+  // Per face (meshes): the mean over views of each view's mean over the face's interior
+  // sample points (see project.h).
+  const size_t face_count = points || !options.face_errors ? 0 : mesh.faces.size();
+  std::vector<double> face_sums(face_count, 0.0);
+  std::vector<uint32_t> face_views(face_count, 0);
+  std::vector<float> longest_edge(face_count, 0.f);
+  for (size_t f = 0; f < face_count; ++f) {
+    const mesh::Triangle& t = mesh.faces[f];
+    const Eigen::Vector3f &a = mesh.positions[t[0]], &b = mesh.positions[t[1]],
+                          &c = mesh.positions[t[2]];
+    longest_edge[f] = std::max({(a - b).norm(), (b - c).norm(), (c - a).norm()});
+  }
+  // This view's sample of each vertex (NaN = none), for the faces smaller than 4 pixels.
+  std::vector<float> vertex_sample(face_count > 0 ? n : 0, kNaN);
   result.view_count.assign(n, 0);
   result.view_seen_vertices.assign(views.size(), 0);
   std::vector<uint8_t> visible(n, 0);
@@ -307,6 +328,9 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
           for (int64_t i = begin; i < end; ++i) {
             const double radius = points && !radii.empty() ? radii[i] : 0.0;
             const Sample s = SampleVertex(context, mesh.positions[i].cast<double>(), radius);
+            if (!vertex_sample.empty()) {
+              vertex_sample[i] = s.visible && s.has_error ? static_cast<float>(s.error) : kNaN;
+            }
             if (!s.visible) continue;
             visible[i] = 1;
             if (!s.has_error) continue;
@@ -316,11 +340,49 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
           }
           return seen;
         });
+    const double focal = std::max(camera.FocalLengthX(), camera.FocalLengthY());
+    ParallelFor(0, static_cast<int64_t>(face_count), 4096, [&](int64_t begin, int64_t end) {
+      for (int64_t f = begin; f < end; ++f) {
+        const mesh::Triangle& face = mesh.faces[f];
+        const Eigen::Vector3d a = mesh.positions[face[0]].cast<double>();
+        const Eigen::Vector3d b = mesh.positions[face[1]].cast<double>();
+        const Eigen::Vector3d c = mesh.positions[face[2]].cast<double>();
+        double sum = 0;
+        int count = 0;
+        const double z = view.cam_from_world.CamFromWorld((a + b + c) / 3).z();
+        if (!(z > 0)) continue;
+        if (longest_edge[f] * focal / z < 4.0) {
+          // Smaller than 4 pixels: its corners' samples of this view describe it.
+          for (uint32_t index : face) {
+            if (std::isfinite(vertex_sample[index])) {
+              sum += vertex_sample[index];
+              ++count;
+            }
+          }
+        } else {
+          for (const auto& w : kFaceSamples) {
+            const Sample sample = SampleVertex(context, w[0] * a + w[1] * b + w[2] * c, 0.0);
+            if (sample.has_error) {
+              sum += sample.error;
+              ++count;
+            }
+          }
+        }
+        if (count > 0) {
+          face_sums[f] += sum / count;
+          ++face_views[f];
+        }
+      }
+    });
     result.project_seconds += Seconds(start);
     if (progress) progress->Advance(ViewLabel(view));
   }
   if (progress) progress->Finish();
 
+  result.face_error.assign(face_count, kNaN);
+  for (size_t f = 0; f < face_count; ++f) {
+    if (face_views[f] > 0) result.face_error[f] = static_cast<float>(face_sums[f] / face_views[f]);
+  }
   result.vertex_error.assign(n, kNaN);
   std::vector<double> finite;
   finite.reserve(n);
@@ -362,8 +424,12 @@ void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
                 "{}: the projection has {} vertices but the model has {}", out.string(),
                 result.vertex_error.size(), n);
   const bool normals = model.normals.size() == n && n > 0;
+  const bool face_errors = !model.faces.empty() && result.face_error.size() == model.faces.size();
   std::string header = "ply\nformat binary_little_endian 1.0\n";
   header += "comment rephoto project: per-vertex mean of the projected error images\n";
+  if (face_errors) {
+    header += "comment per face: mean over the views of the error at 4 points inside the face\n";
+  }
   header += fmt::format("comment colour range (jet) low {} high {}; grey = not seen\n", result.low,
                         result.high);
   header += fmt::format("comment seen vertices {} of {}\n", result.seen_vertices, n);
@@ -375,6 +441,10 @@ void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
   if (!model.faces.empty()) {
     header += fmt::format("element face {}\n", model.faces.size());
     header += "property list uchar int vertex_indices\n";
+    if (face_errors) {
+      header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+      header += "property float error\nproperty float quality\n";
+    }
   }
   header += "end_header\n";
 
@@ -409,9 +479,16 @@ void WriteProjectedPly(const mesh::Mesh& model, const ProjectResult& result,
       Put(buffer, result.view_count[i]);
       flush(false);
     }
-    for (const mesh::Triangle& face : model.faces) {
+    for (size_t f = 0; f < model.faces.size(); ++f) {
       Put(buffer, static_cast<uint8_t>(3));
-      for (uint32_t index : face) Put(buffer, static_cast<int32_t>(index));
+      for (uint32_t index : model.faces[f]) Put(buffer, static_cast<int32_t>(index));
+      if (face_errors) {
+        const std::array<uint8_t, 3> rgb =
+            ErrorColour(result.face_error[f], result.low, result.high);
+        buffer.append(reinterpret_cast<const char*>(rgb.data()), 3);
+        Put(buffer, result.face_error[f]);
+        Put(buffer, result.face_error[f]);
+      }
       flush(false);
     }
     flush(true);

@@ -40,6 +40,19 @@
 // location are averaged"); view_count = the number of those views. Sums are in double; views
 // are accumulated in the order given, vertices in parallel with each vertex owned by one task,
 // so the result is bit-for-bit independent of the thread count.
+// Per face (meshes). A vertex samples the error only where it lies, so on a coarse mesh a
+// viewer interpolating its vertices' colours smears a few samples across large triangles
+// (streaks). Each face therefore also gets its own error: per view, a face whose longest edge
+// spans 4 pixels or more (edge length * focal length / depth of its centroid) has its 4 sample
+// points (the centroids of the 4 triangles of its midpoint subdivision, barycentric
+// (1/3, 1/3, 1/3), (2/3, 1/6, 1/6) and its permutations) sampled exactly like vertices (same
+// visibility test, bilinear sample); a smaller face takes its corners' samples of that view
+// (bilinear samples at most 4 pixels apart describe it; no extra cost, so dense meshes pay
+// little for their face errors); the view's value is
+// the mean over the points that gave one; the face's error is the plain mean over the views
+// that gave a value (face_error; NaN = none).
+// WriteProjectedPly writes it as the faces' colour and error (MeshLab: Render > Color > Per
+// Face shows it without streaks).
 // Colours. low and high are the low_percentile and high_percentile percentiles (linear
 // interpolation between order statistics, numpy's default, see core/stats.h) of the finite
 // vertex errors (each vertex counts once, whatever its view count), unless a fixed range is
@@ -97,6 +110,9 @@ struct ProjectOptions {
   // clouds must match the rendering the errors come from (point_radius, neighbours, scale, cap).
   // Textures are never loaded (only depth is rendered).
   render::ModelOptions model_options;
+  // Per-face errors of meshes (ProjectResult::face_error, see "Per face" above); false skips
+  // them.
+  bool face_errors = true;
   bool show_progress = false;  // a Progress line per view
 };
 
@@ -118,6 +134,9 @@ struct ProjectResult {
   // One entry per model vertex (point), in the model's vertex order.
   std::vector<float> vertex_error;   // mean error over the views counted in view_count; NaN if 0
   std::vector<uint32_t> view_count;  // views that see the vertex and gave a finite sample
+  // Meshes: one entry per face (see "Per face" above), NaN where no view gave a value; empty
+  // for point clouds (and for results built by hand, which WriteProjectedPly accepts).
+  std::vector<float> face_error;
   float low = 0;                     // colour range used: error `low` maps to t = 0 (dark blue) ...
   float high = 0;            // ... `high` to t = 1 (dark red); NaN both when no vertex has an error
   size_t seen_vertices = 0;  // vertices with a finite vertex_error (view_count > 0)
@@ -168,7 +187,9 @@ std::array<uint8_t, 3> ErrorColour(float error, float low, float high);
 //           grey 128); float error (NaN where unseen); float quality (the same value, the
 //           name MeshLab reads as vertex quality for its quality filters and histogram);
 //           uint views (view_count).
-//   face:   list uchar int vertex_indices (only when the model has faces).
+//   face:   list uchar int vertex_indices (only when the model has faces); when the result
+//           has face_error: uchar red green blue (ErrorColour of the face's error) and float
+//           error, float quality (the face's error, NaN where no view gave one).
 // Comments record the range and the number of seen vertices. Opens in MeshLab (colours;
 // "quality" as vertex quality) and CloudCompare (colours; "error", "quality" and "views" as
 // scalar fields). Throws Error naming `out` when the result does not belong to the model (sizes

@@ -8,6 +8,7 @@
 
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/file.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/ply.h"
@@ -519,6 +520,82 @@ TEST(FindErrorImages, NotARunDirectory) {
     EXPECT_THAT(e.what(), HasSubstr("not a run directory"));
   }
   EXPECT_TRUE(ListErrorMetrics(dir).empty());
+}
+
+}  // namespace
+}  // namespace rephoto::project
+
+namespace rephoto::project {
+namespace {
+
+// Issue 32: a coarse mesh's vertices sample the error only at its corners; each face also gets
+// the mean of its 4 interior sample points. One quad (2 triangles) at z = 5 filling camera 1's
+// view, error 0 left of pixel column 100 (x < 0 on the plane) and 1 right of it. Triangle
+// (a, b, d) has its points at x = -0.33, 0.66, 0.66 (sub-centroids) and 0.33 (centroid): 3 of
+// 4 right, error 0.75; triangle (a, d, c) at -0.33, 0.33, -0.66 and -0.33: 0.25. The corners
+// get 0 (left) and 1 (right).
+TEST(ProjectErrors, FacesCarryTheMeanOfTheirInteriorSamples) {
+  const fs::path dir = testing::MakeTempDir();
+  mesh::Mesh quad;
+  for (float y : {-0.995f, 0.995f}) {
+    for (float x : {-0.995f, 0.995f}) quad.positions.emplace_back(x, y, 5.0f);
+  }
+  quad.faces = {{0, 1, 3}, {0, 3, 2}};
+  Image error(200, 200, 1, 0.f);
+  for (int y = 0; y < 200; ++y) {
+    for (int x = 100; x < 200; ++x) error.at(x, y) = 1.f;
+  }
+  io::WriteExr(dir / "half.exr", error);
+  const ProjectResult result =
+      ProjectErrors(quad, {{Pinhole(), At(0), dir / "half.exr", "half"}}, {});
+  ASSERT_EQ(result.face_error.size(), 2u);
+  EXPECT_NEAR(result.face_error[0], 0.75, 1e-6);
+  EXPECT_NEAR(result.face_error[1], 0.25, 1e-6);
+  EXPECT_NEAR(result.vertex_error[0], 0, 1e-6);
+  EXPECT_NEAR(result.vertex_error[1], 1, 1e-6);
+  // The PLY carries them per face; the mesh reader still reads it.
+  WriteProjectedPly(quad, result, dir / "quad.ply");
+  const std::string text = ReadFileToString(dir / "quad.ply");
+  EXPECT_THAT(text, HasSubstr("property list uchar int vertex_indices\nproperty uchar red\n"
+                              "property uchar green\nproperty uchar blue\nproperty float error\n"
+                              "property float quality\nend_header"));
+  const mesh::Mesh back = mesh::ReadPly(dir / "quad.ply");
+  EXPECT_EQ(back.face_count(), 2u);
+  // Face 0's record: count 3, indices 0 1 3, colour of 0.75 over the result's range, error.
+  const size_t body = text.find("end_header\n") + 11;
+  const size_t vertex_bytes = 4 * (3 * 4 + 3 + 4 + 4 + 4);
+  const size_t face0 = body + vertex_bytes;
+  const std::array<uint8_t, 3> rgb = ErrorColour(0.75f, result.low, result.high);
+  EXPECT_EQ(static_cast<uint8_t>(text[face0 + 13]), rgb[0]);
+  float stored = 0;
+  std::memcpy(&stored, text.data() + face0 + 16, 4);
+  EXPECT_FLOAT_EQ(stored, result.face_error[0]);
+  // A face under 4 pixels takes its corners' samples of the view: a 3.2 x 1.2 pixel rectangle
+  // (x = +-0.02, y = +-0.0075 at z = 5: pixels 98.4 .. 101.6, 99.4 .. 100.6; each corner 0.1 px
+  // inside its pixel's centre, diagonal 3.4 px). Its left corners sample only pixel 98 (the
+  // pixel left of it is not covered): 0; its right corners only pixel 101: 1. Face (a, b, d)
+  // (0 + 1 + 1) / 3, face (a, d, c) (0 + 1 + 0) / 3 (the 4 interior points would give 0.75
+  // and 0.25).
+  mesh::Mesh small = quad;
+  for (Eigen::Vector3f& p : small.positions) {
+    p.x() = p.x() > 0 ? 0.02f : -0.02f;
+    p.y() = p.y() > 0 ? 0.0075f : -0.0075f;
+  }
+  const ProjectResult tiny =
+      ProjectErrors(small, {{Pinhole(), At(0), dir / "half.exr", "half"}}, {});
+  EXPECT_NEAR(tiny.vertex_error[0], 0, 1e-6);
+  EXPECT_NEAR(tiny.vertex_error[1], 1, 1e-6);
+  EXPECT_NEAR(tiny.face_error[0], 2.0 / 3, 1e-6);
+  EXPECT_NEAR(tiny.face_error[1], 1.0 / 3, 1e-6);
+  ProjectOptions no_faces;
+  no_faces.face_errors = false;
+  EXPECT_TRUE(ProjectErrors(small, {{Pinhole(), At(0), dir / "half.exr", "half"}}, no_faces)
+                  .face_error.empty());
+  // Point clouds have no faces.
+  mesh::Mesh points = quad;
+  points.faces.clear();
+  EXPECT_TRUE(ProjectErrors(points, {{Pinhole(), At(0), dir / "half.exr", "half"}}, {})
+                  .face_error.empty());
 }
 
 }  // namespace

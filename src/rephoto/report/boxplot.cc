@@ -36,6 +36,13 @@ std::string Truncate(const std::string& text, size_t length) {
   return text.substr(0, length - 1) + "\u2026";
 }
 
+// Characters (UTF-8 code points) of a label.
+size_t DisplayLength(const std::string& text) {
+  size_t n = 0;
+  for (unsigned char c : text) n += (c & 0xC0) != 0x80;
+  return n;
+}
+
 // Where everything goes: the y axis range and the pixel geometry of one plot.
 struct Layout {
   double axis_low = 0, axis_high = 1, step = 1;  // y axis range and tick step
@@ -94,9 +101,23 @@ Layout ComputeLayout(const BoxPlot& plot) {
   layout.box_width = layout.series > 1 ? 16 : 26;
   layout.slot = std::max(56.0, layout.series * (layout.box_width + 6) + 22);
   for (const std::string& c : plot.categories) {
-    layout.rotate = layout.rotate || c.size() * 6.5 > layout.slot - 4;
+    layout.rotate = layout.rotate || DisplayLength(c) * 6.5 > layout.slot - 4;
   }
-  layout.bottom = (layout.rotate ? 86 : 40) + (plot.x_label.empty() ? 0 : 16);
+  // Rotated labels are shown whole (never cut): the bottom margin grows with the longest
+  // label and the left margin with any label that would run past the left edge (text width
+  // estimated at 6.5 px per character; rotation by 35 degrees).
+  layout.bottom = 40;
+  if (layout.rotate) {
+    const double sin35 = 0.5736, cos35 = 0.8192;
+    double longest = 0;
+    for (size_t c = 0; c < plot.categories.size(); ++c) {
+      const double length = 6.5 * static_cast<double>(DisplayLength(plot.categories[c]));
+      longest = std::max(longest, length);
+      layout.left = std::max(layout.left, length * cos35 - (c + 0.5) * layout.slot + 2);
+    }
+    layout.bottom = std::max(86.0, 24 + longest * sin35 + 8);
+  }
+  layout.bottom += plot.x_label.empty() ? 0 : 16;
   // Legend entries left to right, wrapped onto further lines (text width estimated at 6.5 px
   // per character of the 11 px font).
   double x = 0;
@@ -165,7 +186,7 @@ std::string AxesSvg(const BoxPlot& plot, const Layout& layout) {
       svg += fmt::format(
           "<text class=\"category\" transform=\"translate({},{}) rotate(-35)\" "
           "text-anchor=\"end\">{}<title>{}</title></text>\n",
-          Coordinate(x + 4), Coordinate(y), HtmlEscape(Truncate(plot.categories[c], 18)),
+          Coordinate(x + 4), Coordinate(y), HtmlEscape(plot.categories[c]),
           HtmlEscape(plot.categories[c]));
     } else {
       svg += fmt::format(

@@ -6,8 +6,10 @@
 #include <cmath>
 #include <map>
 
+#include "rephoto/compare/compare.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/io/csv.h"
@@ -16,6 +18,8 @@
 #include "rephoto/report/geometry_section.h"
 #include "rephoto/report/html.h"
 #include "rephoto/report/report_page.h"
+#include "rephoto/report/thumbnails.h"
+#include "rephoto/report/view3d.h"
 #include "rephoto/run/run_data.h"
 
 namespace rephoto::report {
@@ -42,6 +46,16 @@ int PrimaryIndex(const run::RunData& run, const std::string& primary) {
   LogWarning(fmt::format("{}: no \"{}\" column; ranking images by {}", run.dir.string(), primary,
                          run.metrics[0]));
   return 0;
+}
+
+// <section id="view3d">: the 3D view and what it shows.
+std::string View3dSectionHtml(const View3dData& data, const std::string& metric) {
+  return fmt::format(
+      "<section id=\"view3d-section\"><h2>The error on the model</h2><p class=\"muted\">The "
+      "{} error of the evaluation photos projected onto the model (paper Fig. 5 and 9; "
+      "projected/{}.ply), the photos' cameras and, when given, the suggested next views. "
+      "Switch to \u201cseen by no photo\u201d to see what no photo covers.</p>\n{}</section>\n",
+      HtmlEscape(metric), HtmlEscape(metric), View3dHtml(data, "view3d"));
 }
 
 std::string PlotsHtml(const std::vector<BoxPlot>& plots) {
@@ -83,6 +97,32 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
       "median, diamond mean, whiskers min and max, dots the single values.</p>\n",
       run.AcrossFolds() ? "across" : "over", unit);
   html += PlotsHtml(plots) + "</section>\n";
+  bool with_view = false;
+  if (options.view3d) {
+    const int primary = PrimaryIndex(run, options.primary_metric);
+    const std::string metric = primary >= 0 ? run.metrics[primary] : options.primary_metric;
+    // A projected PLY that cannot be read costs the view, not the report.
+    std::vector<View3dModel> models;
+    try {
+      models =
+          LoadRunView3dModels(run, metric, options.view3d_thumbnail_width, options.view3d_limits);
+    } catch (const Error& e) {
+      LogWarning(std::string("report: no 3D view: ") + e.what());
+      html += fmt::format(
+          "<section id=\"view3d-section\"><h2>The error on the model</h2><p "
+          "class=\"problems\">No 3D view: {}</p></section>\n",
+          HtmlEscape(e.what()));
+    }
+    if (!models.empty()) {
+      for (View3dModel& m : models) {
+        m.label = models.size() == 1 ? DirName(run_dir) : DirName(run_dir) + " " + m.label;
+      }
+      View3dData data;
+      data.models = std::move(models);
+      html += View3dSectionHtml(data, metric);
+      with_view = true;
+    }
+  }
 
   const int primary = PrimaryIndex(run, options.primary_metric);
   if (primary >= 0 && options.example_images > 0) {
@@ -100,6 +140,7 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
       "to sort (again: descending).</p>\n",
       run.images.size());
   html += PerImageTableHtml(run, "per-image") + "</section>\n";
+  if (with_view) html += View3dScripts();
   html += PageEnd();
   WriteTextFileAtomically(out_html, html);
 }
@@ -248,6 +289,11 @@ std::string RankingTableHtml(const Collection& c, const CollectionOptions& optio
       "across folds (evaluate runs with several folds) or over images",
       fmt::format("{:g}", options.completeness_margin));
   if (any_series) html += "<th class=\"text\" data-col=\"series\">series</th>";
+  // The note right after the run it is about (at the far right it was off-screen at 1280 px
+  // beside eight metric columns).
+  bool any_note = false;
+  for (const Loaded& l : runs) any_note = any_note || !l.note.empty();
+  if (any_note) html += "<th class=\"text\" data-col=\"note\">note</th>";
   if (c.sweep) {
     html += fmt::format("<th data-col=\"setting\">{}</th>", HtmlEscape(SettingName(options)));
   }
@@ -263,9 +309,6 @@ std::string RankingTableHtml(const Collection& c, const CollectionOptions& optio
   bool any_description = false;
   for (const Loaded& l : runs) any_description = any_description || !l.entry.description.empty();
   html += "<th data-col=\"failed_folds\">failed folds</th><th data-col=\"missing\">missing</th>";
-  bool any_note = false;
-  for (const Loaded& l : runs) any_note = any_note || !l.note.empty();
-  if (any_note) html += "<th class=\"text\" data-col=\"note\">note</th>";
   if (any_description) html += "<th class=\"text\" data-col=\"description\">description</th>";
   html += "</tr></thead><tbody>\n";
   for (size_t i = 0; i < runs.size(); ++i) {
@@ -278,6 +321,7 @@ std::string RankingTableHtml(const Collection& c, const CollectionOptions& optio
             ? ""
             : " <span class=\"warn\" title=\"" + HtmlEscape(l.note) + "\">\u26a0</span>");
     if (any_series) html += fmt::format("<td class=\"text\">{}</td>", HtmlEscape(l.entry.series));
+    if (any_note) html += fmt::format("<td class=\"text note\">{}</td>", HtmlEscape(l.note));
     if (c.sweep) {
       html += fmt::format("<td data-v=\"{}\">{}</td>", DataNumber(*l.entry.setting),
                           fmt::format("{:g}", *l.entry.setting));
@@ -295,7 +339,6 @@ std::string RankingTableHtml(const Collection& c, const CollectionOptions& optio
     if (c.with_geometry) html += GeometryRowCells(l.geometry, options.geometry_options);
     html += fmt::format("<td data-v=\"{0}\">{0}</td><td data-v=\"{1}\">{1}</td>",
                         l.run.failed_folds.size(), l.run.missing.size());
-    if (any_note) html += fmt::format("<td class=\"text note\">{}</td>", HtmlEscape(l.note));
     if (any_description) {
       html +=
           fmt::format("<td class=\"text description\">{}</td>", HtmlEscape(l.entry.description));
@@ -402,6 +445,157 @@ std::vector<BoxPlot> CollectionPlots(const Collection& c,
   return plots;
 }
 
+// The 3D view over the runs with projected errors of the primary metric ("" when none has).
+std::string CollectionView3dHtml(const Collection& c, const CollectionOptions& options) {
+  if (!options.view3d) return "";
+  View3dData data;
+  std::string problems;
+  for (const Loaded& l : c.runs) {
+    std::vector<View3dModel> models;
+    try {
+      models = LoadRunView3dModels(l.run, options.primary_metric, options.view3d_thumbnail_width,
+                                   options.view3d_limits);
+    } catch (const Error& e) {  // costs this run's entry in the view, not the report
+      LogWarning(std::string("report: no 3D view of ") + l.entry.label + ": " + e.what());
+      problems += "<li>" + HtmlEscape(l.entry.label) + ": " + HtmlEscape(e.what()) + "</li>";
+    }
+    for (View3dModel& model : models) {
+      model.label = models.size() == 1 ? l.entry.label : l.entry.label + " " + model.label;
+      data.models.push_back(std::move(model));
+    }
+  }
+  if (data.models.empty()) return "";
+  if (!options.suggestions.empty()) data.suggested = LoadSuggestedCameras(options.suggestions);
+  std::string html = View3dSectionHtml(data, options.primary_metric);
+  if (!problems.empty()) {
+    html += "<div class=\"problems\"><p>Not in the 3D view:</p><ul>" + problems + "</ul></div>\n";
+  }
+  return html;
+}
+
+// Stems of per_image.csv names ("view_000"), as the side-by-side strip matches photos by.
+std::string ImageKey(const run::ImageRow& image) { return image.name; }
+
+// The side-by-side strip (see CollectionOptions::side_by_side).
+std::string SideBySideHtml(const Collection& c, const CollectionOptions& options) {
+  const std::optional<metrics::Metric> parsed = metrics::ParseMetric(options.primary_metric);
+  if (!parsed || c.runs.size() < 2) return "";
+  std::vector<std::string> chosen = options.side_by_side;
+  if (chosen.empty()) {
+    // Photos every run evaluated, by the spread of their primary metric across the runs.
+    std::map<std::string, std::vector<double>> values;
+    for (const Loaded& l : c.runs) {
+      if (l.primary < 0) return "";
+      for (const run::ImageRow& image : l.run.images) {
+        if (image.status == "ok" && std::isfinite(image.metrics[l.primary])) {
+          values[ImageKey(image)].push_back(image.metrics[l.primary]);
+        }
+      }
+    }
+    std::vector<std::pair<double, std::string>> spread;
+    for (const auto& [name, v] : values) {
+      if (v.size() != c.runs.size()) continue;
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      spread.push_back({*hi - *lo, name});
+    }
+    std::sort(spread.begin(), spread.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    for (size_t i = 0; i < spread.size() && i < static_cast<size_t>(options.side_by_side_count);
+         ++i) {
+      chosen.push_back(spread[i].second);
+    }
+  }
+  if (chosen.empty()) return "";
+  struct Cell {
+    const Loaded* run = nullptr;
+    const run::ImageRow* image = nullptr;
+    Thumbnail rephoto, error;
+  };
+  struct Row {
+    std::string name;
+    Thumbnail photo;
+    std::vector<Cell> cells;
+  };
+  std::vector<Row> rows;
+  for (const std::string& name : chosen) {
+    Row row{name, {}, {}};
+    for (const Loaded& l : c.runs) {
+      Cell cell{&l, nullptr, {}, {}};
+      for (const run::ImageRow& image : l.run.images) {
+        if (ImageKey(image) == name) cell.image = &image;
+      }
+      row.cells.push_back(cell);
+    }
+    rows.push_back(std::move(row));
+  }
+  const int width = options.side_by_side_width;
+  std::vector<std::pair<size_t, size_t>> jobs;  // (row, cell); cell == runs.size(): the photo
+  for (size_t r = 0; r < rows.size(); ++r) {
+    for (size_t k = 0; k <= c.runs.size(); ++k) jobs.push_back({r, k});
+  }
+  ParallelFor(0, static_cast<int64_t>(jobs.size()), 1, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      Row& row = rows[jobs[i].first];
+      if (jobs[i].second == c.runs.size()) {
+        for (const Cell& cell : row.cells) {
+          if (cell.image && cell.image->status == "ok") {
+            row.photo = PhotoThumbnail(cell.run->run.PhotoPath(*cell.image), width);
+            break;
+          }
+        }
+        continue;
+      }
+      Cell& cell = row.cells[jobs[i].second];
+      if (cell.image == nullptr || cell.image->status != "ok") continue;
+      Thumbnail mask;
+      RenderThumbnails(cell.run->run.RenderPath(*cell.image), width, &cell.rephoto, &mask);
+      const fs::path errors = cell.run->run.ImageDir(*cell.image) / "errors";
+      const std::string stem = cell.image->name + "." + options.primary_metric;
+      cell.error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed, width);
+    }
+  });
+  const auto [low, high] = compare::ErrorColourRange(*parsed);
+  auto image = [](const Thumbnail& t, const std::string& alt) {
+    if (t.data_uri.empty()) {
+      return fmt::format("<div class=\"unavailable\">{}</div>",
+                         HtmlEscape(t.error.empty() ? "not available" : t.error));
+    }
+    return fmt::format("<img src=\"{}\" width=\"{}\" height=\"{}\" alt=\"{}\">", t.data_uri,
+                       t.width, t.height, HtmlEscape(alt));
+  };
+  std::string html = fmt::format(
+      "<section id=\"side-by-side\"><h2>Side by side</h2><p class=\"muted\">{} Per run: its "
+      "rephoto (top) and {} error image (bottom, range {} to {}, grey checkerboard = not "
+      "evaluated).</p>\n<div class=\"scroll\"><table class=\"strip\"><thead><tr><th "
+      "class=\"text\">photo</th>",
+      options.side_by_side.empty()
+          ? "The photos on which the runs disagree most (largest spread of the primary metric)."
+          : "The chosen photos.",
+      HtmlEscape(options.primary_metric), DisplayNumber(low), DisplayNumber(high));
+  for (const Loaded& l : c.runs) {
+    html += fmt::format("<th class=\"text\">{}</th>", HtmlEscape(l.entry.label));
+  }
+  html += "</tr></thead><tbody>\n";
+  for (const Row& row : rows) {
+    html += fmt::format("<tr class=\"strip-row\" data-name=\"{0}\"><td class=\"text\"><b>{0}</b>{1}</td>",
+                        HtmlEscape(row.name), image(row.photo, "photo"));
+    for (const Cell& cell : row.cells) {
+      if (cell.image == nullptr) {
+        html += "<td class=\"text muted\">not in this run</td>";
+        continue;
+      }
+      const double value = cell.run->primary >= 0 ? cell.image->metrics[cell.run->primary] : NAN;
+      html += fmt::format("<td class=\"text\" data-run=\"{}\">{} {}<br>{}{}</td>",
+                          HtmlEscape(cell.run->entry.label), HtmlEscape(options.primary_metric),
+                          DisplayNumber(value), image(cell.rephoto, "rephoto"),
+                          image(cell.error, "error"));
+    }
+    html += "</tr>\n";
+  }
+  return html + "</tbody></table></div></section>\n";
+}
+
 // Per entry: problems, examples, per-image table and settings.
 std::string EntriesHtml(const Collection& c, const CollectionOptions& options) {
   std::string html = "<section id=\"entries\"><h2>Runs</h2>\n";
@@ -458,6 +652,9 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     html += GeometrySectionHtml(geometry_runs, options.geometry_reference.string(),
                                 options.geometry_options, options.primary_metric);
   }
+  const std::string view3d = CollectionView3dHtml(c, options);
+  html += view3d;
+  html += SideBySideHtml(c, options);
   html += EntriesHtml(c, options);
   for (const CollectionOptions::Section& section : options.sections) {
     html += fmt::format("<section id=\"{}\"><h2>{}</h2>\n", HtmlEscape(section.id),
@@ -465,6 +662,7 @@ void WriteCollectionReport(const std::vector<CollectionEntry>& entries, const fs
     if (!section.note.empty()) html += "<p>" + HtmlEscape(section.note) + "</p>\n";
     html += section.body_html + "</section>\n";
   }
+  if (!view3d.empty()) html += View3dScripts();
   html += PageEnd();
   WriteTextFileAtomically(out_html, html);
 }

@@ -59,6 +59,7 @@
 #include <vector>
 
 #include "rephoto/geometry/geometry.h"
+#include "rephoto/report/view3d.h"
 
 namespace rephoto::report {
 
@@ -67,9 +68,18 @@ struct ReportOptions {
   std::string primary_metric = "1-ncc";  // ranks the example images; absent: the first metric
   int example_images = 3;                // that many worst and that many best images (0 = none)
   int thumbnail_width = 480;             // pixels; thumbnails are never enlarged
-  // Folders outside the run folder whose photos and renderings may be shown (the ones the user
-  // named: the photos' folder); paths in the run's files leading elsewhere are not followed.
+  // Folders outside the run folder whose photos, renderings and models may be shown (the ones
+  // the user named: the photos' folder); paths in the run's files leading elsewhere are not
+  // followed.
   std::vector<std::filesystem::path> image_folders;
+  // The interactive 3D view (view3d.h, section "The error on the model") when the run has
+  // projected/<primary metric>.ply: the model coloured by the error, the run's cameras (from
+  // RUN/split), thumbnails of the evaluated photos `view3d_thumbnail_width` wide (0 = none).
+  // A projected PLY that cannot be read replaces the view by the reason (the report is still
+  // written).
+  bool view3d = true;
+  int view3d_thumbnail_width = 200;
+  View3dLimits view3d_limits;
 };
 
 // One run directory (evaluate or compare layout) -> one self-contained HTML file.
@@ -124,6 +134,21 @@ struct CollectionOptions {
   std::vector<Section> sections;
   // As ReportOptions::image_folders, for every run.
   std::vector<std::filesystem::path> image_folders;
+  // The 3D view (as ReportOptions::view3d): one view with a selector over the runs that have
+  // projected/<primary metric>.ply; the suggested views of the `rephoto suggest` folder
+  // `suggestions` (suggestions.json + sparse/) are shown as highlighted frusta with every run.
+  bool view3d = true;
+  int view3d_thumbnail_width = 160;
+  View3dLimits view3d_limits{.max_faces = 60000, .max_points = 100000};
+  std::filesystem::path suggestions;
+  // Side by side (section "side-by-side"): for each photo named here (per_image.csv names),
+  // one row with its photo and each run's rephoto and error image (the primary metric's, same
+  // colour range for all). Empty: the `side_by_side_count` photos evaluated by every run
+  // whose primary metric differs most between the runs (max - min), where the methods
+  // disagree. Thumbnails `side_by_side_width` wide.
+  std::vector<std::string> side_by_side;
+  int side_by_side_count = 3;
+  int side_by_side_width = 200;
 };
 
 // Several runs (the demo's reconstructions; a sweep's settings) -> one HTML: ranking table,

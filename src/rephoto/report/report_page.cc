@@ -46,7 +46,9 @@ tr.bad td { color: var(--bad); }
 td.status-bad { color: var(--bad); font-weight: 600; }
 td.best { font-weight: 700; }
 .warn { color: #b45309; cursor: help; }
-td.note { max-width: 28em; white-space: normal; color: #6b4e16; }
+td.note { min-width: 14em; max-width: 22em; white-space: normal; color: #6b4e16; font-size: 12px; }
+table.strip td { vertical-align: top; }
+table.strip img { display: block; margin: 2px 0; max-width: 220px; height: auto; border: 1px solid var(--line); }
 .scroll { overflow-x: auto; max-width: 100%; }
 .plots { display: flex; flex-wrap: wrap; gap: 12px; }
 .plots svg { background: #fff; border: 1px solid var(--line); max-width: 100%; height: auto; }
@@ -300,12 +302,54 @@ std::string SettingsHtml(const run::RunData& run, bool collapsed) {
         fmt::format("<span>{} folds ({} failed)</span>", run.folds.size(), run.failed_folds.size());
   }
   html += fmt::format("<span>{} images compared of {}</span>", ok, run.images.size());
+  if (s.is_object() && s.contains("cross_validated") && s["cross_validated"].is_boolean()) {
+    html += fmt::format("<span class=\"cross-validated\">{}</span>",
+                        s["cross_validated"].get<bool>() ? "cross-validated"
+                                                         : "not cross-validated (a given model)");
+  }
   std::string metric_list;
   for (const std::string& m : run.metrics) metric_list += (metric_list.empty() ? "" : ", ") + m;
   html += fmt::format("<span>metrics {}</span></p>\n", HtmlEscape(metric_list));
 
   std::vector<std::pair<std::string, std::string>> rows;
-  if (run.run.is_object()) Flatten(run.run, "run.json", 0, &rows);
+  // The outputs as they are on disk now: run.json is rewritten after the report (evaluate
+  // writes the report before its final run.json), so its "outputs" may predate the
+  // projection.
+  std::vector<std::string> projected;
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(run.dir / "projected", ec), end; !ec && it != end;
+       it.increment(ec)) {
+    if (it->path().extension() == ".ply") projected.push_back("projected/" + it->path().filename().string());
+  }
+  std::sort(projected.begin(), projected.end());
+  if (run.run.is_object()) {
+    Json j = run.run;
+    // The invocation's own state (status, counters, timings, outputs) is what run.json
+    // records of the process that is still writing this report: stale here, so left out
+    // (run.json has the final values); the outputs come from the folder below.
+    for (const char* key : {"status", "counters", "timings", "outputs"}) j.erase(key);
+    // split.cross_validated says whether the split holds test photos out; whether the run is
+    // cross-validated also depends on the model (a given model may have seen the test
+    // photos): summary.json's "cross_validated" is the answer, shown here when they differ.
+    if (s.is_object() && s.contains("cross_validated") && s["cross_validated"].is_boolean() &&
+        j.contains("split") && j["split"].is_object() && j["split"].contains("cross_validated") &&
+        j["split"]["cross_validated"] != s["cross_validated"]) {
+      j["split"]["cross_validated"] = fmt::format(
+          "{} (summary.json; the split {} test photos out, but {})",
+          s["cross_validated"].get<bool>() ? "true" : "false",
+          j["split"]["cross_validated"] == true ? "holds" : "does not hold",
+          s["cross_validated"].get<bool>() ? "the model was reconstructed per fold"
+                                           : "the model was given, not reconstructed per fold, "
+                                             "and may have seen them");
+    }
+    Flatten(j, "run.json", 0, &rows);
+  }
+  rows.push_back({"outputs.projected (in the run folder)",
+                  projected.empty() ? "(none)" : [&] {
+                    std::string joined;
+                    for (const std::string& p : projected) joined += (joined.empty() ? "" : ", ") + p;
+                    return joined;
+                  }()});
   if (s.is_object()) {
     // Everything but the results (shown in the tables) and the lists shown elsewhere.
     Json settings = Json::object();

@@ -7,9 +7,11 @@
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/stats.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/mesh/read_mesh.h"
 #include "rephoto/render/render.h"
+#include "rephoto/report/view3d.h"
 #include "rephoto/suggest/suggest_page.h"
 #include "rephoto/scene/colmap.h"
 #include "rephoto/scene/transforms_json.h"
@@ -23,6 +25,73 @@ namespace {
 Json NumberOrNull(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 
 double Percent(double part, double whole) { return whole > 0 ? 100 * part / whole : 0.0; }
+
+// The 3D view of the suggest page: the model coloured by its projected errors (when given)
+// or by what no photo sees, the photos so far and the suggested views.
+report::View3dData SuggestView3d(const scene::Scene& scene, const render::RenderModel& model,
+                                 const std::vector<float>& errors, const SuggestResult& result,
+                                 const scene::Scene& suggested, const SuggestRunOptions& options) {
+  const mesh::Mesh& mesh = model.mesh();
+  report::View3dModel m;
+  m.label = options.model_label;
+  m.metric = errors.empty() ? "" : options.metric;
+  m.positions = mesh.positions;
+  m.faces.assign(mesh.faces.begin(), mesh.faces.end());
+  if (!errors.empty()) {
+    m.error = errors;
+    std::vector<double> finite;
+    for (float e : errors) {
+      if (std::isfinite(e)) finite.push_back(e);
+    }
+    if (!finite.empty()) {
+      m.low = static_cast<float>(Quantile(finite, 0.025));
+      m.high = static_cast<float>(Quantile(finite, 0.975));
+    }
+  }
+  if (mesh.colors.size() == mesh.vertex_count()) {
+    m.colors.resize(mesh.colors.size());
+    for (size_t i = 0; i < mesh.colors.size(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        m.colors[i][c] =
+            static_cast<uint8_t>(std::lround(255.f * std::clamp(mesh.colors[i][c], 0.f, 1.f)));
+      }
+    }
+  }
+  m.unseen.resize(result.observed.size());
+  for (size_t i = 0; i < result.observed.size(); ++i) m.unseen[i] = result.observed[i] ? 0 : 1;
+  report::DecimateForBrowser(m);
+  auto camera_of = [](const camera::Camera& cam, const scene::View& view, const std::string& role) {
+    report::View3dCamera c;
+    c.name = view.name;
+    c.role = role;
+    c.fx = cam.FocalLengthX();
+    c.fy = cam.FocalLengthY();
+    c.cx = cam.PrincipalPointX();
+    c.cy = cam.PrincipalPointY();
+    c.width = cam.width;
+    c.height = cam.height;
+    c.rotation = view.cam_from_world.rotation;
+    c.translation = view.cam_from_world.translation;
+    return c;
+  };
+  for (const scene::View& view : scene.views) {
+    m.cameras.push_back(camera_of(scene.CameraOf(view), view, "photo"));
+  }
+  report::View3dData data;
+  data.mode = "unseen";  // what the suggestions are about
+  data.models.push_back(std::move(m));
+  for (size_t k = 0; k < suggested.views.size(); ++k) {
+    report::View3dCamera c =
+        camera_of(suggested.CameraOf(suggested.views[k]), suggested.views[k], "suggested");
+    if (result.unobserved_area > 0) {
+      c.note = fmt::format("sees {:.1f} % of the surface no photo sees",
+                           100 * result.suggestions[k].unobserved_area / result.unobserved_area);
+    }
+    c.error = result.suggestions[k].mean_error;
+    data.suggested.push_back(std::move(c));
+  }
+  return data;
+}
 
 }  // namespace
 
@@ -65,7 +134,7 @@ suggest::SuggestResult RunSuggest(const scene::Scene& scene, const render::Rende
   suggested.cameras[camera_id] = camera;
   suggested.image_root = out / "renders";
   Json json;
-  json["version"] = 1;
+  json["schema"] = kSuggestionsSchema;
   json["scene"] = options.scene_label;
   json["model"] = options.model_label;
   json["run"] = options.run.empty() ? Json(nullptr) : Json(options.run.string());
@@ -88,6 +157,7 @@ suggest::SuggestResult RunSuggest(const scene::Scene& scene, const render::Rende
     const Eigen::Vector3d& t = s.cam_from_world.translation;
     list.push_back({{"name", view.name},
                     {"center", {c.x(), c.y(), c.z()}},
+                    {"look_at", {result.target.x(), result.target.y(), result.target.z()}},
                     {"qvec", {q[0], q[1], q[2], q[3]}},
                     {"tvec", {t.x(), t.y(), t.z()}},
                     {"score", s.score},
@@ -102,7 +172,8 @@ suggest::SuggestResult RunSuggest(const scene::Scene& scene, const render::Rende
   scene::WriteColmap(suggested, out / "sparse", scene::ColmapFormat::kText);
   scene::WriteTransformsJson(suggested, out / "transforms.json");
   WriteTextFileAtomically(out / "suggestions.json", json.dump(2) + "\n");
-  suggest::WriteSuggestionsReport(out, out / "report.html");
+  const report::View3dData view = SuggestView3d(scene, model, errors, result, suggested, options);
+  suggest::WriteSuggestionsReport(out, out / "report.html", 480, &view);
   return result;
 }
 

@@ -6,10 +6,15 @@
 // atomically):
 //   sparse/                COLMAP text: the suggested cameras (views suggest_XX.png)
 //   transforms.json        the same cameras for nerfstudio-style tools
-//   suggestions.json       per suggestion: name, center, qvec, tvec (COLMAP world-to-camera),
-//                          score, unobserved_area, visible_vertices, mean_error (null = none);
-//                          totals total_area, unobserved_area, unobserved_area_covered; target,
-//                          distance; the scene, model and run labels
+//   suggestions.json       "schema": "rephoto.suggest/1" (kSuggestionsSchema; files written
+//                          before it have "version": 1 instead, which readers accept); per
+//                          suggestion: name, center (camera centre), look_at (the point it
+//                          looks at, the model's bounding-box centre), qvec, tvec (COLMAP
+//                          world-to-camera), score, unobserved_area (model units², newly seen
+//                          surface no photo sees), visible_vertices, mean_error (null = none);
+//                          totals total_area, unobserved_area, unobserved_area_covered (model
+//                          units²); target, distance; the scene, model and run labels. All
+//                          coordinates in the scene's (= model's) world units.
 //   renders/suggest_XX.png the model rendered from each suggestion: what to photograph
 //   report.html            suggest/suggest_page.h
 // Failure behaviour: Error (one line naming the file) for projected errors that are missing or
@@ -26,6 +31,8 @@
 #include "rephoto/scene/scene.h"
 
 namespace rephoto::suggest {
+
+inline constexpr const char* kSuggestionsSchema = "rephoto.suggest/1";
 
 struct SuggestRunOptions {
   std::filesystem::path out;
