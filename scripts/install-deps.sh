@@ -20,6 +20,7 @@ packages=(
   slurmctld slurmd slurm-client munge
   libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev python3-websocket
   nginx-light openssl
+  libdnnl-dev python3-torch python3-torchvision
 )
 
 missing=()
