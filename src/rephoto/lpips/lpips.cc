@@ -72,6 +72,12 @@ const FloatTensor& Take(const StateDict& dict, const fs::path& file, const std::
 void CapOneDnnIsa() {
   static std::once_flag once;
   std::call_once(once, [] {
+    // An explicit ONEDNN_MAX_CPU_ISA (or its old name DNNL_MAX_CPU_ISA) is the user's choice.
+    const char* onednn = std::getenv("ONEDNN_MAX_CPU_ISA");
+    const char* dnnl = std::getenv("DNNL_MAX_CPU_ISA");
+    if ((onednn != nullptr && *onednn != 0) || (dnnl != nullptr && *dnnl != 0)) {
+      return;
+    }
     // Fails (status not success) only when oneDNN already created kernels in this process
     // (another library using it first); then its own choice stands.
     (void)dnnl::set_max_cpu_isa(dnnl::cpu_isa::avx2);
@@ -208,6 +214,7 @@ struct StagePlan {
     dnnl::memory::desc dst;
     dnnl::memory weights, bias;  // conv only
     bool conv = false;
+    bool reorder = false;
   };
   std::vector<Step> steps;
   Dims out{};
@@ -294,19 +301,31 @@ LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView
   std::vector<std::vector<double>> maps(stages_.size());
   std::vector<double> layer_means(stages_.size());
   Dims in{3, height, width};
+  dnnl::memory::desc cur = Nhwc(in);  // layout of act[] between steps
   for (size_t s = 0; s < stages_.size(); ++s) {
     const Stage& stage = stages_[s];
     // Primitives of the stage.
     StagePlan plan;
     Dims d = in;
+    // A reorder of the activation from `cur` to `want` when they differ.
+    const auto convert = [&](const dnnl::memory::desc& want) {
+      if (want == cur) return;
+      StagePlan::Step step;
+      step.primitive = dnnl::reorder(dnnl::reorder::primitive_desc(engine, cur, engine, want));
+      step.dst = want;
+      step.reorder = true;
+      plan.steps.push_back(std::move(step));
+      cur = want;
+    };
     for (const Op& op : stage.ops) {
       StagePlan::Step step;
       if (op.pool) {
         const Dims out{d.c, (d.h - op.pool_kernel) / op.pool_stride + 1,
                        (d.w - op.pool_kernel) / op.pool_stride + 1};
         const dnnl::pooling_forward::desc desc(
-            dnnl::prop_kind::forward_inference, dnnl::algorithm::pooling_max, Nhwc(d), Nhwc(out),
-            {op.pool_stride, op.pool_stride}, {op.pool_kernel, op.pool_kernel}, {0, 0}, {0, 0});
+            dnnl::prop_kind::forward_inference, dnnl::algorithm::pooling_max, cur,
+            Nhwc(out), {op.pool_stride, op.pool_stride},
+            {op.pool_kernel, op.pool_kernel}, {0, 0}, {0, 0});
         const dnnl::pooling_forward::primitive_desc pd(desc, engine);
         step.primitive = dnnl::pooling_forward(pd);
         step.dst = pd.dst_desc();
@@ -319,14 +338,15 @@ LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView
                                              Tag::any);
         const dnnl::memory::desc bias_md({c.cout}, Dt::f32, Tag::x);
         const dnnl::convolution_forward::desc desc(
-            dnnl::prop_kind::forward_inference, dnnl::algorithm::convolution_direct, Nhwc(d),
-            weights_any, bias_md, Nhwc(out), {c.stride, c.stride}, {c.pad, c.pad},
-            {c.pad, c.pad});
+            dnnl::prop_kind::forward_inference, dnnl::algorithm::convolution_direct,
+            Nhwc(d), weights_any, bias_md, Nhwc(out),
+            {c.stride, c.stride}, {c.pad, c.pad}, {c.pad, c.pad});
         dnnl::post_ops post;
         post.append_eltwise(1.f, dnnl::algorithm::eltwise_relu, 0.f, 0.f);
         dnnl::primitive_attr attr;
         attr.set_post_ops(post);
         const dnnl::convolution_forward::primitive_desc pd(desc, attr, engine);
+        convert(pd.src_desc());
         const dnnl::memory::desc user_weights({c.cout, c.cin, c.kernel, c.kernel}, Dt::f32,
                                               Tag::oihw);
         dnnl::memory user(user_weights, engine, const_cast<float*>(c.weight.data()));
@@ -338,6 +358,7 @@ LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView
         step.conv = true;
         d = out;
       }
+      cur = step.dst;
       plan.steps.push_back(std::move(step));
     }
     plan.out = d;
@@ -350,6 +371,8 @@ LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView
                                           {DNNL_ARG_WEIGHTS, step.weights},
                                           {DNNL_ARG_BIAS, step.bias},
                                           {DNNL_ARG_DST, dst}});
+        } else if (step.reorder) {
+          step.primitive.execute(stream, {{DNNL_ARG_FROM, act[i]}, {DNNL_ARG_TO, dst}});
         } else {
           step.primitive.execute(stream, {{DNNL_ARG_SRC, act[i]}, {DNNL_ARG_DST, dst}});
         }
@@ -358,10 +381,21 @@ LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView
       }
     }
     in = d;
+    // The tapped features in NHWC (channels of a position contiguous).
+    dnnl::memory tap[2];
+    for (int i = 0; i < 2; ++i) {
+      if (cur == Nhwc(d)) {
+        tap[i] = act[i];
+      } else {
+        tap[i] = dnnl::memory(Nhwc(d), engine);
+        dnnl::reorder(act[i], tap[i]).execute(stream, act[i], tap[i]);
+        stream.wait();
+      }
+    }
     // d_l per position: unit-normalised features, squared difference, the lin layer.
     const int64_t channels = d.c, h = d.h, w = d.w;
-    const float* f0 = static_cast<const float*>(act[0].get_data_handle());
-    const float* f1 = static_cast<const float*>(act[1].get_data_handle());
+    const float* f0 = static_cast<const float*>(tap[0].get_data_handle());
+    const float* f1 = static_cast<const float*>(tap[1].get_data_handle());
     const float* lin = stage.lin.data();
     std::vector<double>& map = maps[s];
     map.resize(static_cast<size_t>(h * w));
