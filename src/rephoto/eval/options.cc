@@ -168,6 +168,8 @@ void EvaluateOptions::Check() const {
   c.metrics = metrics;
   c.metric_options = metric_options;
   c.exposure = exposure;
+  c.lpips_weights = lpips_weights;
+  c.lpips_net = lpips_net;
   try {
     c.Check();
   } catch (const Error& e) {
