@@ -171,3 +171,31 @@ def test_cli_missing_weights(tmp_path, pair):
     assert run.returncode == 2, run.stderr
     assert run.stderr.count("\n") == 1
     assert "alexnet-owt-7be5be79.pth" in run.stderr and "https://download.pytorch.org" in run.stderr
+
+
+def test_evaluate_takes_the_weights_from_argument_config_and_cli(fixture, tmp_path):
+    weights, _ = fixture
+    demo = tmp_path / "demo"
+    subprocess.run([cli_path(), "demo", "--out", demo, "--cameras", "4", "--width", "96",
+                    "--height", "64"], check=True, capture_output=True)
+    settings = dict(scene=demo / "scene" / "sparse", model=demo / "models" / "texture_noise.ply",
+                    scheme="kfold:2", metrics=["psnr", "lpips"])
+    run = rephoto.evaluate(out=tmp_path / "py", lpips_weights=weights, **settings)
+    rows = run.per_image
+    assert len(rows) == 4
+    for row in rows:
+        assert isinstance(row["lpips"], float) and 0 < row["lpips"] < 10
+        assert row["lpips_evaluated"] > 0
+    # The config key (relative to the config file) and the flag give the same run.
+    (tmp_path / "exp.toml").write_text(f'lpips_weights = "{os.path.relpath(weights, tmp_path)}"\n')
+    subprocess.run([cli_path(), "evaluate", "--config", tmp_path / "exp.toml", "--scene",
+                    settings["scene"], "--model", settings["model"], "--scheme", "kfold:2",
+                    "--metrics", "psnr,lpips", "--out", tmp_path / "cfg"], check=True,
+                   capture_output=True)
+    subprocess.run([cli_path(), "evaluate", "--lpips-weights", weights, "--scene",
+                    settings["scene"], "--model", settings["model"], "--scheme", "kfold:2",
+                    "--metrics", "psnr,lpips", "--out", tmp_path / "flag"], check=True,
+                   capture_output=True)
+    for other in ("cfg", "flag"):
+        other_rows = rephoto.load_run(tmp_path / other).per_image
+        assert [r["lpips"] for r in other_rows] == [r["lpips"] for r in rows]
