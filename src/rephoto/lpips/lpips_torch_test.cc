@@ -17,6 +17,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/isa.h"
+#include "rephoto/core/limits.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/testing/testing.h"
 
@@ -157,6 +158,18 @@ TEST_F(LpipsTorch, WrongShapesAndSmallImagesAreErrors) {
                        "expected [1, 192, 1, 1]"),
             std::string::npos)
       << error;
+}
+
+// The activations' memory is checked before anything is allocated (core/limits.h).
+TEST_F(LpipsTorch, MemoryLimitIsCheckedFirst) {
+  const auto model = LpipsModel::LoadShared(*dir_, LpipsNet::kVgg);
+  const Image a(200, 151, 3), b(200, 151, 3);
+  const uint64_t before = MaxMemoryBytes();
+  SetMaxMemoryBytes(uint64_t{1} << 20);
+  const std::string error = testing::ErrorOf([&] { model->Compute(a, b, nullptr); });
+  SetMaxMemoryBytes(before);
+  EXPECT_NE(error.find("200x151 images through vgg"), std::string::npos) << error;
+  EXPECT_NE(error.find("--max-memory"), std::string::npos) << error;
 }
 
 TEST(Lpips, MissingWeightsSayWhatAndHow) {
