@@ -32,9 +32,12 @@
 // and gets bit-identical values; CPUs without AVX2 (pre-2013) run oneDNN's SSE4.1 kernels,
 // whose different summation order changes values by about 1e-7 relative (docs/lpips.md).
 //
-// Memory: activations of both images are held for one stage at a time. The peak is checked
-// against MaxMemoryBytes (core/limits.h) before anything is allocated: about 3 x 4 x 64 bytes
-// per input pixel for VGG (9 GB at 12 MP), 3 x 4 x 64 / 16 for AlexNet (stride 4).
+// Memory: both images go through the network stage by stage; their activations live in three
+// slots of the largest activation's size (one per image, one for the step being made), kept by
+// the calling thread for its next calls (fresh pages cost ~10 us per 4 KiB on first touch).
+// The peak, 3 slots plus 8 bytes per pixel of layer maps, is checked against MaxMemoryBytes
+// (core/limits.h) before anything is allocated: about 3 x 4 x 64 bytes per input pixel for VGG
+// (9 GB at 12 MP), 3 x 4 x 64 / 16 for AlexNet (stride 4: 0.7 GB at 12 MP).
 //
 // Thread safety: a loaded LpipsModel is immutable; Compute may be called from several threads
 // at once (each call its own oneDNN stream and buffers). LoadShared's cache is guarded.
