@@ -14,6 +14,15 @@ find_package(ZLIB REQUIRED)  # tests: an independent PNG decoder
 find_package(tinyexr REQUIRED)
 # rephoto evaluate: config files (TOML) and input hashes (XXH3).
 find_package(tomlplusplus REQUIRED)
+# LPIPS convolutions (src/rephoto/lpips): oneDNN 2.6 (libdnnl-dev), threaded with OpenMP.
+# Debian's dnnl-config.cmake insists on OpenCL headers (its GPU runtime) although the CPU
+# engine needs none of them: the library and header are found directly instead.
+find_library(REPHOTO_DNNL_LIBRARY NAMES dnnl REQUIRED)
+find_path(REPHOTO_DNNL_INCLUDE oneapi/dnnl/dnnl.hpp REQUIRED)
+add_library(rephoto_dnnl INTERFACE)
+target_link_libraries(rephoto_dnnl INTERFACE ${REPHOTO_DNNL_LIBRARY})
+target_include_directories(rephoto_dnnl SYSTEM INTERFACE ${REPHOTO_DNNL_INCLUDE})
+find_package(OpenMP REQUIRED COMPONENTS CXX)
 pkg_check_modules(XXHASH REQUIRED IMPORTED_TARGET libxxhash)
 find_package(embree 3 QUIET)
 find_package(meshoptimizer QUIET)

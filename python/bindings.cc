@@ -31,6 +31,8 @@
 #include <vector>
 
 #include "rephoto/compare/compare.h"
+#include "rephoto/compare/compat_compare.h"
+#include "rephoto/lpips/lpips.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/isa.h"
 #include "rephoto/core/limits.h"
@@ -234,7 +236,7 @@ std::vector<metrics::Metric> MetricList(const py::object& metrics) {
     if (!metric) {
       throw UsageError(
           fmt::format("unknown metric '{}' (1-ncc, cb+cr, zssd, dssim, census, "
-                      "icid, psnr, ssim)",
+                      "icid, psnr, ssim, lpips)",
                       name));
     }
     list.push_back(*metric);
@@ -254,8 +256,13 @@ py::dict Compare(const py::object& photo_object, const py::object& render_object
                  const py::object& render_mask_object, bool error_images, int window,
                  const std::string& ssim_mode, float dark, float saturated,
                  const std::optional<std::string>& compat, std::array<float, 3> background,
-                 bool resize, double min_alpha) {
+                 bool resize, double min_alpha, const std::optional<std::string>& lpips_weights,
+                 const std::string& lpips_net) {
   compare::CompareOptions options;
+  if (lpips_weights) options.lpips_weights = *lpips_weights;
+  const std::optional<lpips::LpipsNet> net = lpips::ParseLpipsNet(lpips_net);
+  REPHOTO_CHECK_USAGE(net.has_value(), "lpips_net: '{}' is not alex or vgg", lpips_net);
+  options.lpips_net = *net;
   REPHOTO_CHECK_USAGE(min_alpha >= 0 && min_alpha <= 1, "min_alpha: {} is not in [0, 1]",
                       min_alpha);
   REPHOTO_CHECK_USAGE(!compat || min_alpha == 0, "compat: min_alpha does not apply (no masks)");
@@ -296,8 +303,10 @@ py::dict Compare(const py::object& photo_object, const py::object& render_object
     REPHOTO_CHECK_USAGE(preset.has_value(), "compat: '{}' is not 3dgs or nerfstudio", *compat);
     REPHOTO_CHECK_USAGE(!mask && !render_mask, "compat {}: masks do not exist in this mode",
                         *compat);
-    if (metrics_object.is_none())
-      options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+    // The preset's metrics unless `metrics` names some (compare/compat_compare.h).
+    options.metrics = compare::ResolveCompatMetrics(
+        *preset, metrics_object.is_none() ? std::vector<metrics::Metric>{} : options.metrics,
+        options.lpips_weights);
     options.compat = preset;
     options.compat_background = background;
   }
@@ -642,7 +651,8 @@ PYBIND11_MODULE(_rephoto, m) {
         py::arg("error_images") = false, py::arg("window") = 9, py::arg("ssim_mode") = "gaussian",
         py::arg("dark") = 0.0f, py::arg("saturated") = 1.0f, py::arg("compat") = py::none(),
         py::arg("background") = std::array<float, 3>{0, 0, 0}, py::arg("resize") = false,
-        py::arg("min_alpha") = 0.0);
+        py::arg("min_alpha") = 0.0, py::arg("lpips_weights") = py::none(),
+        py::arg("lpips_net") = "alex");
   m.def("metric_names", [] {
     std::vector<std::string> names;
     for (metrics::Metric metric : metrics::AllMetrics())

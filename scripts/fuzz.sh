@@ -82,6 +82,7 @@ seed fuzz_config fuzz/corpus/config/*
 seed fuzz_service_request fuzz/corpus/service_request/*
 seed fuzz_service_upload fuzz/corpus/service_upload/*.tar fuzz/corpus/service_upload/*.gz \
   fuzz/corpus/service_upload/*.zip
+seed fuzz_torch_file src/rephoto/lpips/testdata/*.pth
 for toml in examples/experiments/*.toml; do
   { printf '\000'; cat "$toml"; } > "$corpus/fuzz_config/evaluate_$(basename "$toml")"
   { printf '\002'; cat "$toml"; } > "$corpus/fuzz_config/sweep_$(basename "$toml")"

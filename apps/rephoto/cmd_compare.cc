@@ -2,7 +2,8 @@
 //                 [--metrics a,b,...|all] [--window N] [--ssim-mode gaussian|skimage]
 //                 [--dark T] [--saturated T] [--resize] [--no-error-images]
 //                 [--images FILE | --split DIR] [--min-alpha A]
-//                 [--compat 3dgs|nerfstudio [--compat-background R,G,B]] --out RUN_DIR
+//                 [--compat 3dgs|nerfstudio [--compat-background R,G,B]]
+//                 [--lpips-weights DIR] [--lpips-net alex|vgg] --out RUN_DIR
 // Parses options into compare::CompareOptions and calls compare::RunCompare (see
 // src/rephoto/compare/compare.h for inputs, outputs and exit codes).
 #include <fmt/format.h>
@@ -34,6 +35,7 @@ struct CompareArguments {
   std::string compat;
   std::vector<float> compat_background;
   std::string split;
+  std::string lpips_net = "alex";
 };
 
 CommandRunner SetupCompare(CLI::App& app) {
@@ -70,7 +72,18 @@ CommandRunner SetupCompare(CLI::App& app) {
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--metrics", args->metrics,
-                 "Comma-separated metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim) or all")
+                 "Comma-separated metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim,lpips) "
+                 "or all (every metric but lpips, which needs --lpips-weights); with --compat: "
+                 "among psnr,ssim,lpips (default: psnr,ssim and lpips when weights are given)")
+      ->capture_default_str();
+  app.add_option("--lpips-weights", o.lpips_weights,
+                 "Folder with the LPIPS weight files under their original names (alex.pth + "
+                 "alexnet-owt-7be5be79.pth; vgg.pth + vgg16-397923af.pth) [default: "
+                 "$REPHOTO_LPIPS_WEIGHTS]; see docs/lpips.md")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--lpips-net", args->lpips_net,
+                 "LPIPS network: alex (the lpips package's default) or vgg")
+      ->check(CLI::IsMember({"alex", "vgg"}))
       ->capture_default_str();
   app.add_option("--window", o.metric_options.window,
                  "Window side of 1-ncc, zssd, census and completeness (odd)")
@@ -112,6 +125,7 @@ CommandRunner SetupCompare(CLI::App& app) {
   return [args] {
     compare::CompareOptions options = args->options;
     options.metrics = metrics::ParseMetricList(args->metrics);
+    options.lpips_net = *lpips::ParseLpipsNet(args->lpips_net);
     if (args->ssim_mode == "skimage") {
       options.metric_options.ssim_gaussian = false;
       options.metric_options.ssim_window = 7;
@@ -138,10 +152,11 @@ CommandRunner SetupCompare(CLI::App& app) {
     if (!args->split.empty()) options.image_list = split::SplitTestList(args->split);
     if (!args->compat.empty()) {
       options.compat = metrics::ParseCompatPreset(args->compat);
-      if (args->metrics == "all") {
-        options.metrics = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
-      }
-      compare::CheckCompatMetrics(*options.compat, options.metrics);
+      // The preset's metrics unless --metrics names some (compat_compare.h).
+      options.metrics = compare::ResolveCompatMetrics(
+          *options.compat,
+          args->metrics == "all" ? std::vector<metrics::Metric>{} : options.metrics,
+          options.lpips_weights);
       if (!args->compat_background.empty()) {
         options.compat_background = {args->compat_background[0], args->compat_background[1],
                                      args->compat_background[2]};

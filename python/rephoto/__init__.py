@@ -58,7 +58,8 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
             window: int = 9, ssim_mode: str = "gaussian", dark: float = 0.0,
             saturated: float = 1.0, compat: Optional[str] = None,
             background: Sequence[float] = (0.0, 0.0, 0.0), resize: bool = False,
-            min_alpha: float = 0.0) -> Dict[str, Any]:
+            min_alpha: float = 0.0, lpips_weights: Optional[PathLike] = None,
+            lpips_net: str = "alex") -> Dict[str, Any]:
     """Compares a photo with a rendering of the same view, as ``rephoto compare`` does.
 
     Args:
@@ -68,8 +69,9 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
         not covered); without alpha, pure black pixels are not covered (the CLI's rule).
       mask: optional H x W bool/uint8 user mask of the photo (0 = ignore the pixel, e.g. sky),
         like ``--photo-masks``.
-      metrics: names ("1-ncc", "cb+cr", "zssd", "dssim", "census", "icid", "psnr", "ssim"),
-        a comma-separated string or "all" (default: all; with ``compat``: psnr and ssim).
+      metrics: names ("1-ncc", "cb+cr", "zssd", "dssim", "census", "icid", "psnr", "ssim",
+        "lpips"), a comma-separated string or "all" (default: all, which is every metric but
+        lpips; with ``compat``: psnr and ssim, plus lpips when LPIPS weights are given).
       render_mask: optional mask of the rendering's size overriding its alpha/black rule
         (``--masks``).
       error_images: also return the per-pixel error images (float32 H x W, NaN = not evaluated).
@@ -87,6 +89,13 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
       min_alpha: a rendering pixel counts as covered where its alpha reaches this (in [0, 1];
         ``--min-alpha``, e.g. 0.5 as ``evaluate`` counts a Gaussian splat's soft edge); 0 = any
         alpha above 0. An explicit ``render_mask`` overrides it.
+      lpips_weights: folder with the LPIPS weight files under their original names (alex.pth +
+        alexnet-owt-7be5be79.pth, or vgg.pth + vgg16-397923af.pth; default:
+        $REPHOTO_LPIPS_WEIGHTS), needed when "lpips" is asked (docs/lpips.md). Its value is the
+        LPIPS spatial map's mean over the validity mask, or with ``compat`` the whole-image
+        value of the lpips package (v0.1, normalize=True) as papers print it; its error image
+        is the spatial map. The network is loaded once per process.
+      lpips_net: "alex" (the lpips package's default) or "vgg".
 
     Returns:
       A dict: "completeness" (float, NaN if the photo has no valid window),
@@ -100,7 +109,8 @@ def compare(photo: np.ndarray, render: np.ndarray, mask: Optional[np.ndarray] = 
     """
     return _rephoto.compare(photo, render, mask, metrics, render_mask, error_images, window,
                             ssim_mode, dark, saturated, compat, list(background), resize,
-                            min_alpha)
+                            min_alpha, None if lpips_weights is None else os.fspath(lpips_weights),
+                            lpips_net)
 
 
 def error_image(photo: np.ndarray, render: np.ndarray, metric: str,

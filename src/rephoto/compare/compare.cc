@@ -47,6 +47,11 @@ using metrics::Metric;
 
 std::string ToolVersion() { return REPHOTO_VERSION; }
 
+std::shared_ptr<const lpips::LpipsModel> LpipsModelFor(const CompareOptions& options) {
+  return lpips::LpipsModel::LoadShared(lpips::LpipsWeightsDirectory(options.lpips_weights),
+                                       options.lpips_net);
+}
+
 void CompareOptions::Check() const {
   REPHOTO_CHECK(!photos.empty(), "compare: no photo folder given");
   REPHOTO_CHECK(!renders.empty(), "compare: no rendering folder given");
@@ -66,6 +71,11 @@ void CompareOptions::Check() const {
                 "compare: the minimum alpha must be in [0, 1] (got {})", min_alpha);
   REPHOTO_CHECK(!compat || min_alpha == 0,
                 "compare: the minimum alpha does not apply in compat mode (no masks)");
+  // The weights of lpips are loaded (once per process) before any pair is read, so that a
+  // missing file fails at once with the message saying how to get it.
+  if (std::find(metrics.begin(), metrics.end(), Metric::kLpips) != metrics.end()) {
+    LpipsModelFor(*this);
+  }
   REPHOTO_CHECK(exposure.dark_threshold < exposure.saturated_threshold,
                 "compare: the dark threshold ({}) must be below the saturation threshold ({})",
                 exposure.dark_threshold, exposure.saturated_threshold);
@@ -89,6 +99,8 @@ std::pair<float, float> ErrorColourRange(Metric metric) {
       return {0.f, 0.0625f};
     case Metric::kSsim:
       return {1.f, 0.f};
+    case Metric::kLpips:
+      return {0.f, 0.5f};
   }
   return {0.f, 1.f};
 }
@@ -320,15 +332,18 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
                           const Mask* render_mask, const fs::path& error_folder,
                           std::vector<Image>* error_images, Workspace* ws) {
   if (options.compat) {  // the numbers other tools publish (compat_compare.h)
-    Image photo_float, render_float, squared_error, ssim_map;
-    ImageResult result =
-        CompareCompat(options, *options.compat, name, photo_path, render_path,
-                      AsFloatImage(photo, &photo_float), AsFloatImage(render, &render_float),
-                      error_images ? &squared_error : nullptr, error_images ? &ssim_map : nullptr);
+    Image photo_float, render_float, squared_error, ssim_map, lpips_map;
+    ImageResult result = CompareCompat(
+        options, *options.compat, name, photo_path, render_path,
+        AsFloatImage(photo, &photo_float), AsFloatImage(render, &render_float),
+        error_images ? &squared_error : nullptr, error_images ? &ssim_map : nullptr,
+        error_images ? &lpips_map : nullptr);
     if (error_images) {
       error_images->clear();
       for (metrics::Metric metric : options.metrics) {
-        error_images->push_back(metric == metrics::Metric::kPsnr ? squared_error : ssim_map);
+        error_images->push_back(metric == metrics::Metric::kPsnr   ? squared_error
+                                : metric == metrics::Metric::kSsim ? ssim_map
+                                                                   : lpips_map);
       }
     }
     return result;
@@ -395,18 +410,27 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
     render_valid = Mask();
   }
 
+  // lpips (a network over the whole image, lpips/lpips.h) is computed apart from the band
+  // metrics; `band_metrics` are the others, in options.metrics order.
+  std::vector<Metric> band_metrics;
+  for (Metric metric : options.metrics) {
+    if (!metrics::IsNetworkMetric(metric)) band_metrics.push_back(metric);
+  }
+  const bool want_lpips = band_metrics.size() != options.metrics.size();
+  std::vector<Image> band_errors;
+
   // The error images are written while they are made: EXR rows band by band, then each PNG
   // from its EXR's rows read back, one at a time, so that no whole error image is held.
   std::vector<std::unique_ptr<ErrorExrWriter>> exrs;
-  std::vector<size_t> exr_metric;  // exrs[j] is of options.metrics[exr_metric[j]]
+  std::vector<size_t> exr_metric;  // exrs[j] is of band_metrics[exr_metric[j]]
   const auto stem = [&](metrics::Metric metric) {
     return fmt::format("{}.{}", name, metrics::MetricName(metric));
   };
   if (options.write_error_images && !error_images) {
-    for (size_t i = 0; i < options.metrics.size(); ++i) {
-      if (!WritesErrorImage(options, options.metrics[i])) continue;
+    for (size_t i = 0; i < band_metrics.size(); ++i) {
+      if (!WritesErrorImage(options, band_metrics[i])) continue;
       exrs.push_back(std::make_unique<ErrorExrWriter>(
-          error_folder / (stem(options.metrics[i]) + ".exr"), width, height));
+          error_folder / (stem(band_metrics[i]) + ".exr"), width, height));
       exr_metric.push_back(i);
     }
   }
@@ -416,27 +440,66 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
       for (size_t j = 0; j < exrs.size(); ++j) exrs[j]->WriteRows(y0, y1, rows[exr_metric[j]]);
     };
   } else if (error_images) {  // whole images in memory (CompareInMemory)
-    error_images->resize(options.metrics.size());
-    for (Image& error : *error_images) error.Resize(width, height, 1);
+    band_errors.resize(band_metrics.size());
+    for (Image& error : band_errors) error.Resize(width, height, 1);
     sink = [&](int y0, int y1, std::span<const float* const> rows) {
       const size_t count = static_cast<size_t>(y1 - y0) * width;
       for (size_t i = 0; i < rows.size(); ++i) {
-        std::memcpy((*error_images)[i].row(y0), rows[i], count * sizeof(float));
+        std::memcpy(band_errors[i].row(y0), rows[i], count * sizeof(float));
       }
     };
   }
-  metrics::ComputeMetricsInBands(photo_rgb, render_view, valid, options.metrics,
-                                 options.metric_options, sink, &ws->results);
-  for (const metrics::MetricResult& metric : ws->results) {
-    result.metrics.push_back({metric.mean, metric.evaluated});
+  if (!band_metrics.empty()) {
+    metrics::ComputeMetricsInBands(photo_rgb, render_view, valid, band_metrics,
+                                   options.metric_options, sink, &ws->results);
   }
   for (size_t j = 0; j < exrs.size(); ++j) {
-    const metrics::Metric metric = options.metrics[exr_metric[j]];
+    const metrics::Metric metric = band_metrics[exr_metric[j]];
     const auto [low, high] = ErrorColourRange(metric);
     WriteErrorPng(*exrs[j], width, height, low, high, error_folder / (stem(metric) + ".png"),
                   &ws->rgba);
     exrs[j]->Commit();
     exrs[j].reset();
+  }
+
+  // lpips: the spatial map's mean over the joint validity mask; its error image is that map,
+  // NaN where not valid.
+  MetricValue lpips_value;
+  Image lpips_map;
+  if (want_lpips) {
+    const bool write_map = options.write_error_images && !error_images &&
+                           WritesErrorImage(options, Metric::kLpips);
+    const bool need_map = write_map || error_images != nullptr;
+    const lpips::LpipsValue value = LpipsModelFor(options)->Compute(
+        metrics::RgbView(photo_rgb), render_view, &valid, need_map ? &lpips_map : nullptr);
+    lpips_value = {value.masked, value.masked_pixels};
+    if (need_map && !valid.empty()) {
+      for (size_t i = 0; i < lpips_map.pixel_count(); ++i) {
+        if (!valid.data()[i]) lpips_map.data()[i] = std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+    if (write_map) {
+      ErrorExrWriter exr(error_folder / (stem(Metric::kLpips) + ".exr"), width, height);
+      exr.WriteRows(0, height, lpips_map.data());
+      const auto [low, high] = ErrorColourRange(Metric::kLpips);
+      WriteErrorPng(exr, width, height, low, high,
+                    error_folder / (stem(Metric::kLpips) + ".png"), &ws->rgba);
+      exr.Commit();
+    }
+  }
+
+  // Values (and in-memory error images) in options.metrics order.
+  if (error_images) error_images->clear();
+  size_t band = 0;
+  for (Metric metric : options.metrics) {
+    if (metrics::IsNetworkMetric(metric)) {
+      result.metrics.push_back(lpips_value);
+      if (error_images) error_images->push_back(std::move(lpips_map));
+    } else {
+      result.metrics.push_back({ws->results[band].mean, ws->results[band].evaluated});
+      if (error_images) error_images->push_back(std::move(band_errors[band]));
+      ++band;
+    }
   }
   return result;
 }

@@ -81,6 +81,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/image.h"
 #include "rephoto/core/stats.h"
+#include "rephoto/lpips/lpips.h"
 #include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/metrics/validity.h"
@@ -113,6 +114,18 @@ struct CompareOptions {
   // compat_background (RGB in [0,1]).
   std::optional<metrics::CompatPreset> compat;
   std::array<float, 3> compat_background = {0, 0, 0};
+  // lpips (when `metrics` holds it; lpips/lpips.h, docs/lpips.md): the directory with the
+  // weight files under their original names (empty = $REPHOTO_LPIPS_WEIGHTS) and the network
+  // (AlexNet, the lpips package's default, or VGG16). Without compat, the lpips value of an
+  // image is the mean of the LPIPS spatial map over the joint validity mask ("lpips_evaluated"
+  // = its pixels) and its error image is that map (NaN where not valid); with compat it is the
+  // whole-image value the lpips package returns, as papers print it (evaluated = all pixels).
+  // The network sees the whole photo and rendering (alpha dropped, grey replicated), whatever
+  // the masks. The model is loaded once per process (LpipsModel::LoadShared) and shared
+  // read-only by every pair and thread; Check() loads it, so missing weights fail before any
+  // pair is read (UsageError saying which files and how to get them).
+  std::filesystem::path lpips_weights;
+  lpips::LpipsNet lpips_net = lpips::LpipsNet::kAlex;
 
   // Throws Error on invalid settings (missing folders are reported by RunCompare).
   void Check() const;
@@ -219,7 +232,7 @@ std::vector<MetricSummary> SummarizeMetrics(const std::vector<metrics::Metric>& 
 // ssim low > high (1 = identical is blue). The upper end is the value of unrelated content
 // where there is one (1-ncc 1, dssim 0.5, census 0.5, ssim 0), else a typical large error:
 //   1-ncc [0, 1]   cb+cr [0, 0.25]   zssd [0, 0.05]   dssim [0, 0.5]   census [0, 0.5]
-//   icid [0, 0.5]  psnr (squared error) [0, 0.0625]   ssim [1, 0]
+//   icid [0, 0.5]  psnr (squared error) [0, 0.0625]   ssim [1, 0]   lpips (spatial map) [0, 0.5]
 std::pair<float, float> ErrorColourRange(metrics::Metric metric);
 
 // Colours a 1-channel error image with JetColor over [low, high] (low > high reverses) into
@@ -232,5 +245,10 @@ bool WritesErrorImage(const CompareOptions& options, metrics::Metric metric);
 
 // The tool version written into summary.json.
 std::string ToolVersion();
+
+// The LPIPS model `options` name (lpips_weights or $REPHOTO_LPIPS_WEIGHTS, lpips_net), loaded
+// once per process. Throws UsageError (lpips::MissingWeightsMessage) when the files are
+// missing, Error when they are not valid. Thread-safe.
+std::shared_ptr<const lpips::LpipsModel> LpipsModelFor(const CompareOptions& options);
 
 }  // namespace rephoto::compare

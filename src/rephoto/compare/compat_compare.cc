@@ -1,5 +1,7 @@
 #include "rephoto/compare/compat_compare.h"
 
+#include <algorithm>
+
 #include "rephoto/core/error.h"
 #include "rephoto/metrics/validity.h"
 
@@ -7,16 +9,30 @@ namespace rephoto::compare {
 
 void CheckCompatMetrics(metrics::CompatPreset preset, const std::vector<metrics::Metric>& list) {
   for (metrics::Metric metric : list) {
-    REPHOTO_CHECK_USAGE(metric == metrics::Metric::kPsnr || metric == metrics::Metric::kSsim,
-                        "--compat {}: metric '{}' does not exist in this mode (psnr, ssim)",
+    REPHOTO_CHECK_USAGE(metric == metrics::Metric::kPsnr || metric == metrics::Metric::kSsim ||
+                            metric == metrics::Metric::kLpips,
+                        "--compat {}: metric '{}' does not exist in this mode (psnr, ssim, lpips)",
                         metrics::CompatPresetName(preset), metrics::MetricName(metric));
   }
+}
+
+std::vector<metrics::Metric> ResolveCompatMetrics(metrics::CompatPreset preset,
+                                                  const std::vector<metrics::Metric>& requested,
+                                                  const std::filesystem::path& lpips_weights) {
+  if (!requested.empty()) {
+    CheckCompatMetrics(preset, requested);
+    return requested;
+  }
+  std::vector<metrics::Metric> list = {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+  if (!lpips::LpipsWeightsDirectory(lpips_weights).empty()) list.push_back(metrics::Metric::kLpips);
+  return list;
 }
 
 ImageResult CompareCompat(const CompareOptions& options, metrics::CompatPreset preset,
                           const std::string& name, const std::filesystem::path& photo_path,
                           const std::filesystem::path& render_path, const Image& photo,
-                          const Image& render, Image* squared_error, Image* ssim_map) {
+                          const Image& render, Image* squared_error, Image* ssim_map,
+                          Image* lpips_map) {
   CheckCompatMetrics(preset, options.metrics);
   REPHOTO_CHECK(photo.SameSize(render), "{}: rendering is {}x{} but its photo {} is {}x{}",
                 render_path.string(), render.width(), render.height(), photo_path.string(),
@@ -47,9 +63,17 @@ ImageResult CompareCompat(const CompareOptions& options, metrics::CompatPreset p
   const Mask all_valid(photo.width(), photo.height(), 1, 1);
   result.completeness = metrics::ComputeCompleteness(all_valid, metrics::RephotoValidity(render),
                                                      options.metric_options.window);
+  // lpips: the whole-image value on the same inputs (the composited photo, the rendering's RGB).
+  double lpips_whole = 0;
+  if (std::find(options.metrics.begin(), options.metrics.end(), metrics::Metric::kLpips) !=
+      options.metrics.end()) {
+    lpips_whole = LpipsModelFor(options)->Compute(photo_rgb, *rendered, nullptr, lpips_map).whole;
+  }
   for (metrics::Metric metric : options.metrics) {
-    result.metrics.push_back(
-        {metric == metrics::Metric::kPsnr ? values.psnr : values.ssim, values.pixels});
+    const double value = metric == metrics::Metric::kPsnr   ? values.psnr
+                         : metric == metrics::Metric::kSsim ? values.ssim
+                                                            : lpips_whole;
+    result.metrics.push_back({value, values.pixels});
   }
   return result;
 }

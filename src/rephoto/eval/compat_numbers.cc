@@ -90,6 +90,8 @@ compare::CompareOptions CompatCompareSettings(const EvaluateOptions& o) {
   c.compat = o.compat;
   c.compat_background = o.background;
   c.metrics = CompatMetrics(o);
+  c.lpips_weights = o.lpips_weights;
+  c.lpips_net = o.lpips_net;
   c.metric_options = o.metric_options;  // completeness window only; compat ignores the rest
   c.write_error_images = false;
   c.prefetch = false;

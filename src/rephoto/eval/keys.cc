@@ -1,5 +1,7 @@
 #include "rephoto/eval/keys.h"
 
+#include <algorithm>
+
 #include "rephoto/compare/compare.h"
 #include "rephoto/eval/state.h"
 
@@ -46,6 +48,11 @@ std::string CompareSettingsKey(const EvaluateOptions& o) {
   h.AddDouble(mo.ncc_flat_threshold).AddInt(mo.icid_window).AddDouble(mo.icid_sigma);
   h.AddDouble(o.exposure.dark_threshold).AddDouble(o.exposure.saturated_threshold);
   h.AddInt(o.resize).AddInt(o.error_images).AddInt(o.eval_short_side);
+  if (std::find(o.metrics.begin(), o.metrics.end(), metrics::Metric::kLpips) != o.metrics.end()) {
+    // (only then: the keys of runs without lpips stay as they were)
+    h.Add("lpips").Add(lpips::LpipsNetName(o.lpips_net));
+    h.Add(lpips::LpipsWeightsDirectory(o.lpips_weights).string());
+  }
   const std::vector<metrics::Metric> error_images = ErrorImageMetrics(o);
   if (!error_images.empty()) {  // (all metrics keeps the keys of runs made before the option)
     h.Add("error-image-metrics");

@@ -71,8 +71,10 @@ TaskSpec ParseTaskSpec(std::string_view text) {
 // gains a metric (LPIPS with --lpips-weights) flows through every output.
 std::vector<metrics::Metric> CompatMetrics(const EvaluateOptions& options) {
   if (!options.compat) return {};
-  if (!options.compat_metrics.empty()) return options.compat_metrics;
-  return {metrics::Metric::kPsnr, metrics::Metric::kSsim};
+  // The one rule of compare/compat_compare.h: the requested list, else psnr, ssim and lpips
+  // when LPIPS weights are given (--lpips-weights or $REPHOTO_LPIPS_WEIGHTS).
+  return compare::ResolveCompatMetrics(*options.compat, options.compat_metrics,
+                                       options.lpips_weights);
 }
 
 const std::vector<std::string>& CommandPlaceholders() {
@@ -191,6 +193,8 @@ void EvaluateOptions::Check() const {
   c.metrics = metrics;
   c.metric_options = metric_options;
   c.exposure = exposure;
+  c.lpips_weights = lpips_weights;
+  c.lpips_net = lpips_net;
   try {
     c.Check();
   } catch (const Error& e) {

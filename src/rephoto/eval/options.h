@@ -19,6 +19,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/stats.h"
 #include "rephoto/degrade/degrade.h"
+#include "rephoto/lpips/lpips.h"
 #include "rephoto/metrics/compat.h"
 #include "rephoto/metrics/metrics.h"
 #include "rephoto/metrics/validity.h"
@@ -81,6 +82,10 @@ struct EvaluateOptions {
   std::vector<metrics::Metric> metrics = metrics::AllMetrics();
   metrics::MetricOptions metric_options;
   metrics::ExposureOptions exposure;
+  // lpips (compare::CompareOptions::lpips_weights / lpips_net): the weights folder (empty =
+  // $REPHOTO_LPIPS_WEIGHTS) and the network.
+  std::filesystem::path lpips_weights;
+  lpips::LpipsNet lpips_net = lpips::LpipsNet::kAlex;
   std::filesystem::path photo_masks;  // folder of masks by photo stem ("" = the scene's masks)
   bool resize = false;                // rescale external renders of another size
   bool error_images = true;

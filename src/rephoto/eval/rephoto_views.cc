@@ -95,6 +95,8 @@ compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
   c.metrics = o.metrics;
   c.metric_options = o.metric_options;
   c.exposure = o.exposure;
+  c.lpips_weights = o.lpips_weights;
+  c.lpips_net = o.lpips_net;
   c.resize = o.resize;
   c.write_error_images = o.error_images;
   c.error_image_metrics = ErrorImageMetrics(o);

@@ -63,14 +63,20 @@ const std::vector<SettingInfo>& Settings() {
       {"eval-short-side", SettingType::kInt,
        "Render and compare at this shorter side in pixels (0 = original)"},
       {"metrics", SettingType::kMetricList,
-       "Metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim) or all"},
+       "Metrics (1-ncc,cb+cr,zssd,dssim,census,icid,psnr,ssim,lpips) or all (every metric but "
+       "lpips, which needs --lpips-weights)"},
       {"compat", SettingType::kString,
        "Also compute the numbers papers publish, as 3dgs (graphdeco's metrics.py) or "
        "nerfstudio (ns-eval) does: whole-image PSNR/SSIM beside rephoto's masked metrics, in "
        "their own files (results.json, per_view.json / output.json); default split every:8 "
        "(none = off)"},
       {"compat-metrics", SettingType::kMetricList,
-       "The --compat preset's metrics to compute, among psnr,ssim"},
+       "The --compat preset's metrics to compute, among psnr,ssim,lpips (default: psnr,ssim, and lpips when LPIPS weights are given)"},
+      {"lpips-weights", SettingType::kPath,
+       "Folder with the LPIPS weight files under their original names (alex.pth + "
+       "alexnet-owt-7be5be79.pth; vgg.pth + vgg16-397923af.pth); default: "
+       "$REPHOTO_LPIPS_WEIGHTS (docs/lpips.md)"},
+      {"lpips-net", SettingType::kString, "LPIPS network: alex or vgg"},
       {"window", SettingType::kInt, "Window side of 1-ncc, zssd, census and completeness (odd)"},
       {"ssim-mode", SettingType::kString,
        "SSIM/DSSIM window: gaussian (11x11, sigma 1.5) or skimage (7x7 uniform)"},
@@ -319,6 +325,13 @@ void ApplySetting(EvaluateOptions* o, std::string_view name, const SettingValue&
     } else {
       o->compat_metrics = AsMetrics(value, source);
     }
+  } else if (n == "lpips-weights") {
+    o->lpips_weights = AsPath(value, source, base_dir);
+  } else if (n == "lpips-net") {
+    const std::string net = AsString(value, source);
+    const std::optional<lpips::LpipsNet> parsed = lpips::ParseLpipsNet(net);
+    if (!parsed) throw UsageError(fmt::format("{}: '{}' is not alex or vgg", source, net));
+    o->lpips_net = *parsed;
   } else if (n == "window") {
     const int window = CheckedInt(value, source, 3, 101);
     if (window % 2 == 0) throw UsageError(fmt::format("{}: the window must be odd", source));
@@ -553,6 +566,8 @@ Json SettingsJson(const EvaluateOptions& o) {
   Json compat_names = Json::array();
   for (metrics::Metric m : CompatMetrics(o)) compat_names.push_back(metrics::MetricName(m));
   j["compat-metrics"] = compat_names;
+  j["lpips-weights"] = o.lpips_weights.string();
+  j["lpips-net"] = std::string(lpips::LpipsNetName(o.lpips_net));
   j["window"] = o.metric_options.window;
   j["ssim-mode"] = o.metric_options.ssim_gaussian ? "gaussian" : "skimage";
   j["dark"] = o.exposure.dark_threshold;

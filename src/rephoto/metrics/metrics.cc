@@ -376,6 +376,8 @@ std::string_view MetricName(Metric metric) {
       return "psnr";
     case Metric::kSsim:
       return "ssim";
+    case Metric::kLpips:
+      return "lpips";
   }
   return "unknown";
 }
@@ -386,6 +388,8 @@ const std::vector<Metric>& AllMetrics() {
                                           Metric::kPsnr,        Metric::kSsim};
   return all;
 }
+
+bool IsNetworkMetric(Metric metric) { return metric == Metric::kLpips; }
 
 Metric HeadlineMetric(const std::vector<Metric>& metrics) {
   REPHOTO_CHECK(!metrics.empty(), "no metric selected");
@@ -401,6 +405,7 @@ std::optional<Metric> ParseMetric(std::string_view name) {
   for (Metric m : AllMetrics()) {
     if (MetricName(m) == lower) return m;
   }
+  if (lower == MetricName(Metric::kLpips)) return Metric::kLpips;
   return std::nullopt;
 }
 
@@ -429,6 +434,7 @@ std::vector<Metric> ParseMetricList(std::string_view list) {
         std::string known;
         for (Metric k : AllMetrics())
           known += (known.empty() ? "" : ", ") + std::string(MetricName(k));
+        known += ", " + std::string(MetricName(Metric::kLpips));
         ThrowError("--metrics: unknown metric '{}' (known: {}, all)", item, known);
       }
       if (std::find(out.begin(), out.end(), *m) == out.end()) out.push_back(*m);
@@ -561,6 +567,10 @@ void CheckInputs(const RgbView& photo, const RgbView& rephoto, const Mask& valid
                 valid.height(), valid.channels(), photo.width(), photo.height());
   CheckOptions(options);
   for (size_t i = 0; i < metrics.size(); ++i) {
+    REPHOTO_CHECK(!IsNetworkMetric(metrics[i]),
+                  "metrics: {} is a network metric, computed by compare (CompareOptions), not "
+                  "by ComputeMetrics",
+                  MetricName(metrics[i]));
     for (size_t j = 0; j < i; ++j) {
       REPHOTO_CHECK(metrics[i] != metrics[j], "metrics: {} requested twice",
                     MetricName(metrics[i]));
@@ -631,6 +641,8 @@ void Finish(const BandSums& sums, std::vector<MetricResult>* results) {
         break;
       case Metric::kIcid:
         set(sums.icid, 0);
+        break;
+      case Metric::kLpips:  // refused by CheckInputs
         break;
     }
   }

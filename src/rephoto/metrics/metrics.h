@@ -18,6 +18,13 @@
 // icid                iCID difference (Preiss et al. 2014) mean                     [0, 1]
 // psnr                squared error, averaged over channels  10 log10(1 / masked MSE) dB
 // ssim                SSIM, per channel averaged            mean SSIM                [-1, 1]
+// lpips               LPIPS spatial map (network metric)    see below                [0, ~1]
+//
+// lpips is not computed here: it is a whole-image network (Zhang et al. 2018, src/rephoto/lpips,
+// docs/lpips.md) that needs weight files, computed per pair by compare (CompareOptions), which
+// reports the spatial map's mean over the completeness mask (or, under --compat, the
+// whole-image value papers print). It is in the registry (name, parsing, direction) but not in
+// AllMetrics() nor "all" (which need no weights); ComputeMetrics* throw for it.
 //
 // psnr's mean is in dB and +infinity when the masked MSE is 0; its error image holds the
 // per-pixel squared error averaged over the three channels. iCID: see icid.h for the colour
@@ -52,17 +59,19 @@
 
 namespace rephoto::metrics {
 
-enum class Metric { kOneMinusNcc, kCbCr, kZssd, kDssim, kCensus, kIcid, kPsnr, kSsim };
+enum class Metric { kOneMinusNcc, kCbCr, kZssd, kDssim, kCensus, kIcid, kPsnr, kSsim, kLpips };
 
 // Names as used on the command line and in outputs: "1-ncc", "cb+cr", "zssd", "dssim",
-// "census", "icid", "psnr", "ssim".
+// "census", "icid", "psnr", "ssim", "lpips".
 std::string_view MetricName(Metric metric);
 // Parses a name (case-insensitive); std::nullopt if unknown.
 std::optional<Metric> ParseMetric(std::string_view name);
 // Parses a comma-separated list ("1-ncc,psnr" or "all"); throws Error naming an unknown entry.
 std::vector<Metric> ParseMetricList(std::string_view list);
-// All metrics in the order of the table above.
+// All band metrics (every metric but lpips) in the order of the table above: what "all" means.
 const std::vector<Metric>& AllMetrics();
+// True for lpips, the one metric computed by a network outside ComputeMetrics (see above).
+bool IsNetworkMetric(Metric metric);
 
 // The metric a run is summed up by (the paper's headline, Section 4: 1-NCC) when `metrics`
 // holds it, else the first of `metrics`. Throws Error for an empty list.

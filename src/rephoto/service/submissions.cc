@@ -153,6 +153,8 @@ double WorstValue(metrics::Metric metric) {
       return 0;
     case metrics::Metric::kSsim:
       return -1;
+    case metrics::Metric::kLpips:
+      return 1;
   }
   return NAN;
 }
