@@ -461,6 +461,21 @@ Pose Pose::FromQuaternion(double qw, double qx, double qy, double qz,
   return pose;
 }
 
+Pose LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target, Eigen::Vector3d up) {
+  const Eigen::Vector3d z = (target - center).normalized();
+  if (z.cross(up).norm() < 1e-6) {
+    up = std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  }
+  const Eigen::Vector3d x = z.cross(up).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Pose pose;
+  pose.rotation.row(0) = x.transpose();
+  pose.rotation.row(1) = y.transpose();
+  pose.rotation.row(2) = z.transpose();
+  pose.translation = -pose.rotation * center;
+  return pose;
+}
+
 Eigen::Vector4d Pose::Quaternion() const {
   Eigen::Quaterniond q(rotation);
   q.normalize();

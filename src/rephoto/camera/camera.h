@@ -164,4 +164,11 @@ Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& matrix, double tolerance,
 // `--eval-short-side`/`--train-short-side` resize photos and cameras (Camera::Scaled) to.
 std::pair<int, int> ScaledSize(int width, int height, int short_side);
 
+// The pose of a camera at `center` looking at `target` (COLMAP's frame: x right, y down, z
+// forward), without roll: the image's y axis points along -up. When the view direction is
+// within 1e-6 of parallel to `up`, up is replaced by the x axis (or the y axis when the view
+// is along x). `center` must differ from `target`.
+Pose LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target,
+            Eigen::Vector3d up = Eigen::Vector3d::UnitZ());
+
 }  // namespace rephoto::camera

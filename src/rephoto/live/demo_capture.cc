@@ -13,20 +13,6 @@
 namespace rephoto::live {
 namespace fs = std::filesystem;
 
-camera::Pose LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - center).normalized();
-  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
-  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();
-  x.normalize();
-  const Eigen::Vector3d y = z.cross(x);
-  camera::Pose p;
-  p.rotation.row(0) = x.transpose();
-  p.rotation.row(1) = y.transpose();
-  p.rotation.row(2) = z.transpose();
-  p.translation = -p.rotation * center;
-  return p;
-}
-
 DemoCapture::DemoCapture(int width, int height) {
   camera_.model = camera::CameraModel::kPinhole;
   camera_.width = width;

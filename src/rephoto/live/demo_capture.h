@@ -25,9 +25,9 @@ class RenderModel;
 
 namespace rephoto::live {
 
-// The pose of a camera at `center` looking at `target`, its x axis horizontal (z up, COLMAP
-// convention: y down in the image).
-camera::Pose LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target);
+// The pose of a camera at `center` looking at `target`, its x axis horizontal (z up):
+// camera::LookAt.
+using camera::LookAt;
 
 class DemoCapture {
  public:

@@ -270,20 +270,7 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
     for (uint32_t v : t) normals[v] += n;
   }
   for (auto& n : normals) n.normalize();
-  auto pose_of = [&](const Eigen::Vector3d& d) {
-    const Eigen::Vector3d centre = c + distance * d;
-    const Eigen::Vector3d z = (c - centre).normalized();
-    Eigen::Vector3d x = z.cross(up);
-    if (x.norm() < 1e-6) x = ex;
-    x.normalize();
-    const Eigen::Vector3d y = z.cross(x);
-    camera::Pose p;
-    p.rotation.row(0) = x.transpose();
-    p.rotation.row(1) = y.transpose();
-    p.rotation.row(2) = z.transpose();
-    p.translation = -p.rotation * centre;
-    return p;
-  };
+  auto pose_of = [&](const Eigen::Vector3d& d) { return camera::LookAt(c + distance * d, c, up); };
   const camera::UsableField field(camera);
   std::vector<std::vector<uint8_t>> seen(dirs.size());
   std::vector<camera::Pose> poses(dirs.size());

@@ -49,21 +49,6 @@ std::vector<double> VertexAreas(const mesh::Mesh& mesh) {
   return areas;
 }
 
-// Camera at `center` looking at `target`; image y points along -up (no roll).
-camera::Pose LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target,
-                    Eigen::Vector3d up) {
-  const Eigen::Vector3d z = (target - center).normalized();
-  if (z.cross(up).norm() < 1e-6)
-    up = std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d x = z.cross(up).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  camera::Pose pose;
-  pose.rotation.row(0) = x.transpose();
-  pose.rotation.row(1) = y.transpose();
-  pose.rotation.row(2) = z.transpose();
-  pose.translation = -pose.rotation * center;
-  return pose;
-}
 
 }  // namespace
 
@@ -182,7 +167,7 @@ SuggestResult SuggestViews(const render::RenderModel& model, const scene::Scene&
     const double r = std::sqrt(std::max(0.0, 1 - h * h));
     const Eigen::Vector3d direction =
         h * up + r * std::cos(golden * k) * e1 + r * std::sin(golden * k) * e2;
-    candidates.push_back(LookAt(result.target + result.distance * direction, result.target, up));
+    candidates.push_back(camera::LookAt(result.target + result.distance * direction, result.target, up));
   }
   REPHOTO_CHECK(static_cast<int>(candidates.size()) >= options.count,
                 "only {} candidate poses within the photos' elevations; raise --candidates",
