@@ -21,7 +21,7 @@ packages=(
   libsqlite3-dev libcpp-httplib-dev libarchive-dev libssl-dev python3-websocket
   nginx-light openssl
   colmap
-  libdnnl-dev python3-torch python3-torchvision
+  libdnnl-dev libomp-dev python3-torch python3-torchvision
 )
 
 missing=()
