@@ -26,10 +26,36 @@
 #include "rephoto/scene/colmap.h"
 
 namespace rephoto::report {
+
+View3dCamera MakeView3dCamera(const camera::Camera& intrinsics, const Eigen::Matrix3d& rotation,
+                              const Eigen::Vector3d& translation, std::string name,
+                              std::string role) {
+  View3dCamera c;
+  c.name = std::move(name);
+  c.role = std::move(role);
+  c.fx = intrinsics.FocalLengthX();
+  c.fy = intrinsics.FocalLengthY();
+  c.cx = intrinsics.PrincipalPointX();
+  c.cy = intrinsics.PrincipalPointY();
+  c.width = intrinsics.width;
+  c.height = intrinsics.height;
+  c.rotation = rotation;
+  c.translation = translation;
+  return c;
+}
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 
 namespace {
+
+// An image of a COLMAP model as a camera of the view (its quaternion normalised).
+View3dCamera CameraOfColmapImage(const scene::ColmapModel& colmap, const scene::ColmapImage& image,
+                                 std::string name, std::string role) {
+  const Eigen::Vector4d& q = image.quaternion;
+  return MakeView3dCamera(colmap.cameras.at(image.camera_id),
+                          Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix(),
+                          image.translation, std::move(name), std::move(role));
+}
 
 static_assert(std::endian::native == std::endian::little, "the view's arrays are little-endian");
 
@@ -200,18 +226,7 @@ void AddRunCameras(const run::RunData& run, View3dModel& model) {
       for (const scene::ColmapImage& image : colmap.images) {
         auto [it, added] = index.try_emplace(image.name, model.cameras.size());
         if (added) {
-          View3dCamera c;
-          c.name = image.name;
-          const camera::Camera& cam = colmap.cameras.at(image.camera_id);
-          c.fx = cam.FocalLengthX();
-          c.fy = cam.FocalLengthY();
-          c.cx = cam.PrincipalPointX();
-          c.cy = cam.PrincipalPointY();
-          c.width = cam.width;
-          c.height = cam.height;
-          const Eigen::Vector4d& q = image.quaternion;
-          c.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
-          c.translation = image.translation;
+          View3dCamera c = CameraOfColmapImage(colmap, image, image.name, "photo");
           model.cameras.push_back(std::move(c));
         }
         View3dCamera& c = model.cameras[it->second];
@@ -520,19 +535,7 @@ std::vector<View3dCamera> LoadSuggestedCameras(const fs::path& dir) {
     REPHOTO_CHECK(it != images.end(), "{}: suggestion \"{}\" is not in {}", file.string(), name,
                   (dir / "sparse").string());
     const scene::ColmapImage& image = *it->second;
-    const camera::Camera& cam = colmap.cameras.at(image.camera_id);
-    View3dCamera c;
-    c.name = name;
-    c.role = "suggested";
-    c.fx = cam.FocalLengthX();
-    c.fy = cam.FocalLengthY();
-    c.cx = cam.PrincipalPointX();
-    c.cy = cam.PrincipalPointY();
-    c.width = cam.width;
-    c.height = cam.height;
-    const Eigen::Vector4d& q = image.quaternion;
-    c.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
-    c.translation = image.translation;
+    View3dCamera c = CameraOfColmapImage(colmap, image, name, "suggested");
     const double area = s.value("unobserved_area", NAN);
     if (std::isfinite(area) && unobserved > 0) {
       c.note = fmt::format("sees {:.1f} % of the surface no photo sees", 100 * area / unobserved);

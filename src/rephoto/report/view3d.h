@@ -71,6 +71,7 @@
 
 #include <Eigen/Core>
 
+#include "rephoto/camera/camera.h"
 #include "rephoto/run/run_data.h"
 
 namespace rephoto::report {
@@ -89,6 +90,12 @@ struct View3dCamera {
   std::string note;    // one line shown when selected (e.g. "sees 12 % of the unseen surface")
   std::string photo_uri, rephoto_uri, error_uri;  // data URIs of thumbnails ("" = none)
 };
+
+// A camera of the view from a scene camera and its cam_from_world pose (name and role as above;
+// folds, error, note and thumbnails left empty).
+View3dCamera MakeView3dCamera(const camera::Camera& intrinsics, const Eigen::Matrix3d& rotation,
+                              const Eigen::Vector3d& translation, std::string name,
+                              std::string role = "photo");
 
 struct View3dModel {
   std::string label;                  // run name; shown in the selector

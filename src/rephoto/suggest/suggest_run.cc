@@ -60,19 +60,9 @@ report::View3dData SuggestView3d(const scene::Scene& scene, const render::Render
   m.unseen.resize(result.observed.size());
   for (size_t i = 0; i < result.observed.size(); ++i) m.unseen[i] = result.observed[i] ? 0 : 1;
   report::DecimateForBrowser(m);
-  auto camera_of = [](const camera::Camera& cam, const scene::View& view, const std::string& role) {
-    report::View3dCamera c;
-    c.name = view.name;
-    c.role = role;
-    c.fx = cam.FocalLengthX();
-    c.fy = cam.FocalLengthY();
-    c.cx = cam.PrincipalPointX();
-    c.cy = cam.PrincipalPointY();
-    c.width = cam.width;
-    c.height = cam.height;
-    c.rotation = view.cam_from_world.rotation;
-    c.translation = view.cam_from_world.translation;
-    return c;
+  auto camera_of = [](const camera::Camera& cam, const scene::View& view, const char* role) {
+    return report::MakeView3dCamera(cam, view.cam_from_world.rotation,
+                                    view.cam_from_world.translation, view.name, role);
   };
   for (const scene::View& view : scene.views) {
     m.cameras.push_back(camera_of(scene.CameraOf(view), view, "photo"));
