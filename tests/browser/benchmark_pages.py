@@ -28,13 +28,18 @@ import websocket  # Debian python3-websocket (websocket-client)
 class Browser:
     """Headless Chromium with one page, spoken to over the DevTools protocol."""
 
-    def __init__(self, chromium):
+    def __init__(self, chromium, flags=("--disable-gpu",), width=None, height=None, timeout=60):
+        """`flags`: Chromium options beyond the headless basics (the default draws without a
+        GPU; view3d_check.py passes SwiftShader's for WebGL). `width` x `height`: the window
+        and viewport size, when given. `timeout`: seconds a DevTools call may take."""
         self.profile = tempfile.mkdtemp(prefix="rephoto-chromium-")
+        size = [f"--window-size={width},{height}"] if width else []
         self.process = subprocess.Popen(
-            [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+            [chromium, "--headless", "--no-sandbox", *flags, *size, "--no-first-run",
              "--no-default-browser-check", "--disable-extensions", "--remote-debugging-port=0",
              "--user-data-dir=" + self.profile, "about:blank"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.url = ""
         port_file = os.path.join(self.profile, "DevToolsActivePort")
         deadline = time.time() + 60
         while not (os.path.exists(port_file) and open(port_file).read().count("\n") >= 1):
@@ -44,12 +49,15 @@ class Browser:
         port = open(port_file).read().split("\n")[0].strip()
         targets = json.loads(self._http(f"http://127.0.0.1:{port}/json/list"))
         page = next(t for t in targets if t.get("type") == "page")
-        self.ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=60)
+        self.ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=timeout)
         self.next_id = 0
         self.errors = []
         self.events = []
         for domain in ("Page", "Runtime", "Log"):
             self.call(domain + ".enable")
+        if width:
+            self.call("Emulation.setDeviceMetricsOverride", width=width, height=height,
+                      deviceScaleFactor=1, mobile=False)
 
     @staticmethod
     def _http(url):
@@ -107,6 +115,11 @@ class Browser:
         self.evaluate("Promise.all(Array.from(document.images, i => i.decode().catch(() => 0)))")
         return self.evaluate(
             "performance.getEntriesByType('navigation')[0]?.responseStatus ?? 200")
+
+    def screenshot(self):
+        """The page as PNG bytes."""
+        import base64
+        return base64.b64decode(self.call("Page.captureScreenshot", format="png")["data"])
 
     def close(self):
         try:

@@ -37,15 +37,13 @@ import json
 import math
 import os
 import re
-import shutil
 import struct
-import subprocess
 import sys
-import tempfile
 import time
 import zlib
 
-import websocket  # Debian python3-websocket (websocket-client)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from benchmark_pages import Browser  # noqa: E402
 
 
 def decode_png(data):
@@ -95,84 +93,11 @@ def jet(t):
     return [round(255 * min(1.0, max(0.0, 1.5 - abs(4 * t - c)))) for c in (3, 2, 1)]
 
 
-class Browser:
-    """Headless Chromium with one page, spoken to over the DevTools protocol."""
-
-    def __init__(self, chromium, width, height):
-        self.profile = tempfile.mkdtemp(prefix="rephoto-chromium-")
-        self.process = subprocess.Popen(
-            [chromium, "--headless", "--no-sandbox", "--use-angle=swiftshader",
-             "--enable-unsafe-swiftshader", "--no-first-run", "--no-default-browser-check",
-             "--disable-extensions", "--hide-scrollbars", "--remote-debugging-port=0",
-             "--allow-file-access-from-files", f"--window-size={width},{height}",
-             "--user-data-dir=" + self.profile, "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        port_file = os.path.join(self.profile, "DevToolsActivePort")
-        deadline = time.time() + 60
-        while not (os.path.exists(port_file) and open(port_file).read().count("\n") >= 1):
-            if time.time() > deadline or self.process.poll() is not None:
-                raise RuntimeError("chromium did not open its DevTools port")
-            time.sleep(0.05)
-        port = open(port_file).read().split("\n")[0].strip()
-        import urllib.request
-        with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=30) as r:
-            targets = json.loads(r.read().decode())
-        page = next(t for t in targets if t.get("type") == "page")
-        self.ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=120)
-        self.next_id = 0
-        self.errors = []
-        self.events = []
-        for domain in ("Page", "Runtime", "Log"):
-            self.call(domain + ".enable")
-        self.call("Emulation.setDeviceMetricsOverride", width=width, height=height,
-                  deviceScaleFactor=1, mobile=False)
-
-    def _handle(self, message):
-        method = message.get("method", "")
-        params = message.get("params", {})
-        if method == "Runtime.exceptionThrown":
-            d = params.get("exceptionDetails", {})
-            self.errors.append("uncaught exception: " +
-                               str(d.get("exception", {}).get("description") or d.get("text")))
-        elif method == "Runtime.consoleAPICalled" and params.get("type") == "error":
-            self.errors.append("console error: " + " ".join(
-                str(a.get("value", a.get("description", ""))) for a in params["args"]))
-        elif method == "Log.entryAdded" and params.get("entry", {}).get("level") == "error":
-            self.errors.append("console error: " + str(params["entry"].get("text")))
-        self.events.append(method)
-
-    def call(self, method, **params):
-        self.next_id += 1
-        self.ws.send(json.dumps({"id": self.next_id, "method": method, "params": params}))
-        while True:
-            message = json.loads(self.ws.recv())
-            if message.get("id") == self.next_id:
-                if "error" in message:
-                    raise RuntimeError(f"{method}: {message['error']}")
-                return message.get("result", {})
-            self._handle(message)
-
-    def evaluate(self, expression):
-        result = self.call("Runtime.evaluate", expression=expression, returnByValue=True,
-                           awaitPromise=True)
-        if "exceptionDetails" in result:
-            raise RuntimeError(f"{expression[:80]}...: {result['exceptionDetails']}")
-        return result["result"].get("value")
-
-    def screenshot(self):
-        data = self.call("Page.captureScreenshot", format="png")["data"]
-        return base64.b64decode(data)
-
-    def close(self):
-        try:
-            self.ws.close()
-        finally:
-            self.process.terminate()
-            try:
-                self.process.wait(10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-            shutil.rmtree(self.profile, ignore_errors=True)
+def software_webgl_browser(chromium, width, height):
+    """benchmark_pages.Browser with SwiftShader's WebGL, a fixed viewport and file:// access."""
+    return Browser(chromium, flags=("--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                                    "--hide-scrollbars", "--allow-file-access-from-files"),
+                   width=width, height=height, timeout=120)
 
 
 def view_data(html):
@@ -323,7 +248,7 @@ def main():
           f"{len(data['models'])} model(s); model {model_index} '{model['label']}': {model['kind']}, "
           f"{model['vertices']} vertices, {model['faces']} faces "
           f"(of {model['original_faces']}), {len(model['cameras'])} cameras")
-    browser = Browser(chromium, args.width, args.height)
+    browser = software_webgl_browser(chromium, args.width, args.height)
     try:
         url = "file://" + os.path.abspath(args.report)
         timings = []
