@@ -28,6 +28,7 @@ using internal::Deinterleave8;
 using internal::ErrorRows;
 using internal::Scratch;
 using internal::V8f;
+using internal::V8i;
 using Inputs = internal::BandInputs;
 
 // ---------------------------------------------------------------------------------------------
@@ -79,15 +80,26 @@ REPHOTO_ISA_DISPATCH(void, Deinterleave,
 REPHOTO_ISA_DISPATCH(void, LumaInterleaved,
                      (const float* __restrict rgb, int w, float* __restrict luma), (rgb, w, luma))
 
-// cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes).
-[[gnu::always_inline]] inline void AccumulateBoxColumnsBody(const float* __restrict planes, int w,
-                                                            double sign, double* __restrict cols) {
+// cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes); with
+// `leaving` (kSlide), the same then -1 * quantity q of the planar rows `leaving`: the window's
+// column sums move down one row in one pass over cols, with the operations (and so the values)
+// of adding then subtracting in two passes.
+template <bool kSlide>
+[[gnu::always_inline]] inline void BoxColumnsBody(const float* __restrict planes,
+                                                  const float* __restrict leaving, int w,
+                                                  double sign, double* __restrict cols) {
   const float* __restrict a0 = planes;
   const float* __restrict a1 = planes + w;
   const float* __restrict a2 = planes + 2 * w;
   const float* __restrict b0 = planes + 3 * w;
   const float* __restrict b1 = planes + 4 * w;
   const float* __restrict b2 = planes + 5 * w;
+  const float* __restrict la0 = leaving;
+  const float* __restrict la1 = leaving + w;
+  const float* __restrict la2 = leaving + 2 * w;
+  const float* __restrict lb0 = leaving + 3 * w;
+  const float* __restrict lb1 = leaving + 4 * w;
+  const float* __restrict lb2 = leaving + 5 * w;
   double* __restrict sx0 = cols;
   double* __restrict sx1 = cols + w;
   double* __restrict sx2 = cols + 2 * w;
@@ -99,39 +111,94 @@ REPHOTO_ISA_DISPATCH(void, LumaInterleaved,
   double* __restrict sxy = cols + 8 * w;
   // Three simple loops vectorise where one loop over fifteen streams does not.
   for (int x = 0; x < w; ++x) {
-    sx0[x] += sign * static_cast<double>(a0[x]);
-    sx1[x] += sign * static_cast<double>(a1[x]);
-    sx2[x] += sign * static_cast<double>(a2[x]);
+    double s0 = sx0[x] + sign * static_cast<double>(a0[x]);
+    double s1 = sx1[x] + sign * static_cast<double>(a1[x]);
+    double s2 = sx2[x] + sign * static_cast<double>(a2[x]);
+    if constexpr (kSlide) {
+      s0 += -1.0 * static_cast<double>(la0[x]);
+      s1 += -1.0 * static_cast<double>(la1[x]);
+      s2 += -1.0 * static_cast<double>(la2[x]);
+    }
+    sx0[x] = s0;
+    sx1[x] = s1;
+    sx2[x] = s2;
   }
   for (int x = 0; x < w; ++x) {
-    sy0[x] += sign * static_cast<double>(b0[x]);
-    sy1[x] += sign * static_cast<double>(b1[x]);
-    sy2[x] += sign * static_cast<double>(b2[x]);
+    double s0 = sy0[x] + sign * static_cast<double>(b0[x]);
+    double s1 = sy1[x] + sign * static_cast<double>(b1[x]);
+    double s2 = sy2[x] + sign * static_cast<double>(b2[x]);
+    if constexpr (kSlide) {
+      s0 += -1.0 * static_cast<double>(lb0[x]);
+      s1 += -1.0 * static_cast<double>(lb1[x]);
+      s2 += -1.0 * static_cast<double>(lb2[x]);
+    }
+    sy0[x] = s0;
+    sy1[x] = s1;
+    sy2[x] = s2;
   }
   for (int x = 0; x < w; ++x) {
     const double p0 = a0[x], p1 = a1[x], p2 = a2[x];
     const double q0 = b0[x], q1 = b1[x], q2 = b2[x];
-    sxx[x] += sign * (p0 * p0 + p1 * p1 + p2 * p2);
-    syy[x] += sign * (q0 * q0 + q1 * q1 + q2 * q2);
-    sxy[x] += sign * (p0 * q0 + p1 * q1 + p2 * q2);
+    double xx = sxx[x] + sign * (p0 * p0 + p1 * p1 + p2 * p2);
+    double yy = syy[x] + sign * (q0 * q0 + q1 * q1 + q2 * q2);
+    double xy = sxy[x] + sign * (p0 * q0 + p1 * q1 + p2 * q2);
+    if constexpr (kSlide) {
+      const double lp0 = la0[x], lp1 = la1[x], lp2 = la2[x];
+      const double lq0 = lb0[x], lq1 = lb1[x], lq2 = lb2[x];
+      xx += -1.0 * (lp0 * lp0 + lp1 * lp1 + lp2 * lp2);
+      yy += -1.0 * (lq0 * lq0 + lq1 * lq1 + lq2 * lq2);
+      xy += -1.0 * (lp0 * lq0 + lp1 * lq1 + lp2 * lq2);
+    }
+    sxx[x] = xx;
+    syy[x] = yy;
+    sxy[x] = xy;
   }
+}
+[[gnu::always_inline]] inline void AccumulateBoxColumnsBody(const float* __restrict planes, int w,
+                                                            double sign, double* __restrict cols) {
+  BoxColumnsBody<false>(planes, planes, w, sign, cols);
 }
 REPHOTO_ISA_DISPATCH(void, AccumulateBoxColumns,
                      (const float* __restrict planes, int w, double sign, double* __restrict cols),
                      (planes, w, sign, cols))
+[[gnu::always_inline]] inline void SlideBoxColumnsBody(const float* __restrict entering,
+                                                       const float* __restrict leaving, int w,
+                                                       double* __restrict cols) {
+  BoxColumnsBody<true>(entering, leaving, w, 1.0, cols);
+}
+REPHOTO_ISA_DISPATCH(void, SlideBoxColumns,
+                     (const float* __restrict entering, const float* __restrict leaving, int w,
+                      double* __restrict cols),
+                     (entering, leaving, w, cols))
 
-// prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. The nine
-// independent chains are interleaved so the adds overlap.
-void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) {
+// prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. Independent chains
+// are interleaved so the adds overlap, kChains quantities per pass starting at q0 (all nine in
+// one loop needed 18 pointers: the compiler kept them on the stack and reloaded them).
+template <int kChains>
+[[gnu::always_inline]] inline void BoxPrefixChains(const double* __restrict cols, int w, int q0,
+                                                   double* __restrict prefix) {
   const int m = w + 1;
-  double run[kBoxQuantities] = {};
-  for (int q = 0; q < kBoxQuantities; ++q) prefix[q * m] = 0;
+  const double* __restrict in[kChains];
+  double* __restrict out[kChains];
+  double run[kChains];
+  for (int c = 0; c < kChains; ++c) {
+    in[c] = cols + static_cast<size_t>(q0 + c) * w;
+    out[c] = prefix + static_cast<size_t>(q0 + c) * m;
+    out[c][0] = 0;
+    run[c] = 0;
+  }
   for (int x = 0; x < w; ++x) {
-    for (int q = 0; q < kBoxQuantities; ++q) {
-      run[q] += cols[q * w + x];
-      prefix[q * m + x + 1] = run[q];
+    for (int c = 0; c < kChains; ++c) {
+      run[c] += in[c][x];
+      out[c][x + 1] = run[c];
     }
   }
+}
+
+void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) {
+  static_assert(kBoxQuantities == 9);
+  BoxPrefixChains<5>(cols, w, 0, prefix);
+  BoxPrefixChains<4>(cols, w, 5, prefix);
 }
 
 // 1-NCC and ZSSD for centres x in [r, w - r) (no validity test yet).
@@ -248,8 +315,7 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
     if (y > c0) {
       load(y + r);
       if (box) {
-        AccumulateBoxColumns(slot(y + r), w, 1.0, cols);
-        AccumulateBoxColumns(slot(y - r - 1), w, -1.0, cols);
+        SlideBoxColumns(slot(y + r), slot(y - r - 1), w, cols);
       }
     }
     const uint8_t* ok = validity.Row(yi);
@@ -291,48 +357,122 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
 // ---------------------------------------------------------------------------------------------
 // Pixel metrics: Cb+Cr and the squared error of PSNR.
 
+typedef double V4d __attribute__((vector_size(32)));
+typedef float V4f __attribute__((vector_size(16)));
+typedef unsigned char V8u8 __attribute__((vector_size(8)));
+typedef int V4i __attribute__((vector_size(16)));
+typedef long long V4l __attribute__((vector_size(32)));
+
+// (dr^2 + dg^2 + db^2) / 3 in double of four pixels' float differences.
+// (Vectors through pointers: see simd.h on the ABI.)
+[[gnu::always_inline]] inline void SquaredError4(const V4f* dr, const V4f* dg, const V4f* db,
+                                                 V4d* e) {
+  const V4d r = __builtin_convertvector(*dr, V4d);
+  const V4d g = __builtin_convertvector(*dg, V4d);
+  const V4d b = __builtin_convertvector(*db, V4d);
+  *e = (r * r + g * g + b * b) / 3.0;
+}
+
+// Cb+Cr difference and squared error (of PSNR) of the pixels x in [0, w) of a row pair:
+// cbcr[x] and squared[x] = the values where ok[x], else NaN; sums[0] and sums[1] += their sums
+// over the kept pixels (eight partial sums, lane k holding x = k mod 8, added in a fixed order at
+// the end, the tail into lane 0: the same order on every path); returns the kept count.
+// Full-range BT.601 (JPEG): Cb = -0.168736 R - 0.331264 G + 0.5 B, Cr = 0.5 R - 0.418688 G -
+// 0.081312 B (the +0.5 offsets cancel in the difference). The squared error is in double, so
+// that the masked MSE keeps full precision for nearly identical images.
+[[gnu::always_inline]] inline size_t PixelRowBody(const float* __restrict p,
+                                                  const float* __restrict q,
+                                                  const uint8_t* __restrict ok, int w,
+                                                  float* __restrict cbcr,
+                                                  float* __restrict squared,
+                                                  double* __restrict sums) {
+  const V8f nan = V8f{} + kNaN;
+  V4d cb_lo{}, cb_hi{}, sq_lo{}, sq_hi{};
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    V8f r0, g0, b0, r1, g1, b1;
+    Deinterleave8(p + 3 * x, &r0, &g0, &b0);
+    Deinterleave8(q + 3 * x, &r1, &g1, &b1);
+    const V8f dr = r0 - r1, dg = g0 - g1, db = b0 - b1;
+    const V8f dcb = -0.168736f * dr - 0.331264f * dg + 0.5f * db;
+    const V8f dcr = 0.5f * dr - 0.418688f * dg - 0.081312f * db;
+    const V8i no_sign = V8i{} + 0x7fffffff;  // |x|: the sign bit cleared
+    const V8f v = (V8f)((V8i)dcb & no_sign) + (V8f)((V8i)dcr & no_sign);
+    const V8i keep = __builtin_convertvector(REPHOTO_LOAD(V8u8, ok + x), V8i) != 0;
+    const V8f kept = (V8f)((V8i)v & keep);
+    REPHOTO_STORE(cbcr + x, (V8f)(((V8i)v & keep) | ((V8i)nan & ~keep)));
+    cb_lo += __builtin_convertvector(__builtin_shufflevector(kept, kept, 0, 1, 2, 3), V4d);
+    cb_hi += __builtin_convertvector(__builtin_shufflevector(kept, kept, 4, 5, 6, 7), V4d);
+    // The squared error in double, four pixels at a time.
+    const V4i k_lo = __builtin_shufflevector(keep, keep, 0, 1, 2, 3);
+    const V4i k_hi = __builtin_shufflevector(keep, keep, 4, 5, 6, 7);
+    const V4f dr_lo = __builtin_shufflevector(dr, dr, 0, 1, 2, 3);
+    const V4f dg_lo = __builtin_shufflevector(dg, dg, 0, 1, 2, 3);
+    const V4f db_lo = __builtin_shufflevector(db, db, 0, 1, 2, 3);
+    const V4f dr_hi = __builtin_shufflevector(dr, dr, 4, 5, 6, 7);
+    const V4f dg_hi = __builtin_shufflevector(dg, dg, 4, 5, 6, 7);
+    const V4f db_hi = __builtin_shufflevector(db, db, 4, 5, 6, 7);
+    V4d e_lo, e_hi;
+    SquaredError4(&dr_lo, &dg_lo, &db_lo, &e_lo);
+    SquaredError4(&dr_hi, &dg_hi, &db_hi, &e_hi);
+    sq_lo += (V4d)((V4l)e_lo & __builtin_convertvector(k_lo, V4l));
+    sq_hi += (V4d)((V4l)e_hi & __builtin_convertvector(k_hi, V4l));
+    const V4i nan4 = (V4i)(V4f{} + kNaN);
+    const V4i f_lo = (V4i)__builtin_convertvector(e_lo, V4f);
+    const V4i f_hi = (V4i)__builtin_convertvector(e_hi, V4f);
+    REPHOTO_STORE(squared + x, (V4f)((f_lo & k_lo) | (nan4 & ~k_lo)));
+    REPHOTO_STORE(squared + x + 4, (V4f)((f_hi & k_hi) | (nan4 & ~k_hi)));
+  }
+  double cb[8] = {cb_lo[0], cb_lo[1], cb_lo[2], cb_lo[3], cb_hi[0], cb_hi[1], cb_hi[2], cb_hi[3]};
+  double sq[8] = {sq_lo[0], sq_lo[1], sq_lo[2], sq_lo[3], sq_hi[0], sq_hi[1], sq_hi[2], sq_hi[3]};
+  for (; x < w; ++x) {  // the same arithmetic, one pixel at a time
+    const float dr = p[3 * x] - q[3 * x];
+    const float dg = p[3 * x + 1] - q[3 * x + 1];
+    const float db = p[3 * x + 2] - q[3 * x + 2];
+    const float dcb = -0.168736f * dr - 0.331264f * dg + 0.5f * db;
+    const float dcr = 0.5f * dr - 0.418688f * dg - 0.081312f * db;
+    const float v = std::abs(dcb) + std::abs(dcr);
+    const double e = (static_cast<double>(dr) * dr + static_cast<double>(dg) * dg +
+                      static_cast<double>(db) * db) /
+                     3.0;
+    cbcr[x] = ok[x] ? v : kNaN;
+    squared[x] = ok[x] ? static_cast<float>(e) : kNaN;
+    if (ok[x]) {
+      cb[0] += v;
+      sq[0] += e;
+    }
+  }
+  sums[0] += ((cb[0] + cb[1]) + (cb[2] + cb[3])) + ((cb[4] + cb[5]) + (cb[6] + cb[7]));
+  sums[1] += ((sq[0] + sq[1]) + (sq[2] + sq[3])) + ((sq[4] + sq[5]) + (sq[6] + sq[7]));
+  size_t n = 0;
+  for (int i = 0; i < w; ++i) n += ok[i] != 0;
+  return n;
+}
+REPHOTO_ISA_DISPATCH(size_t, PixelRow,
+                     (const float* __restrict p, const float* __restrict q,
+                      const uint8_t* __restrict ok, int w, float* __restrict cbcr,
+                      float* __restrict squared, double* __restrict sums),
+                     (p, q, ok, w, cbcr, squared, sums))
+
+// Pixel metrics: Cb+Cr and the squared error of PSNR (PixelRow); rows that are not asked for
+// go to scratch.
 MeanSums PixelBand(const Inputs& in, const ErrorRows* cbcr, const ErrorRows* squared, int64_t y0,
                    int64_t y1) {
   MeanSums sums;
   const int w = in.width;
+  thread_local std::vector<float> scratch;
+  thread_local std::vector<uint8_t> all_valid;
+  float* spare = Scratch(scratch, 2 * static_cast<size_t>(w));
+  if (in.valid.empty() && all_valid.size() < static_cast<size_t>(w)) all_valid.assign(w, 1);
   for (int64_t y = y0; y < y1; ++y) {
     const int yi = static_cast<int>(y);
-    const float* p = in.photo.row(yi);
-    const float* q = in.rephoto.row(yi);
-    const uint8_t* ok = in.valid.empty() ? nullptr : in.valid.row(yi);
-    float* cbcr_row = cbcr ? cbcr->row(yi) : nullptr;
-    float* sq_row = squared ? squared->row(yi) : nullptr;
-    double cbcr_sum = 0, sq_sum = 0;
-    size_t evaluated = 0;
-    for (int x = 0; x < w; ++x) {
-      if (ok && !ok[x]) {
-        if (cbcr_row) cbcr_row[x] = kNaN;
-        if (sq_row) sq_row[x] = kNaN;
-        continue;
-      }
-      ++evaluated;
-      const float dr = p[3 * x] - q[3 * x];
-      const float dg = p[3 * x + 1] - q[3 * x + 1];
-      const float db = p[3 * x + 2] - q[3 * x + 2];
-      if (cbcr_row) {
-        // Full-range BT.601 (JPEG): Cb = -0.168736 R - 0.331264 G + 0.5 B,
-        // Cr = 0.5 R - 0.418688 G - 0.081312 B (the +0.5 offsets cancel in the difference).
-        const float dcb = -0.168736f * dr - 0.331264f * dg + 0.5f * db;
-        const float dcr = 0.5f * dr - 0.418688f * dg - 0.081312f * db;
-        cbcr_row[x] = std::abs(dcb) + std::abs(dcr);
-        cbcr_sum += cbcr_row[x];
-      }
-      if (sq_row) {
-        // Double, so the masked MSE keeps full precision for nearly identical images.
-        const double e = (static_cast<double>(dr) * dr + static_cast<double>(dg) * dg +
-                          static_cast<double>(db) * db) /
-                         3.0;
-        sq_row[x] = static_cast<float>(e);
-        sq_sum += e;
-      }
-    }
-    sums.sum[0] += cbcr_sum;
-    sums.sum[1] += sq_sum;
+    const uint8_t* ok = in.valid.empty() ? all_valid.data() : in.valid.row(yi);
+    double row_sums[2] = {0, 0};
+    const size_t evaluated =
+        PixelRow(in.photo.row(yi), in.rephoto.row(yi), ok, w, cbcr ? cbcr->row(yi) : spare,
+                 squared ? squared->row(yi) : spare + w, row_sums);
+    sums.sum[0] += row_sums[0];
+    sums.sum[1] += row_sums[1];
     sums.count[0] += evaluated;
     sums.count[1] += evaluated;
   }
