@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
+#include <vector>
 
+#include "rephoto/core/error.h"
 #include "rephoto/core/isa.h"
 
 namespace rephoto::render {
@@ -13,35 +14,66 @@ BorderSkirts MakeBorderSkirts(const mesh::Mesh& mesh) {
   const size_t faces = mesh.faces.size();
   skirts.face_borders.assign(faces, 0);
   skirts.neighbors.assign(3 * faces, BorderSkirts::kNoNeighbor);
-  // Per undirected edge: how many faces use it and the first one (3 * face + edge).
-  struct Use {
-    uint32_t count = 0;
-    uint32_t first = 0;
+  // The faces of each undirected edge: the half-edges (3 * face + edge) bucketed by their
+  // lower vertex (a counting sort, in half-edge order), then matched by the higher vertex
+  // within each bucket (a vertex's few edges). An edge of exactly two faces links them; an edge
+  // of one face is a border; an edge of three or more faces links none of them.
+  const size_t half_edges = 3 * faces;
+  const size_t vertices = mesh.positions.size();
+  auto ends = [&](size_t he, uint32_t* lo, uint32_t* hi) {
+    const mesh::Triangle& f = mesh.faces[he / 3];
+    const int k = static_cast<int>(he % 3);
+    *lo = std::min(f[k], f[(k + 1) % 3]);
+    *hi = std::max(f[k], f[(k + 1) % 3]);
   };
-  std::unordered_map<uint64_t, Use> uses;
-  uses.reserve(faces * 2);
-  auto key = [](uint32_t a, uint32_t b) {
-    return (static_cast<uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+  std::vector<uint32_t> start(vertices + 1, 0);
+  for (size_t he = 0; he < half_edges; ++he) {
+    uint32_t lo, hi;
+    ends(he, &lo, &hi);
+    REPHOTO_CHECK(hi < vertices, "mesh: face {} refers to vertex {} of {}", he / 3, hi, vertices);
+    ++start[lo + 1];
+  }
+  for (size_t v = 0; v < vertices; ++v) start[v + 1] += start[v];
+  struct Entry {
+    uint32_t hi, he;
   };
-  for (size_t i = 0; i < faces; ++i) {
-    const mesh::Triangle& f = mesh.faces[i];
-    for (int k = 0; k < 3; ++k) {
-      Use& use = uses[key(f[k], f[(k + 1) % 3])];
-      if (use.count == 1) {
-        skirts.neighbors[use.first] = static_cast<uint32_t>(3 * i + k);
-        skirts.neighbors[3 * i + k] = use.first;
-      } else if (use.count == 2) {  // more than two faces: no neighbour for any of them
-        skirts.neighbors[skirts.neighbors[use.first]] = BorderSkirts::kNoNeighbor;
-        skirts.neighbors[use.first] = BorderSkirts::kNoNeighbor;
+  std::vector<Entry> bucket(half_edges);
+  {
+    std::vector<uint32_t> next(start.begin(), start.end() - 1);
+    for (size_t he = 0; he < half_edges; ++he) {
+      uint32_t lo, hi;
+      ends(he, &lo, &hi);
+      bucket[next[lo]++] = {hi, static_cast<uint32_t>(he)};
+    }
+  }
+  std::vector<uint32_t> face_count(half_edges, 0);  // faces of each half-edge's edge
+  for (size_t v = 0; v < vertices; ++v) {
+    Entry* b = bucket.data() + start[v];
+    const size_t n = start[v + 1] - start[v];
+    // By (hi, he): insertion sort, the buckets being a handful of entries.
+    for (size_t i = 1; i < n; ++i) {
+      const Entry e = b[i];
+      size_t j = i;
+      for (; j > 0 && (b[j - 1].hi > e.hi || (b[j - 1].hi == e.hi && b[j - 1].he > e.he)); --j) {
+        b[j] = b[j - 1];
       }
-      if (use.count == 0) use.first = static_cast<uint32_t>(3 * i + k);
-      ++use.count;
+      b[j] = e;
+    }
+    for (size_t i = 0; i < n;) {
+      size_t j = i + 1;
+      while (j < n && b[j].hi == b[i].hi) ++j;
+      for (size_t k = i; k < j; ++k) face_count[b[k].he] = static_cast<uint32_t>(j - i);
+      if (j - i == 2) {
+        skirts.neighbors[b[i].he] = b[i + 1].he;
+        skirts.neighbors[b[i + 1].he] = b[i].he;
+      }
+      i = j;
     }
   }
   for (size_t i = 0; i < faces; ++i) {
     const mesh::Triangle& f = mesh.faces[i];
     for (int k = 0; k < 3; ++k) {
-      if (uses[key(f[k], f[(k + 1) % 3])].count != 1) continue;
+      if (face_count[3 * i + k] != 1) continue;
       const Eigen::Vector3f& a = mesh.positions[f[k]];
       const Eigen::Vector3f& b = mesh.positions[f[(k + 1) % 3]];
       const Eigen::Vector3f& c = mesh.positions[f[(k + 2) % 3]];
