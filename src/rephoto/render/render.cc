@@ -163,19 +163,25 @@ class SampleGrid {
   std::vector<uint32_t> sample_hash_;
 };
 
-// Lane `lane` of packet `p` of a tile of L = 4 * samples_per_block pixels: its pixel (row-major
-// in the 4-wide tile) and sample. Block mode (samples_per_packet = L / 4): packet p = block *
-// groups + group covers the 2 x 2 block `block` and samples S * group .. S * group + S - 1,
-// S = L / 4 (lane = 4 * sample-in-group + pixel-in-block); else (samples_per_packet 1) packet p
-// is sample p of all L pixels. Either way each pixel's samples come in increasing order.
-inline int PacketPixel(int p, int lane, int samples_per_packet, int groups) {
+// Lane `lane` of packet `p` of a tile of L pixels (4 wide, row-major): its pixel and sample.
+// Block mode (samples_per_packet S > 1, a power of two dividing L): a packet covers a block of
+// P = L / S pixels (2 x 2 for P = 4, 2 x 1 for P = 2, one pixel for P = 1) and S consecutive
+// samples of each; packet p = block * groups + group holds samples S * group .. S * group + S - 1
+// (lane = P * sample-in-group + pixel-in-block). Else (S = 1) packet p is sample p of all L
+// pixels. Either way each pixel's samples come in increasing order.
+inline int PacketPixel(int p, int lane, int samples_per_packet, int groups, int lanes) {
   if (samples_per_packet == 1) return lane;
-  const int block = p / groups, in_block = lane & 3;
-  return ((block >> 1) * 2 + (in_block >> 1)) * 4 + (block & 1) * 2 + (in_block & 1);
+  const int pixels = lanes / samples_per_packet;  // P
+  const int block_width = pixels >= 2 ? 2 : 1, block_height = pixels >= 4 ? 2 : 1;
+  const int blocks_per_row = 4 / block_width;
+  const int block = p / groups, in_block = lane % pixels;
+  const int x = (block % blocks_per_row) * block_width + in_block % block_width;
+  const int y = (block / blocks_per_row) * block_height + in_block / block_width;
+  return y * 4 + x;
 }
-inline int PacketSample(int p, int lane, int samples_per_packet, int groups) {
+inline int PacketSample(int p, int lane, int samples_per_packet, int groups, int lanes) {
   if (samples_per_packet == 1) return p;
-  return (p % groups) * samples_per_packet + (lane >> 2);
+  return (p % groups) * samples_per_packet + lane / (lanes / samples_per_packet);
 }
 
 // What lane i of one packet traces in every tile (PacketPixel, PacketSample), with the parts
@@ -191,19 +197,27 @@ struct PacketLanes {
 };
 
 // The packets of a tile of 4 x L / 4 pixels with `spp` samples each: with at least L / 4
-// samples per pixel a packet holds L / 4 samples of a 2 x 2 pixel block (a narrow packet meets
-// fewer BVH nodes than L pixels' worth of one sample each), else one sample of all L pixels.
+// samples per pixel a packet holds S samples of a block of L / S pixels, S the largest power of
+// two up to L that divides spp (at least L / 4) (a narrow packet meets fewer BVH nodes: the 16 samples of the demo's
+// photos trace as 8 samples of one pixel per packet on the AVX2 path), else one sample of all
+// L pixels.
 template <int L>
 std::vector<PacketLanes<L>> PlanPackets(int spp, const SampleGrid& grid) {
-  const int samples_per_packet = spp >= L / 4 ? L / 4 : 1;
+  int samples_per_packet = 1;
+  if (spp >= L / 4) {
+    samples_per_packet = L / 4;
+    while (samples_per_packet * 2 <= L && spp % (samples_per_packet * 2) == 0) {
+      samples_per_packet *= 2;
+    }
+  }
   const int groups = (spp + samples_per_packet - 1) / samples_per_packet;  // per pixel block
-  const int packets = (samples_per_packet == 1 ? 1 : L / 4) * groups;
+  const int packets = (samples_per_packet == 1 ? 1 : samples_per_packet) * groups;
   std::vector<PacketLanes<L>> plan(static_cast<size_t>(packets));
   for (int p = 0; p < packets; ++p) {
     PacketLanes<L>& lanes = plan[static_cast<size_t>(p)];
     for (int i = 0; i < L; ++i) {
-      const int pixel = PacketPixel(p, i, samples_per_packet, groups);
-      const int s = PacketSample(p, i, samples_per_packet, groups);
+      const int pixel = PacketPixel(p, i, samples_per_packet, groups, L);
+      const int s = PacketSample(p, i, samples_per_packet, groups, L);
       lanes.pixel[i] = pixel;
       lanes.dx[i] = pixel & 3;
       lanes.dy[i] = pixel >> 2;
