@@ -102,7 +102,8 @@ REPHOTO_ISA_DISPATCH(void, RgbaBytesToFloats,
 
 }  // namespace
 
-void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>* scratch) {
+void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>* scratch,
+                   bool floats) {
   const int w = image.width(), channels = image.channels();
   first = std::max(first, 0);
   end = std::min(end, image.height());
@@ -113,6 +114,10 @@ void RgbRows::Load(const RgbView& image, int first, int end, std::vector<float>*
     base_ = image.floats();
     first_ = 0;
     stride_ = static_cast<ptrdiff_t>(3) * w;
+    return;
+  }
+  if (!floats && image.bytes()) {
+    base_ = nullptr;
     return;
   }
   const size_t values = static_cast<size_t>(std::max(0, end - first)) * 3 * w;

@@ -54,7 +54,11 @@ struct MeanSums {
 // alpha dropped). Rows outside the image are not available.
 class RgbRows {
  public:
-  void Load(const RgbView& image, int first, int end, std::vector<float>* scratch);
+  // Rows [first, end) as float RGB (converted into *scratch unless the image already is
+  // float RGB). With floats = false an 8-bit image is only referenced (bytes_row), for callers
+  // that read nothing else (iCID alone): row() must not be called then.
+  void Load(const RgbView& image, int first, int end, std::vector<float>* scratch,
+            bool floats = true);
   const float* row(int y) const { return base_ + static_cast<ptrdiff_t>(y - first_) * stride_; }
   // The 8-bit source row y (channels() values per pixel, RGB first) when the image is 8-bit,
   // else null; row(y)[3 x + c] == bytes_row(y)[channels() x + c] / 255.f. Any row of the image.

@@ -624,8 +624,11 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
   thread_local std::vector<float> photo_scratch, rephoto_scratch;
   internal::RgbRows p, q;
   const int first = static_cast<int>(y0) - e.halo, end = static_cast<int>(y1) + e.halo;
-  p.Load(e.photo, first, end, &photo_scratch);
-  q.Load(e.rephoto, first, end, &rephoto_scratch);
+  // iCID reads 8-bit rows itself: alone, it needs no float rows.
+  bool floats = false;
+  for (int m = 0; m < 8; ++m) floats |= e.want[m] && static_cast<Metric>(m) != Metric::kIcid;
+  p.Load(e.photo, first, end, &photo_scratch, floats);
+  q.Load(e.rephoto, first, end, &rephoto_scratch, floats);
   const Inputs in{p, q, e.valid, e.width, e.height, e.call};
   // Without rows to keep (a null sink), each band writes its error rows into per-thread scratch
   // that stays in cache instead of streaming them to memory.

@@ -605,6 +605,13 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
   const std::vector<Metric> some = {Metric::kPsnr, Metric::kCensus, Metric::kDssim};
   ExpectSameResults(ComputeInBands(photo8, rephoto8, {}, some),
                     ComputeMetrics(photo, rephoto, {}, some));
+  // iCID alone reads the 8-bit rows without float rows (RgbRows::Load with floats = false),
+  // also with one image 8-bit and the other float.
+  const std::vector<Metric> icid = {Metric::kIcid};
+  ExpectSameResults(ComputeInBands(photo8, rephoto8, valid, icid),
+                    ComputeMetrics(photo, rephoto, valid, icid));
+  ExpectSameResults(ComputeInBands(photo8, rephoto_rgba, valid, icid),
+                    ComputeMetrics(photo, rephoto, valid, icid));
 }
 
 // Every 8-bit value, as the band pass converts it, equals v / 255.f (io::ReadImage's value).
