@@ -22,17 +22,35 @@ struct RenderModel::PointGeometry {
 
 namespace {
 
+// The box of a disc: a view-facing disc (no normal) can turn any way, so the cube of side 2r;
+// an oriented disc of unit normal u reaches r sqrt(1 - u_i^2) along axis i (a ground disc is
+// flat in z), widened by a margin (5 % of r and the coordinates' rounding) so that the ray's
+// entry into the box lies clearly before its hit, also for a disc at exactly the nearest hit's
+// distance (DecideDiscLane's ties must all be presented). Looser boxes only cost time: the hit
+// itself is decided by IntersectDisc.
 void PointBounds(const RTCBoundsFunctionArguments* args) {
   const auto* data = static_cast<const RenderModel::PointGeometry*>(args->geometryUserPtr);
   const Eigen::Vector3f& c = data->positions[args->primID];
-  const float r = data->radii[args->primID];
+  const double r = data->radii[args->primID];
+  Eigen::Vector3d extent(r, r, r);
+  if (data->normals != nullptr) {
+    const Eigen::Vector3d n = data->normals[args->primID].cast<double>();
+    const double length = n.norm();
+    if (length > 0 && std::isfinite(length)) {
+      const double margin = 0.05 * r + 1e-6 * c.cwiseAbs().maxCoeff();
+      for (int i = 0; i < 3; ++i) {
+        const double u = n[i] / length;
+        extent[i] = std::min(r, r * std::sqrt(std::max(0.0, 1.0 - u * u)) + margin);
+      }
+    }
+  }
   RTCBounds* b = args->bounds_o;
-  b->lower_x = c.x() - r;
-  b->lower_y = c.y() - r;
-  b->lower_z = c.z() - r;
-  b->upper_x = c.x() + r;
-  b->upper_y = c.y() + r;
-  b->upper_z = c.z() + r;
+  b->lower_x = static_cast<float>(c.x() - extent.x());
+  b->lower_y = static_cast<float>(c.y() - extent.y());
+  b->lower_z = static_cast<float>(c.z() - extent.z());
+  b->upper_x = static_cast<float>(c.x() + extent.x());
+  b->upper_y = static_cast<float>(c.y() + extent.y());
+  b->upper_z = static_cast<float>(c.z() + extent.z());
 }
 
 // Ray-disc test; returns the ray parameter of the hit or NaN. `normal_out` is the disc normal.
