@@ -94,39 +94,44 @@ template <unsigned kN>
 [[gnu::always_inline]] inline void IntersectDiscLanes(const RenderModel::PointGeometry& data,
                                                       unsigned prim, const float* ray,
                                                       float* t_out) {
-  const float *ox = ray, *oy = ray + kN, *oz = ray + 2 * kN, *tnear = ray + 3 * kN;
-  const float *dx = ray + 4 * kN, *dy = ray + 5 * kN, *dz = ray + 6 * kN;
+  // Explicit kN-wide vectors (GCC left the lane loop scalar on the AVX2 path): each lane's
+  // operations are the scalar ones, in the same order.
+  typedef float VF __attribute__((vector_size(4 * kN)));
+  typedef int VI __attribute__((vector_size(4 * kN)));
+  VF ox, oy, oz, tnear, dx, dy, dz;
+  __builtin_memcpy(&ox, ray, sizeof(VF));
+  __builtin_memcpy(&oy, ray + kN, sizeof(VF));
+  __builtin_memcpy(&oz, ray + 2 * kN, sizeof(VF));
+  __builtin_memcpy(&tnear, ray + 3 * kN, sizeof(VF));
+  __builtin_memcpy(&dx, ray + 4 * kN, sizeof(VF));
+  __builtin_memcpy(&dy, ray + 5 * kN, sizeof(VF));
+  __builtin_memcpy(&dz, ray + 6 * kN, sizeof(VF));
   const Eigen::Vector3f& c = data.positions[prim];
   const float cx = c.x(), cy = c.y(), cz = c.z();
   const float r = data.radii[prim];
   const float r2 = r * r;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const VF nan = VF{} + std::numeric_limits<float>::quiet_NaN();
+  const VF inf = VF{} + std::numeric_limits<float>::infinity();
   Eigen::Vector3f n = Eigen::Vector3f::Zero();
   if (data.normals != nullptr) n = data.normals[prim];
   const float nx = n.x(), ny = n.y(), nz = n.z();
+  VF t;
+  VI hit;
   if (nx * nx + (ny * ny + nz * nz) > 0) {
-    for (unsigned i = 0; i < kN; ++i) {
-      const float denom = dx[i] * nx + (dy[i] * ny + dz[i] * nz);
-      const float t = ((cx - ox[i]) * nx + ((cy - oy[i]) * ny + (cz - oz[i]) * nz)) / denom;
-      const float px = (ox[i] + t * dx[i]) - cx, py = (oy[i] + t * dy[i]) - cy,
-                  pz = (oz[i] + t * dz[i]) - cz;
-      const bool hit = !(std::abs(denom) < 1e-12f) && t > tnear[i] &&
-                       t < std::numeric_limits<float>::infinity() &&
-                       !(px * px + (py * py + pz * pz) > r2);
-      t_out[i] = hit ? t : nan;
-    }
+    const VF denom = dx * nx + (dy * ny + dz * nz);
+    t = ((cx - ox) * nx + ((cy - oy) * ny + (cz - oz) * nz)) / denom;
+    const VF abs_denom = (VF)((VI)denom & (VI{} + 0x7fffffff));
+    const VI tiny = abs_denom < 1e-12f;
+    hit = ~tiny;
   } else {  // view-facing
-    for (unsigned i = 0; i < kN; ++i) {
-      const float t =
-          ((cx - ox[i]) * dx[i] + ((cy - oy[i]) * dy[i] + (cz - oz[i]) * dz[i])) /
-          (dx[i] * dx[i] + (dy[i] * dy[i] + dz[i] * dz[i]));
-      const float px = (ox[i] + t * dx[i]) - cx, py = (oy[i] + t * dy[i]) - cy,
-                  pz = (oz[i] + t * dz[i]) - cz;
-      const bool hit = t > tnear[i] && t < std::numeric_limits<float>::infinity() &&
-                       !(px * px + (py * py + pz * pz) > r2);
-      t_out[i] = hit ? t : nan;
-    }
+    t = ((cx - ox) * dx + ((cy - oy) * dy + (cz - oz) * dz)) / (dx * dx + (dy * dy + dz * dz));
+    hit = VI{} - 1;
   }
+  const VF px = (ox + t * dx) - cx, py = (oy + t * dy) - cy, pz = (oz + t * dz) - cz;
+  const VI outside = px * px + (py * py + pz * pz) > r2;
+  hit = hit & (t > tnear) & (t < inf) & ~outside;
+  const VF out = (VF)(((VI)t & hit) | ((VI)nan & ~hit));
+  __builtin_memcpy(t_out, &out, sizeof(VF));
 }
 
 // Lane i's hit t (NaN: none) against the lane's current best: the nearest disc; of discs at
