@@ -183,8 +183,15 @@ template <unsigned kN>
   alignas(64) float t[kN];
   IntersectDiscLanes<kN>(data, args->primID,
                          reinterpret_cast<const float*>(RTCRayHitN_RayN(args->rayhit, kN)), t);
+  // The lanes with a hit, as bits (branch-free), then only those in lane order.
+  uint32_t hits = 0;
   for (unsigned i = 0; i < kN; ++i) {
-    if (args->valid[i] != 0 && !std::isnan(t[i])) DecideDiscLane(args, data, i, t[i]);
+    hits |= static_cast<uint32_t>((args->valid[i] != 0) & (t[i] == t[i])) << i;
+  }
+  while (hits != 0) {
+    const unsigned i = static_cast<unsigned>(__builtin_ctz(hits));
+    hits &= hits - 1;
+    DecideDiscLane(args, data, i, t[i]);
   }
 }
 
