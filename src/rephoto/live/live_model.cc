@@ -204,13 +204,11 @@ double FitSupportPlane(const std::vector<Eigen::Vector3d>& points,
   return tolerance;
 }
 
-// Whether the point (from depth map k) is confirmed by at least options.min_consistent of the
-// depth maps `check`: it projects inside one whose depth at that pixel (nearest) agrees with
-// its own depth there within options.consistency_tolerance (relative).
-bool Consistent(const Eigen::Vector3d& world, size_t k, const std::vector<size_t>& check,
-                const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options) {
+}  // namespace
+
+bool ConfirmedByDepthMaps(const Eigen::Vector3d& world, const std::vector<size_t>& check,
+                          const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options) {
   if (options.min_consistent <= 0) return true;
-  (void)k;
   int agree = 0;
   for (size_t j : check) {
     const EnvelopeInput& in = depths[j];
@@ -229,7 +227,20 @@ bool Consistent(const Eigen::Vector3d& world, size_t k, const std::vector<size_t
   return false;
 }
 
-}  // namespace
+std::vector<size_t> ConsistencyViews(size_t k, const std::vector<EnvelopeInput>& depths,
+                                     const EnvelopeOptions& options) {
+  std::vector<std::pair<double, size_t>> ranked;
+  for (size_t j = 0; j < depths.size(); ++j) {
+    if (j == k) continue;
+    ranked.push_back(
+        {-depths[j].cam_from_world.ViewDirection().dot(depths[k].cam_from_world.ViewDirection()), j});
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<size_t> out;
+  for (size_t r = 0; r < ranked.size() && r < static_cast<size_t>(options.consistency_views); ++r)
+    out.push_back(ranked[r].second);
+  return out;
+}
 
 Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
                        const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options) {
@@ -238,21 +249,10 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
                     options.min_points >= 1 && options.min_views >= 1,
                 "envelope: invalid options");
   // Depth points.
-  // The views each depth map's points are checked against: the `consistency_views` nearest
-  // by viewing direction.
+  // The views each depth map's points are checked against.
   std::vector<std::vector<size_t>> check(depths.size());
-  for (size_t k = 0; k < depths.size() && options.min_consistent > 0; ++k) {
-    std::vector<std::pair<double, size_t>> ranked;
-    for (size_t j = 0; j < depths.size(); ++j) {
-      if (j == k) continue;
-      ranked.push_back({-depths[j].cam_from_world.ViewDirection().dot(
-                            depths[k].cam_from_world.ViewDirection()),
-                        j});
-    }
-    std::sort(ranked.begin(), ranked.end());
-    for (size_t r = 0; r < ranked.size() && r < static_cast<size_t>(options.consistency_views); ++r)
-      check[k].push_back(ranked[r].second);
-  }
+  for (size_t k = 0; k < depths.size() && options.min_consistent > 0; ++k)
+    check[k] = ConsistencyViews(k, depths, options);
   std::vector<Eigen::Vector3d> points, all_points;  // consistent ones; all
   std::vector<int> source;
   std::vector<Eigen::Vector3d> seen_from;  // camera centre of each point
@@ -270,7 +270,7 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
         const Eigen::Vector3d cam = *ray / ray->z() * z;
         const Eigen::Vector3d world = origin + world_from_cam * cam;
         all_points.push_back(world);
-        if (!Consistent(world, k, check[k], depths, options)) continue;
+        if (!ConfirmedByDepthMaps(world, check[k], depths, options)) continue;
         points.push_back(world);
         source.push_back(static_cast<int>(k));
         seen_from.push_back(origin);
@@ -280,7 +280,8 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
   Envelope env;
   env.point_count = points.size();
   env.up = UpDirection(poses);
-  if (!NearestPointToAxes(poses, &env.center)) {
+  env.converging = NearestPointToAxes(poses, &env.center);
+  if (!env.converging) {
     if (!points.empty()) {
       for (int a = 0; a < 3; ++a) {
         std::vector<double> v;

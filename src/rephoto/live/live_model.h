@@ -86,6 +86,10 @@ struct Envelope {
   std::vector<float> area;        // per vertex: a third of the area of its faces
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  // True when the centre is the point nearest to the photos' optical axes (they converge: an
+  // object-centred capture); false when it fell back to the points' median (nearly parallel
+  // axes: a forward-facing capture, which the star-shaped envelope does not model).
+  bool converging = false;
   size_t point_count = 0;         // depth points binned
   mesh::Mesh support;             // the support plane's seen cells; no faces when none
   Eigen::Vector4d support_plane = Eigen::Vector4d::Zero();  // n.x, n.y, n.z, d: n.X + d = 0
@@ -98,6 +102,15 @@ struct Envelope {
 // cameras' median distance from c, all unobserved.
 Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
                        const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options);
+
+// Multi-view consistency (see the file comment): the `consistency_views` depth maps nearest to
+// depths[k] by viewing direction, and whether a world point is confirmed by at least
+// options.min_consistent of the depth maps `check` (it projects inside one whose depth at that
+// pixel, nearest, agrees with its own depth there within options.consistency_tolerance).
+std::vector<size_t> ConsistencyViews(size_t k, const std::vector<EnvelopeInput>& depths,
+                                     const EnvelopeOptions& options);
+bool ConfirmedByDepthMaps(const Eigen::Vector3d& world, const std::vector<size_t>& check,
+                          const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options);
 
 // The photos' up direction. Photos are taken with the camera level (its x axis horizontal), so
 // up is the direction orthogonal to all x axes (the smallest eigenvector of sum x x^T), signed
@@ -120,22 +133,26 @@ namespace rephoto::live {
 // Next views on the envelope, for a capture in progress (`rephoto live`). Like
 // suggest::SuggestViews (candidates on a Fibonacci sphere around the look-at point at the
 // photos' median distance, within `elevation_margin_degrees` of the photos' elevation range
-// about `up` and not below the horizon when every photo is above it; greedy choice of the
+// about `up`, not below the horizon when every photo is above it, and not below the support
+// plane when there is one; greedy choice of the
 // candidate seeing the most weight, whose vertices' weights then drop to 0; visibility by
 // suggest::VisibleVertices), with one difference: a candidate must lie within
 // [min_gap_degrees, max_gap_degrees] (seen from the look-at point) of the nearest photo taken
-// or suggested before it. A live capture can only use a new photo that overlaps earlier ones
-// (plane-sweep stereo needs a neighbour within 60 degrees of viewing direction, COLMAP needs
-// matches to register it), so the suggestions extend the covered region from its frontier
-// instead of jumping to the far side where nothing could be matched. When no candidate
-// satisfies the band, max_gap doubles until one does.
+// or suggested before it. The lower bound keeps a suggestion from repeating a photo. The upper
+// bound keeps some overlap with the photos so far (COLMAP needs matches to register a photo;
+// on a convex object two views up to about 90 degrees apart still share part of the surface
+// each sees): the live prediction no longer needs a close neighbour (every photo's depth comes
+// from the proxy, live_session.h), so the band is wide. With the former 30 degrees (when a
+// photo's own plane-sweep depth was its prediction geometry) the closed loop was a frontier
+// walk no faster than continuing the ring (docs/live.md). When no candidate satisfies the
+// band, max_gap doubles until one does.
 // Weight of a vertex = area * need, need in [0, 1] given by the caller.
 struct PlanOptions {
   int count = 3;
   int candidates = 200;
   double elevation_margin_degrees = 20;
   double min_gap_degrees = 8;
-  double max_gap_degrees = 30;
+  double max_gap_degrees = 90;
 };
 
 struct PlannedView {

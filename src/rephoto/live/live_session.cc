@@ -341,20 +341,23 @@ struct LiveSession::State {
             p.has_depth ? Dir("depth") / (p.name + ".bin") : fs::path()};
   }
 
-  // Every registered photo has a live depth map once a proxy exists.
-  bool HasLiveDepth(size_t) const { return proxy_model != nullptr; }
 
-  // The live depth map of photo i (see live_session.h): the proxy of the last update (envelope
-  // plus support plane, BuildModel) ray-cast at its camera (pixel centres) at the plane-sweep
-  // map's size (depth_width wide without one). Null before the first proxy. Cached per proxy.
+  // The live depth map of photo i (see live_session.h): in an object-centred capture, the
+  // proxy of the last update (envelope plus support plane, BuildModel) ray-cast at its camera
+  // (pixel centres) at the plane-sweep map's size (depth_width wide without one); otherwise
+  // (no proxy: a forward-facing capture, or no depth point yet) its plane-sweep depth. Null
+  // when it has neither. Cached per proxy.
   std::shared_ptr<const Image> LiveDepth(size_t i) {
-    if (!proxy_model) return nullptr;
     const Photo& p = photos[i];
+    auto plane = depth_cache.find(p.name);
+    if (!proxy_model) {
+      if (plane == depth_cache.end()) return nullptr;
+      return std::make_shared<const Image>(plane->second);
+    }
     auto cached = live_depth.find(p.name);
     if (cached != live_depth.end() && cached->second.proxy_id == proxy_id) return cached->second.depth;
     int w = std::min(options.depth_width, p.camera.width);
     int h = std::max(1, static_cast<int>(std::lround(double(p.camera.height) * w / p.camera.width)));
-    auto plane = depth_cache.find(p.name);
     if (plane != depth_cache.end()) {
       w = plane->second.width();
       h = plane->second.height();
@@ -367,6 +370,10 @@ struct LiveSession::State {
     live_depth[p.name] = {proxy_id, out};
     return out;
   }
+
+  // Every registered photo has a live depth map once a proxy exists; before, the ones with a
+  // plane-sweep map.
+  bool HasLiveDepth(size_t i) const { return proxy_model != nullptr || photos[i].has_depth; }
 
   // The live prediction at camera/pose: IBR from the `neighbors` registered photos nearest to
   // the pose (except `exclude`) with their live depth maps; nullopt when none has one.
@@ -388,7 +395,9 @@ struct LiveSession::State {
   }
 
   // The envelope of all plane-sweep depth maps so far; its proxy is kept for LiveDepth once it
-  // holds a depth point (with none it is a guess, and a guess predicts nothing).
+  // holds a depth point (with none it is a guess, and a guess predicts nothing) when the
+  // capture is object-centred (Envelope::converging). A capture that stops converging (a
+  // forward-facing part added) drops the proxy.
   Envelope BuildModel() {
     const std::vector<size_t> reg = Registered();
     REPHOTO_CHECK(!reg.empty(), "model: no registered photo");
@@ -402,7 +411,9 @@ struct LiveSession::State {
                         photos[i].pose, &it->second});
     }
     Envelope env = BuildEnvelope(poses, inputs, options.envelope);
-    if (env.point_count > 0 && env.ObservedFraction() > 0) {
+    // The proxy models an object-centred capture (the photos' axes converge on the object);
+    // a forward-facing capture (nearly parallel axes, e.g. fern) keeps plane-sweep depth.
+    if (env.converging && env.point_count > 0 && env.ObservedFraction() > 0) {
       // The proxy: the envelope plus the support plane's seen cells.
       mesh::Mesh proxy = env.mesh;
       const uint32_t base = static_cast<uint32_t>(proxy.positions.size());
@@ -412,6 +423,8 @@ struct LiveSession::State {
         proxy.faces.push_back({t[0] + base, t[1] + base, t[2] + base});
       proxy_model = std::make_unique<render::RenderModel>(proxy);
       ++proxy_id;
+    } else {
+      proxy_model.reset();
     }
     return env;
   }

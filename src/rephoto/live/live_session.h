@@ -20,11 +20,14 @@
 //   2. Pose: the sidecar <stem>.json (sidecar.h), else the registration engine (Registrar).
 //   3. Prediction (the live prediction, Predict below): image-based rendering
 //      (ibr/image_based_renderer.h, IBR) from the `neighbors` registered photos nearest to it
-//      (camera distance plus viewing-angle difference), each with its live depth map: the proxy
-//      of the last update (the envelope plus the support plane, live_model.h, fused from all
-//      plane-sweep depth maps) ray-cast at its camera. So a photo predicts from the moment it
-//      joins, even without a close neighbour, and one photo's stereo outliers do not reach the
-//      prediction (the proxy keeps only multi-view consistent depth). Rendered at the photo's
+//      (camera distance plus viewing-angle difference), each with its live depth map. In an
+//      object-centred capture (the photos' optical axes converge, Envelope::converging) that is
+//      the proxy of the last update (the envelope plus the support plane, live_model.h, fused
+//      from all plane-sweep depth maps) ray-cast at its camera: a photo predicts from the moment
+//      it joins, even without a close neighbour, and one photo's stereo outliers do not reach
+//      the prediction (the proxy keeps only multi-view consistent depth). In a forward-facing
+//      capture (nearly parallel axes, which the star-shaped envelope does not model) it is the
+//      photo's own plane-sweep depth map. Rendered at the photo's
 //      camera scaled to at most `predict_width` pixels wide and compared with the photo reduced
 //      to that size (compare::CompareInMemory, 1-NCC, default window): completeness (windows
 //      the prediction covers / valid photo windows) and mean 1-NCC over the covered windows.
