@@ -23,6 +23,15 @@ CommandRunner SetupLiveExperiment(CLI::App& app) {
   app.add_option("--steps", o->steps, "Photos added after the 4 start photos")->capture_default_str();
   app.add_option("--seeds", o->random_seeds, "Random sequences (median per step; 0 = none)")->capture_default_str();
   app.add_flag("!--no-ring", o->ring, "Skip the sequence continuing the ring");
+  app.add_option("--min-gap", o->plan.min_gap_degrees,
+                 "Planner: least angle (degrees, seen from the look-at point) of a suggestion from the photos")
+      ->capture_default_str();
+  app.add_option("--elevation-margin", o->plan.elevation_margin_degrees,
+                 "Planner: candidates within this many degrees of the photos' elevation range")
+      ->capture_default_str();
+  app.add_option("--max-gap", o->plan.max_gap_degrees,
+                 "Planner: largest angle of a suggestion from its nearest photo (doubled when none fits)")
+      ->capture_default_str();
   return [o, out]() {
     live::ClosedLoopOptions options = *o;
     options.work = *out;

@@ -869,7 +869,7 @@ ImageBasedRenderer ImageBasedRenderer::Ibr(std::vector<TrainingView> training,
   state->options = options;
   state->ibr = true;
   std::vector<bool> estimate;
-  for (const TrainingView& t : training) estimate.push_back(t.depth_map.empty());
+  for (const TrainingView& t : training) estimate.push_back(t.depth_map.empty() && !t.depth);
   const bool need_sweep = std::find(estimate.begin(), estimate.end(), true) != estimate.end();
   if (need_sweep) {
     REPHOTO_CHECK(training.size() >= 2,
@@ -881,7 +881,13 @@ ImageBasedRenderer ImageBasedRenderer::Ibr(std::vector<TrainingView> training,
   ParallelFor(0, static_cast<int64_t>(state->views.size()), 1, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       ViewData& v = state->views[i];
-      if (!v.info.depth_map.empty()) {
+      if (v.info.depth) {
+        REPHOTO_CHECK(v.info.depth->width() > 0 && v.info.depth->height() > 0 &&
+                          v.info.depth->channels() == 1,
+                      "image-based rendering: {}: in-memory depth map is empty or not 1 channel",
+                      v.info.name);
+        v.depth = *v.info.depth;
+      } else if (!v.info.depth_map.empty()) {
         v.depth = ReadDepthMap(v.info.depth_map);
       } else {
         v.depth = std::move(estimated[i]);

@@ -84,6 +84,10 @@ struct TrainingView {
   camera::Pose cam_from_world;
   std::filesystem::path photo;      // any format io::ReadImage reads (grey, RGB, RGBA)
   std::filesystem::path depth_map;  // optional, IBR only (depth_map_io.h); empty = estimate
+  // Optional, IBR only: an in-memory depth map (depth_map_io.h convention, any resolution),
+  // used instead of `depth_map` when set (callers that keep depth maps in memory, e.g. `rephoto
+  // live`, need not write files).
+  std::shared_ptr<const Image> depth;
 };
 
 struct ImageBasedOptions {

@@ -33,45 +33,19 @@ struct Heldout {
 };
 
 StepFigures Measure(const DemoCapture& capture, const std::vector<Heldout>& heldout,
-                    const std::vector<camera::Pose>& poses, const LiveSession& session,
-                    const fs::path& run, const fs::path& watch) {
+                    const std::vector<camera::Pose>& poses, LiveSession& session) {
   StepFigures f;
   f.unseen = UnseenObjectFraction(capture, poses);
-  const nlohmann::json api = session.Api();
-  struct P {
-    std::string name;
-    camera::Camera cam;
-    camera::Pose pose;
-  };
-  std::vector<P> photos;
-  for (const auto& p : api["photos"]) {
-    if (p["status"] != "registered" || !p.value("has_depth", false)) continue;
-    const PoseSidecar s = ParseSidecar(p.dump(), "api");
-    photos.push_back({p["name"], s.camera, s.cam_from_world});
-  }
   double e = 0, c = 0, all = 0;
   for (const Heldout& h : heldout) {
-    std::vector<std::pair<double, size_t>> ranked;
-    for (size_t i = 0; i < photos.size(); ++i) {
-      const double angle = std::acos(std::clamp(
-          photos[i].pose.ViewDirection().dot(h.pose.ViewDirection()), -1.0, 1.0));
-      ranked.push_back({(photos[i].pose.Center() - h.pose.Center()).norm() / 3.0 + angle, i});
-    }
-    std::sort(ranked.begin(), ranked.end());
-    std::vector<ibr::TrainingView> training;
-    for (size_t k = 0; k < ranked.size() && k < 6; ++k) {
-      const P& p = photos[ranked[k].second];
-      training.push_back({p.name, p.cam, p.pose, watch / p.name, run / "depth" / (p.name + ".bin")});
-    }
+    // The live prediction itself (LiveSession::Predict), as the page would show it there.
     double ce = 1, cc = 0;
-    if (!training.empty()) {
-      const ibr::ImageBasedRenderer r = ibr::ImageBasedRenderer::Ibr(std::move(training), PredictionIbrOptions());
-      const render::Rephoto rp = r.Render(capture.camera(), h.pose);
+    if (const std::optional<render::Rephoto> rp = session.Predict(capture.camera(), h.pose)) {
       compare::CompareOptions co;
       co.metrics = {metrics::Metric::kOneMinusNcc};
       compare::CompareWorkspace ws;
       const compare::ImageResult res =
-          compare::CompareInMemory(co, h.photo, rp.color, nullptr, nullptr, nullptr, &ws);
+          compare::CompareInMemory(co, h.photo, rp->color, nullptr, nullptr, nullptr, &ws);
       cc = std::isfinite(res.completeness.value) ? res.completeness.value : 0.0;
       ce = std::isfinite(res.metrics[0].mean) ? res.metrics[0].mean : 1.0;
     }
@@ -101,6 +75,7 @@ Sequence RunSequence(const std::string& name, const ClosedLoopOptions& options,
   lo.predict_width = options.width;
   lo.depth_width = std::min(options.width, 320);
   lo.candidates = options.suggest_candidates;
+  lo.plan = options.plan;
   LiveSession session(lo);
   std::vector<camera::Pose> poses;
   Sequence seq;
@@ -116,11 +91,11 @@ Sequence RunSequence(const std::string& name, const ClosedLoopOptions& options,
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   for (double a : {0.0, 20.0, 40.0, 60.0}) add(RingPose(a, 3.2, 1.5));
-  StepFigures f0 = Measure(capture, heldout, poses, session, run, watch);
+  StepFigures f0 = Measure(capture, heldout, poses, session);
   seq.steps.push_back(f0);
   for (int k = 1; k <= options.steps; ++k) {
     const double s = add(policy(session, k));
-    StepFigures f = Measure(capture, heldout, poses, session, run, watch);
+    StepFigures f = Measure(capture, heldout, poses, session);
     f.added = k;
     f.seconds = s;
     seq.steps.push_back(f);

@@ -18,7 +18,8 @@
 // Figures after each photo (all independent of the live model):
 //   unseen     the area fraction of the object's true surface that no photo sees
 //              (UnseenObjectFraction, render/visibility.h's rule on the ground-truth mesh);
-//   held-out   IBR (as the live prediction: the 6 nearest photos with their live depth maps)
+//   held-out   the live prediction (LiveSession::Predict: IBR from the 6 nearest photos with their
+//              live depth maps)
 //              rendered at the 8 held-out views and compared with the true photos there (1-NCC,
 //              compare::CompareInMemory): completeness c, error e over the covered windows, and
 //              the error of the whole view e_all = c e + (1 - c) * 1 (an uncovered window
@@ -31,6 +32,7 @@
 #include <vector>
 
 #include "rephoto/camera/camera.h"
+#include "rephoto/live/live_model.h"
 
 namespace rephoto::live {
 
@@ -43,6 +45,7 @@ struct ClosedLoopOptions {
   bool ring = true;             // run the ring sequence
   int candidates = 200;
   int suggest_candidates = 200;
+  PlanOptions plan;  // the live session's planner (count and candidates are set from above)
 };
 
 struct StepFigures {

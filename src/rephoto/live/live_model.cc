@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "rephoto/core/error.h"
@@ -39,9 +40,207 @@ bool NearestPointToAxes(const std::vector<camera::Pose>& poses, Eigen::Vector3d*
   return in_front * 2 > static_cast<int>(poses.size());
 }
 
+Eigen::Vector3d UpDirection(const std::vector<camera::Pose>& poses) {
+  // Mean of the cameras' -y axes (COLMAP cameras: y points down in the image): the sign, and
+  // the answer when the x axes are (nearly) parallel.
+  Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d xx = Eigen::Matrix3d::Zero();
+  for (const camera::Pose& p : poses) {
+    mean_up -= p.rotation.row(1).transpose();
+    const Eigen::Vector3d x = p.rotation.row(0).transpose();
+    xx += x * x.transpose();
+  }
+  if (!(mean_up.norm() > 1e-9)) return Eigen::Vector3d::UnitZ();
+  mean_up.normalize();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(xx);
+  const Eigen::Vector3d ev = solver.eigenvalues();
+  // Level cameras: every x axis is horizontal, so up is the direction orthogonal to all of
+  // them (the smallest eigenvector), well defined once two x axes differ by > ~10 degrees.
+  if (!(ev[1] > 0.03 * ev[2])) return mean_up;
+  Eigen::Vector3d up = solver.eigenvectors().col(0).normalized();
+  if (up.dot(mean_up) < 0) up = -up;
+  // Cameras that are far from level (the x axes do not share a plane) keep the mean.
+  if (!(ev[0] < 0.1 * ev[1])) return mean_up;
+  return up;
+}
+
 namespace {
 constexpr double kFacing = 0.1;  // cosine: the camera sees the direction from outside
+// Points less than this many inlier distances above the support plane are the floor's (its
+// stereo noise), not the object's.
+constexpr double kFloorBand = 3;
+// An observed radius further than this fraction from the median of its observed grid
+// neighbours' is a stereo outlier (a spike) and takes that median.
+constexpr double kSpike = 0.15;
+
+// The support plane (see live_model.h) of `points`; fills env->support and env->support_plane.
+// Returns the inlier distance when a plane was found, else 0.
+// `points` are the consistent depth points (the fit), `all` every depth point (the seen cells:
+// a point within the inlier distance of the fitted plane is evidence of the floor there).
+double FitSupportPlane(const std::vector<Eigen::Vector3d>& points,
+                       const std::vector<Eigen::Vector3d>& all,
+                       const std::vector<camera::Pose>& poses, const EnvelopeOptions& options,
+                       Envelope* env) {
+  if (points.size() < 100 || !(options.support_min_fraction <= 1)) return 0;
+  std::vector<double> dc;
+  for (const camera::Pose& p : poses) dc.push_back((p.Center() - env->center).norm());
+  std::nth_element(dc.begin(), dc.begin() + dc.size() / 2, dc.end());
+  const double tolerance = 0.005 * std::max(1e-9, dc[dc.size() / 2]);
+  const size_t step = std::max<size_t>(1, points.size() / 20000);
+  std::vector<size_t> sample;
+  for (size_t i = 0; i < points.size(); i += step) sample.push_back(i);
+  uint64_t state = 0x9e3779b97f4a7c15ull;  // fixed seed: the same plane on every run
+  auto next = [&]() {
+    state ^= state << 13;
+    state ^= state >> 7;
+    state ^= state << 17;
+    return state;
+  };
+  const double cos_up = std::cos(45 * M_PI / 180);
+  size_t best_count = 0;
+  Eigen::Vector4d best = Eigen::Vector4d::Zero();
+  for (int it = 0; it < 256; ++it) {
+    const Eigen::Vector3d& a = points[sample[next() % sample.size()]];
+    const Eigen::Vector3d& b = points[sample[next() % sample.size()]];
+    const Eigen::Vector3d& c = points[sample[next() % sample.size()]];
+    Eigen::Vector3d n = (b - a).cross(c - a);
+    if (!(n.norm() > 1e-12)) continue;
+    n.normalize();
+    if (n.dot(env->up) < 0) n = -n;
+    if (n.dot(env->up) < cos_up) continue;
+    const double d = -n.dot(a);
+    size_t count = 0;
+    for (size_t i : sample) count += std::abs(n.dot(points[i]) + d) <= tolerance;
+    if (count > best_count) {
+      best_count = count;
+      best << n, d;
+    }
+  }
+  if (best_count < options.support_min_fraction * sample.size()) return 0;
+  // Least-squares refit on the inliers (all points).
+  auto inliers = [&](const Eigen::Vector4d& plane) {
+    std::vector<size_t> in;
+    for (size_t i = 0; i < points.size(); ++i)
+      if (std::abs(plane.head<3>().dot(points[i]) + plane[3]) <= tolerance) in.push_back(i);
+    return in;
+  };
+  std::vector<size_t> in = inliers(best);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (size_t i : in) mean += points[i];
+  mean /= static_cast<double>(in.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (size_t i : in) cov += (points[i] - mean) * (points[i] - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
+  Eigen::Vector3d n = solver.eigenvectors().col(0).normalized();
+  if (n.dot(env->up) < 0) n = -n;
+  if (n.dot(env->up) < cos_up) return 0;
+  const Eigen::Vector4d plane(n.x(), n.y(), n.z(), -n.dot(mean));
+  for (const camera::Pose& p : poses)
+    if (plane.head<3>().dot(p.Center()) + plane[3] <= tolerance) return 0;  // a camera below it
+  if (plane.head<3>().dot(env->center) + plane[3] <= tolerance) return 0;  // c not above it
+  in = inliers(plane);
+  if (in.size() < options.support_min_fraction * points.size()) return 0;
+  std::vector<size_t> seen;  // cells: inliers among all points
+  for (size_t i = 0; i < all.size(); ++i)
+    if (std::abs(plane.head<3>().dot(all[i]) + plane[3]) <= tolerance) seen.push_back(i);
+  // Cells of a grid over the inliers' extent that hold >= 2 inliers, closed by one cell.
+  const Eigen::Vector3d eu = n.unitOrthogonal(), ev = n.cross(eu);
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+  for (size_t i : seen) {
+    const double u = eu.dot(all[i] - mean), v = ev.dot(all[i] - mean);
+    u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+  }
+  constexpr int kCells = 96;
+  const double cell = std::max(u1 - u0, v1 - v0) / kCells;
+  if (!(cell > 0)) return 0;
+  const int nu = std::max(1, static_cast<int>(std::ceil((u1 - u0) / cell)));
+  const int nv = std::max(1, static_cast<int>(std::ceil((v1 - v0) / cell)));
+  std::vector<int> count(static_cast<size_t>(nu) * nv, 0);
+  for (size_t i : seen) {
+    const int a = std::clamp(static_cast<int>((eu.dot(all[i] - mean) - u0) / cell), 0, nu - 1);
+    const int b = std::clamp(static_cast<int>((ev.dot(all[i] - mean) - v0) / cell), 0, nv - 1);
+    ++count[static_cast<size_t>(b) * nu + a];
+  }
+  auto morph = [&](const std::vector<uint8_t>& src, bool dilate) {
+    std::vector<uint8_t> dst(src.size());
+    for (int b = 0; b < nv; ++b)
+      for (int a = 0; a < nu; ++a) {
+        bool any = false, all = true;
+        for (int db = -1; db <= 1; ++db)
+          for (int da = -1; da <= 1; ++da) {
+            const int x = a + da, y = b + db;
+            const bool on = x >= 0 && y >= 0 && x < nu && y < nv && src[static_cast<size_t>(y) * nu + x];
+            any |= on;
+            all &= on;
+          }
+        dst[static_cast<size_t>(b) * nu + a] = dilate ? any : all;
+      }
+    return dst;
+  };
+  std::vector<uint8_t> occupied(count.size());
+  for (size_t k = 0; k < count.size(); ++k) occupied[k] = count[k] >= 2;
+  const std::vector<uint8_t> closed = morph(morph(occupied, true), false);
+  mesh::Mesh& m = env->support;
+  auto vertex = [&](int a, int b) {
+    const Eigen::Vector3d x = mean + (u0 + a * cell) * eu + (v0 + b * cell) * ev;
+    m.positions.push_back(x.cast<float>());
+    return static_cast<uint32_t>(m.positions.size() - 1);
+  };
+  std::vector<uint32_t> id(static_cast<size_t>(nu + 1) * (nv + 1), UINT32_MAX);
+  auto corner = [&](int a, int b) {
+    uint32_t& v = id[static_cast<size_t>(b) * (nu + 1) + a];
+    if (v == UINT32_MAX) v = vertex(a, b);
+    return v;
+  };
+  for (int b = 0; b < nv; ++b)
+    for (int a = 0; a < nu; ++a) {
+      if (!closed[static_cast<size_t>(b) * nu + a]) continue;
+      const uint32_t p00 = corner(a, b), p10 = corner(a + 1, b), p11 = corner(a + 1, b + 1),
+                     p01 = corner(a, b + 1);
+      m.faces.push_back({p00, p10, p11});
+      m.faces.push_back({p00, p11, p01});
+    }
+  env->support_plane = plane;
+  return tolerance;
+}
+
 }  // namespace
+
+bool ConfirmedByDepthMaps(const Eigen::Vector3d& world, const std::vector<size_t>& check,
+                          const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options) {
+  if (options.min_consistent <= 0) return true;
+  int agree = 0;
+  for (size_t j : check) {
+    const EnvelopeInput& in = depths[j];
+    const Eigen::Vector3d cam = in.cam_from_world.CamFromWorld(world);
+    if (!(cam.z() > 0)) continue;
+    const std::optional<Eigen::Vector2d> px = in.camera.ImgFromCam(cam);
+    if (!px) continue;
+    const int x = static_cast<int>(std::floor(px->x())), y = static_cast<int>(std::floor(px->y()));
+    if (x < 0 || y < 0 || x >= in.depth->width() || y >= in.depth->height()) continue;
+    const float z = in.depth->at(x, y);
+    if (!(z > 0) || !std::isfinite(z)) continue;
+    if (std::abs(z - cam.z()) <= options.consistency_tolerance * cam.z() &&
+        ++agree >= options.min_consistent)
+      return true;
+  }
+  return false;
+}
+
+std::vector<size_t> ConsistencyViews(size_t k, const std::vector<EnvelopeInput>& depths,
+                                     const EnvelopeOptions& options) {
+  std::vector<std::pair<double, size_t>> ranked;
+  for (size_t j = 0; j < depths.size(); ++j) {
+    if (j == k) continue;
+    ranked.push_back(
+        {-depths[j].cam_from_world.ViewDirection().dot(depths[k].cam_from_world.ViewDirection()), j});
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<size_t> out;
+  for (size_t r = 0; r < ranked.size() && r < static_cast<size_t>(options.consistency_views); ++r)
+    out.push_back(ranked[r].second);
+  return out;
+}
 
 Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
                        const std::vector<EnvelopeInput>& depths, const EnvelopeOptions& options) {
@@ -50,7 +249,11 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
                     options.min_points >= 1 && options.min_views >= 1,
                 "envelope: invalid options");
   // Depth points.
-  std::vector<Eigen::Vector3d> points;
+  // The views each depth map's points are checked against.
+  std::vector<std::vector<size_t>> check(depths.size());
+  for (size_t k = 0; k < depths.size() && options.min_consistent > 0; ++k)
+    check[k] = ConsistencyViews(k, depths, options);
+  std::vector<Eigen::Vector3d> points, all_points;  // consistent ones; all
   std::vector<int> source;
   std::vector<Eigen::Vector3d> seen_from;  // camera centre of each point
   for (size_t k = 0; k < depths.size(); ++k) {
@@ -65,7 +268,10 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
         const std::optional<Eigen::Vector3d> ray = in.camera.CamFromImg({x + 0.5, y + 0.5});
         if (!ray) continue;
         const Eigen::Vector3d cam = *ray / ray->z() * z;
-        points.push_back(origin + world_from_cam * cam);
+        const Eigen::Vector3d world = origin + world_from_cam * cam;
+        all_points.push_back(world);
+        if (!ConfirmedByDepthMaps(world, check[k], depths, options)) continue;
+        points.push_back(world);
         source.push_back(static_cast<int>(k));
         seen_from.push_back(origin);
       }
@@ -73,11 +279,9 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
   }
   Envelope env;
   env.point_count = points.size();
-  // Up: mean of the cameras' -y axes (COLMAP cameras: y points down in the image).
-  Eigen::Vector3d up = Eigen::Vector3d::Zero();
-  for (const camera::Pose& p : poses) up -= p.rotation.row(1).transpose();
-  env.up = up.norm() > 1e-9 ? up.normalized() : Eigen::Vector3d::UnitZ();
-  if (!NearestPointToAxes(poses, &env.center)) {
+  env.up = UpDirection(poses);
+  env.converging = NearestPointToAxes(poses, &env.center);
+  if (!env.converging) {
     if (!points.empty()) {
       for (int a = 0; a < 3; ++a) {
         std::vector<double> v;
@@ -113,9 +317,15 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
     const int s = static_cast<int>(std::lround(phi / (2 * M_PI) * cols)) % cols;
     return 1 + static_cast<size_t>(r) * cols + s;
   };
+  // The support plane first: its points (and any below it) are the floor, not the object.
+  const double floor_tolerance = FitSupportPlane(points, all_points, poses, options, &env);
+  const bool has_floor = floor_tolerance > 0;
+  const Eigen::Vector3d floor_n = env.support_plane.head<3>();
+  const double floor_d = env.support_plane[3];
   std::vector<std::vector<float>> dist(n);
   std::vector<std::set<int>> views(n);
   for (size_t i = 0; i < points.size(); ++i) {
+    if (has_floor && floor_n.dot(points[i]) + floor_d <= kFloorBand * floor_tolerance) continue;
     const Eigen::Vector3d d = points[i] - c;
     const double r = d.norm();
     if (!(r > 1e-9)) continue;
@@ -170,6 +380,31 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
       if (r + 1 < rows) link(vid(r, s), vid(r + 1, s));
     }
   }
+  // Spikes: one pass against the median of the observed grid neighbours (at least 3).
+  {
+    const std::vector<double> before = radius;
+    for (size_t v = 0; v < n; ++v) {
+      if (!env.observed[v]) continue;
+      std::vector<double> r;
+      for (size_t u : nb[v])
+        if (env.observed[u]) r.push_back(before[u]);
+      if (r.size() < 3) continue;
+      std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+      const double m = r[r.size() / 2];
+      if (std::abs(before[v] - m) > kSpike * m) radius[v] = m;
+    }
+  }
+  // Distance from c to the floor along each direction (infinite when it does not point down
+  // to it): the object stands on the floor, so the envelope does not reach below it.
+  std::vector<double> to_floor(n, std::numeric_limits<double>::infinity());
+  if (has_floor) {
+    const double height = floor_n.dot(c) + floor_d;  // > 0 (checked by FitSupportPlane)
+    for (size_t v = 0; v < n; ++v) {
+      const double down = -floor_n.dot(dir_of(v));
+      if (down > 1e-6) to_floor[v] = height / down;
+    }
+  }
+  for (size_t v = 0; v < n; ++v) radius[v] = std::min(radius[v], to_floor[v]);
   // Harmonic fill of the unobserved radii.
   if (!observed_r.empty()) {
     std::vector<double> next = radius;
@@ -178,11 +413,14 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
         if (env.observed[v]) continue;
         double sum = 0;
         for (size_t u : nb[v]) sum += radius[u];
-        next[v] = sum / nb[v].size();
+        next[v] = std::min(sum / nb[v].size(), to_floor[v]);
       }
       radius.swap(next);
     }
   }
+  // Directions that end on the floor have nothing to see (the object's contact with it).
+  for (size_t v = 0; v < n; ++v)
+    if (!env.observed[v] && radius[v] >= to_floor[v] * (1 - 1e-9)) env.observed[v] = 1;
   env.mesh.positions.resize(n);
   for (size_t v = 0; v < n; ++v) env.mesh.positions[v] = (c + radius[v] * dir_of(v)).cast<float>();
   // Faces, counter-clockwise seen from outside. With theta measured from `up` and phi turning
@@ -260,7 +498,12 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
     const double r = std::sqrt(std::max(0.0, 1 - z * z)), phi = golden * i;
     const double el = std::asin(z);
     if (el < low || el > high) continue;
-    dirs.push_back(z * up + r * (std::cos(phi) * ex + std::sin(phi) * ey));
+    const Eigen::Vector3d d = z * up + r * (std::cos(phi) * ex + std::sin(phi) * ey);
+    // Not under the support plane (a camera cannot stand below the floor).
+    if (!env.support.faces.empty() &&
+        !(env.support_plane.head<3>().dot(c + distance * d) + env.support_plane[3] > 0))
+      continue;
+    dirs.push_back(d);
   }
   // Vertex normals (area weighted) for the visibility rule.
   std::vector<Eigen::Vector3f> normals(env.mesh.positions.size(), Eigen::Vector3f::Zero());

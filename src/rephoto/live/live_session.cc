@@ -137,6 +137,10 @@ struct Photo {
   camera::Camera camera;
   camera::Pose pose;
   bool has_depth = false;
+  // Angle (degrees) between its viewing direction and its nearest other photo's when its
+  // plane-sweep depth was estimated (the depth is estimated again when a photo at under half
+  // that angle arrives); 0 = unknown.
+  double depth_gap = 0;
   bool has_error_image = false;
   std::map<std::string, double> seconds;
   std::string time;  // UTC ISO time of the record
@@ -153,6 +157,7 @@ struct Photo {
                         {"seconds", seconds},
                         {"time", time},
                         {"has_depth", has_depth},
+                        {"depth_gap", depth_gap},
                         {"has_error_image", has_error_image}};
     if (has_pose) {
       j.update(SidecarJson(camera, pose));
@@ -173,6 +178,7 @@ struct Photo {
     if (j.contains("seconds")) p.seconds = j["seconds"].get<std::map<std::string, double>>();
     p.time = j.value("time", "");
     p.has_depth = j.value("has_depth", false);
+    p.depth_gap = j["depth_gap"].is_number() ? j["depth_gap"].get<double>() : 0.0;
     p.has_error_image = j.value("has_error_image", false);
     if (j.contains("qvec")) {
       const PoseSidecar s = ParseSidecar(j.dump(), "live.jsonl: " + p.name);
@@ -196,7 +202,16 @@ struct LiveSession::State {
   mutable std::mutex mutex;  // guards photos/api/version for the HTTP threads
   std::vector<Photo> photos;                 // one per name, in arrival order
   std::map<std::string, size_t> by_name;     // name -> index into photos
-  std::map<std::string, Image> depth_cache;  // name -> depth map
+  std::map<std::string, Image> depth_cache;  // name -> plane-sweep depth map
+  // The proxy of the last update (the envelope plus the support plane, live_model.h) ready for
+  // ray casting: every photo's live depth map (LiveDepth). Null until a depth point exists.
+  std::unique_ptr<render::RenderModel> proxy_model;
+  uint64_t proxy_id = 0;
+  struct LiveDepthEntry {
+    uint64_t proxy_id = 0;
+    std::shared_ptr<const Image> depth;
+  };
+  std::map<std::string, LiveDepthEntry> live_depth;  // name -> live depth map (cache)
   std::vector<Waiting> waiting;
   nlohmann::json suggestions = nlohmann::json::array();
   nlohmann::json model = nlohmann::json::object();
@@ -281,6 +296,11 @@ struct LiveSession::State {
         }
       }
     }
+    try {
+      BuildModel();
+    } catch (const std::exception& e) {
+      LogWarning(fmt::format("resume: model not rebuilt: {}", e.what()));
+    }
   }
 
   std::vector<size_t> Registered() const {
@@ -304,7 +324,7 @@ struct LiveSession::State {
     size_t k = 0;
     for (size_t i : Registered()) {
       const double d = dist[k++];
-      if (photos[i].name == exclude || (need_depth && !photos[i].has_depth)) continue;
+      if (photos[i].name == exclude || (need_depth && !HasLiveDepth(i))) continue;
       const double angle = std::acos(std::clamp(
           photos[i].pose.ViewDirection().dot(pose.ViewDirection()), -1.0, 1.0));
       ranked.push_back({d / scale + angle, i});
@@ -321,17 +341,92 @@ struct LiveSession::State {
             p.has_depth ? Dir("depth") / (p.name + ".bin") : fs::path()};
   }
 
-  // IBR from the photos `near` rendered at camera/pose; nullopt when none has depth.
-  std::optional<render::Rephoto> RenderIbr(const std::vector<size_t>& near,
-                                           const camera::Camera& cam,
-                                           const camera::Pose& pose) const {
+
+  // The live depth map of photo i (see live_session.h): in an object-centred capture, the
+  // proxy of the last update (envelope plus support plane, BuildModel) ray-cast at its camera
+  // (pixel centres) at the plane-sweep map's size (depth_width wide without one); otherwise
+  // (no proxy: a forward-facing capture, or no depth point yet) its plane-sweep depth. Null
+  // when it has neither. Cached per proxy.
+  std::shared_ptr<const Image> LiveDepth(size_t i) {
+    const Photo& p = photos[i];
+    auto plane = depth_cache.find(p.name);
+    if (!proxy_model) {
+      if (plane == depth_cache.end()) return nullptr;
+      return std::make_shared<const Image>(plane->second);
+    }
+    auto cached = live_depth.find(p.name);
+    if (cached != live_depth.end() && cached->second.proxy_id == proxy_id) return cached->second.depth;
+    int w = std::min(options.depth_width, p.camera.width);
+    int h = std::max(1, static_cast<int>(std::lround(double(p.camera.height) * w / p.camera.width)));
+    if (plane != depth_cache.end()) {
+      w = plane->second.width();
+      h = plane->second.height();
+    }
+    const camera::Camera cam = p.camera.width == w ? p.camera : p.camera.Scaled(w, h);
+    render::RenderOptions ro;
+    ro.samples_per_pixel = 1;
+    render::Rephoto r = render::RenderRephoto(*proxy_model, cam, p.pose, ro);
+    auto out = std::make_shared<const Image>(std::move(r.depth));
+    live_depth[p.name] = {proxy_id, out};
+    return out;
+  }
+
+  // Every registered photo has a live depth map once a proxy exists; before, the ones with a
+  // plane-sweep map.
+  bool HasLiveDepth(size_t i) const { return proxy_model != nullptr || photos[i].has_depth; }
+
+  // The live prediction at camera/pose: IBR from the `neighbors` registered photos nearest to
+  // the pose (except `exclude`) with their live depth maps; nullopt when none has one.
+  std::optional<render::Rephoto> Predict(const camera::Camera& cam, const camera::Pose& pose,
+                                         const std::string& exclude) {
     std::vector<ibr::TrainingView> training;
-    for (size_t i : near)
-      if (photos[i].has_depth) training.push_back(Training(i));
+    for (size_t i : Nearest(pose, options.neighbors, true, exclude)) {
+      std::shared_ptr<const Image> d = LiveDepth(i);
+      if (!d) continue;
+      ibr::TrainingView t = Training(i);
+      t.depth_map.clear();
+      t.depth = std::move(d);
+      training.push_back(std::move(t));
+    }
     if (training.empty()) return std::nullopt;
     const ibr::ImageBasedRenderer r =
         ibr::ImageBasedRenderer::Ibr(std::move(training), PredictionIbrOptions());
     return r.Render(cam, pose);
+  }
+
+  // The envelope of all plane-sweep depth maps so far; its proxy is kept for LiveDepth once it
+  // holds a depth point (with none it is a guess, and a guess predicts nothing) when the
+  // capture is object-centred (Envelope::converging). A capture that stops converging (a
+  // forward-facing part added) drops the proxy.
+  Envelope BuildModel() {
+    const std::vector<size_t> reg = Registered();
+    REPHOTO_CHECK(!reg.empty(), "model: no registered photo");
+    std::vector<camera::Pose> poses;
+    std::vector<EnvelopeInput> inputs;
+    for (size_t i : reg) {
+      poses.push_back(photos[i].pose);
+      auto it = depth_cache.find(photos[i].name);
+      if (it == depth_cache.end()) continue;
+      inputs.push_back({photos[i].camera.Scaled(it->second.width(), it->second.height()),
+                        photos[i].pose, &it->second});
+    }
+    Envelope env = BuildEnvelope(poses, inputs, options.envelope);
+    // The proxy models an object-centred capture (the photos' axes converge on the object);
+    // a forward-facing capture (nearly parallel axes, e.g. fern) keeps plane-sweep depth.
+    if (env.converging && env.point_count > 0 && env.ObservedFraction() > 0) {
+      // The proxy: the envelope plus the support plane's seen cells.
+      mesh::Mesh proxy = env.mesh;
+      const uint32_t base = static_cast<uint32_t>(proxy.positions.size());
+      proxy.positions.insert(proxy.positions.end(), env.support.positions.begin(),
+                             env.support.positions.end());
+      for (const mesh::Triangle& t : env.support.faces)
+        proxy.faces.push_back({t[0] + base, t[1] + base, t[2] + base});
+      proxy_model = std::make_unique<render::RenderModel>(proxy);
+      ++proxy_id;
+    } else {
+      proxy_model.reset();
+    }
+    return env;
   }
 
   camera::Camera PredictCamera(const camera::Camera& cam) const {
@@ -365,25 +460,48 @@ struct LiveSession::State {
       if (finite == 0) continue;  // no neighbour at a usable angle yet: try again later
       ibr::WriteColmapDepthMap(Dir("depth") / (photos[t].name + ".bin"), d);
       depth_cache[photos[t].name] = d;
+      live_depth.erase(photos[t].name);
       std::lock_guard<std::mutex> lock(mutex);
       photos[t].has_depth = true;
+      photos[t].depth_gap = NearestGap(t);
     }
   }
+
+  // Angle (degrees) between the viewing directions of photo t and its nearest other registered
+  // photo (180 when it is alone).
+  double NearestGap(size_t t, size_t only = SIZE_MAX) const {
+    double best = 180;
+    for (size_t i : Registered()) {
+      if (i == t || (only != SIZE_MAX && i != only)) continue;
+      const double a = std::acos(std::clamp(
+          photos[i].pose.ViewDirection().dot(photos[t].pose.ViewDirection()), -1.0, 1.0));
+      best = std::min(best, a * 180 / M_PI);
+    }
+    return best;
+  }
+
+  // Photos whose plane-sweep depth was estimated without a close neighbour and for which the
+  // new photo `added` now is one (under half their recorded gap): at most kRefreshPerPhoto,
+  // the largest improvement first.
+  std::vector<size_t> RefreshTargets(size_t added) const {
+    std::vector<std::pair<double, size_t>> ranked;
+    for (size_t i : Registered()) {
+      if (i == added || !photos[i].has_depth || !(photos[i].depth_gap > 0)) continue;
+      const double gap = NearestGap(i, added);
+      if (gap < 0.5 * photos[i].depth_gap) ranked.push_back({gap / photos[i].depth_gap, i});
+    }
+    std::sort(ranked.begin(), ranked.end());
+    std::vector<size_t> out;
+    for (size_t k = 0; k < ranked.size() && k < kRefreshPerPhoto; ++k) out.push_back(ranked[k].second);
+    return out;
+  }
+  static constexpr size_t kRefreshPerPhoto = 1;
 
   void RefreshModelAndSuggestions(double* model_seconds, double* suggest_seconds) {
     const auto t0 = Clock::now();
     const std::vector<size_t> reg = Registered();
     if (reg.empty()) return;
-    std::vector<camera::Pose> poses;
-    std::vector<EnvelopeInput> inputs;
-    for (size_t i : reg) {
-      poses.push_back(photos[i].pose);
-      auto it = depth_cache.find(photos[i].name);
-      if (it == depth_cache.end()) continue;
-      inputs.push_back({photos[i].camera.Scaled(it->second.width(), it->second.height()),
-                        photos[i].pose, &it->second});
-    }
-    Envelope env = BuildEnvelope(poses, inputs, options.envelope);
+    Envelope env = BuildModel();
     // Errors of the predictions projected onto the envelope.
     std::vector<project::ProjectView> views;
     for (size_t i : reg) {
@@ -429,7 +547,7 @@ struct LiveSession::State {
     const auto t1 = Clock::now();
     // Suggestions.
     const camera::Camera& cam = photos[reg.back()].camera;
-    PlanOptions plan;
+    PlanOptions plan = options.plan;
     plan.count = options.suggestions;
     plan.candidates = options.candidates;
     std::vector<camera::Pose> taken;
@@ -457,10 +575,9 @@ struct LiveSession::State {
       j["how"] = fmt::format(
           "stand at ({:.3f}, {:.3f}, {:.3f}), look at ({:.3f}, {:.3f}, {:.3f}), camera upright",
           c.x(), c.y(), c.z(), target.x(), target.y(), target.z());
-      const std::vector<size_t> near = Nearest(s.cam_from_world, options.neighbors, true, "");
       j["has_render"] = false;
       try {
-        if (auto r = RenderIbr(near, PredictCamera(cam), s.cam_from_world)) {
+        if (auto r = Predict(PredictCamera(cam), s.cam_from_world, "")) {
           WriteRgbaPng(Dir("suggestions") / (name + ".png"), r->color);
           j["has_render"] = true;
         }
@@ -511,7 +628,12 @@ struct LiveSession::State {
         {"well_covered_fraction", total > 0 ? well / total : 0.0},
         {"well_covered_threshold", kWellCovered},
         {"unseen_area_fraction_needing_views", total > 0 ? unseen_total / total : 0.0},
-        {"center", {env.center.x(), env.center.y(), env.center.z()}}};
+        {"center", {env.center.x(), env.center.y(), env.center.z()}},
+        {"support_plane", env.support.faces.empty()
+                              ? nlohmann::json()
+                              : nlohmann::json({env.support_plane[0], env.support_plane[1],
+                                                env.support_plane[2], env.support_plane[3]})},
+        {"support_plane_cells", env.support.faces.size() / 2}};
     WriteTextFileAtomically(options.out / "model.json", model_json.dump(2) + "\n");
     *suggest_seconds = Seconds(t1);
     std::lock_guard<std::mutex> lock(mutex);
@@ -612,10 +734,9 @@ struct LiveSession::State {
     Image small = Reduce(photo, pc.width);
     if (small.height() != pc.height) small = Reduce(photo, pc.width);  // same rounding
     WriteRgbaPng(Dir("photos") / (name + ".png"), small);
-    const std::vector<size_t> near = Nearest(p.pose, options.neighbors, true, name);
     std::optional<render::Rephoto> rendered;
     try {
-      rendered = RenderIbr(near, pc, p.pose);
+      rendered = Predict(pc, p.pose, name);
     } catch (const std::exception& e) {
       p.message = fmt::format("prediction failed: {}", e.what());
     }
@@ -652,12 +773,14 @@ struct LiveSession::State {
     std::vector<size_t> targets;
     for (size_t i : Registered())
       if (!photos[i].has_depth) targets.push_back(i);
+    for (size_t i : RefreshTargets(by_name[name])) targets.push_back(i);
     try {
       EstimateDepth(targets);
     } catch (const std::exception& e) {
       LogWarning(fmt::format("{}: depth estimation failed: {}", name, e.what()));
     }
-    // Records of photos whose depth appeared now are appended again (resume keeps it).
+    // Records of photos whose depth appeared or was refreshed now are appended again (resume
+    // keeps it).
     for (size_t i : targets) {
       if (photos[i].has_depth && photos[i].name != name) Put(photos[i]);
     }
@@ -885,6 +1008,11 @@ size_t LiveSession::waiting() const { return state_->waiting.size(); }
 nlohmann::json LiveSession::Api() const {
   std::lock_guard<std::mutex> lock(state_->mutex);
   return state_->api;
+}
+
+std::optional<render::Rephoto> LiveSession::Predict(const camera::Camera& camera,
+                                                    const camera::Pose& cam_from_world) {
+  return state_->Predict(camera, cam_from_world, "");
 }
 
 uint64_t LiveSession::version() const {

@@ -18,20 +18,31 @@
 //      registration and the new content is ignored with a warning (its depth map and
 //      prediction belong to the first content).
 //   2. Pose: the sidecar <stem>.json (sidecar.h), else the registration engine (Registrar).
-//   3. Prediction: image-based rendering (ibr/image_based_renderer.h, IBR) from the
-//      `neighbors` registered photos nearest to it (camera distance plus viewing-angle
-//      difference), each with its stored plane-sweep depth map, rendered at the photo's camera
-//      scaled to at most `predict_width` pixels wide and compared with the photo reduced to
-//      that size (compare::CompareInMemory, 1-NCC, default window): completeness (windows the
-//      prediction covers / valid photo windows) and mean 1-NCC over the covered windows. The
-//      first photos have nothing to predict from: completeness 0, error null.
+//   3. Prediction (the live prediction, Predict below): image-based rendering
+//      (ibr/image_based_renderer.h, IBR) from the `neighbors` registered photos nearest to it
+//      (camera distance plus viewing-angle difference), each with its live depth map. In an
+//      object-centred capture (the photos' optical axes converge, Envelope::converging) that is
+//      the proxy of the last update (the envelope plus the support plane, live_model.h, fused
+//      from all plane-sweep depth maps) ray-cast at its camera: a photo predicts from the moment
+//      it joins, even without a close neighbour, and one photo's stereo outliers do not reach
+//      the prediction (the proxy keeps only multi-view consistent depth). In a forward-facing
+//      capture (nearly parallel axes, which the star-shaped envelope does not model) it is the
+//      photo's own plane-sweep depth map. Rendered at the photo's
+//      camera scaled to at most `predict_width` pixels wide and compared with the photo reduced
+//      to that size (compare::CompareInMemory, 1-NCC, default window): completeness (windows
+//      the prediction covers / valid photo windows) and mean 1-NCC over the covered windows.
+//      The first photos have nothing to predict from (no depth point yet): completeness 0,
+//      error null.
 //   4. Joining: its depth map by plane sweep (ibr::EstimateDepthMaps at `depth_width`) against
-//      the registered photos nearest to it, and the depth maps of registered photos that had
-//      none yet (no neighbour when they came); then the record is appended to live.jsonl.
-//   5. Model and suggestions: the envelope of all depth maps (live_model.h), the per-photo error
-//      images projected onto it (project::ProjectErrors), and suggest::SuggestViews on it with
-//      the need of unobserved envelope directions forced to 1 (they stand for unseen surface),
-//      K suggestions, each rendered by IBR from its nearest photos.
+//      the registered photos nearest to it, the depth maps of registered photos that had none
+//      yet (no neighbour when they came), and again the depth map of the one earlier photo for
+//      which the new photo is the largest improvement of its nearest neighbour (viewing
+//      direction under half the angle to its nearest neighbour when its depth was estimated);
+//      then the record is appended to live.jsonl.
+//   5. Model and suggestions: the envelope and support plane of all depth maps (live_model.h),
+//      the per-photo error images projected onto the envelope (project::ProjectErrors), and
+//      PlanNextViews on it with the need of unobserved envelope directions forced to 1 (they
+//      stand for unseen surface): K suggestions, each rendered by the live prediction.
 // Cost per photo is bounded by the neighbour counts and working widths, except the envelope
 // and the projection, which grow linearly with the photos (small: depth maps are subsampled,
 // error images are at predict_width).
@@ -99,6 +110,7 @@ struct LiveOptions {
   int neighbors = 6;        // photos per prediction / suggestion rephoto
   double blur_ratio = 0.2;  // see "blurred" above; 0 = never
   double sidecar_wait = 10; // seconds
+  PlanOptions plan;         // next views (count and candidates come from the two above)
   EnvelopeOptions envelope;
   Registrar* registrar = nullptr;  // not owned; null = sidecars only
   bool show_progress = false;
@@ -128,6 +140,13 @@ class LiveSession {
                                                 const std::string& name) const;
   // Number of state updates so far (the page polls for a change).
   uint64_t version() const;
+
+  // The live prediction at any camera and pose with the photos registered so far (the one the
+  // session uses for every new photo and for the suggestions' rephotos; see "Live prediction"
+  // above): IBR from the `neighbors` nearest registered photos, each with its live depth map.
+  // nullopt when no photo has one yet. Call from the thread that calls HandleReady.
+  std::optional<render::Rephoto> Predict(const camera::Camera& camera,
+                                         const camera::Pose& cam_from_world);
 
   struct State;
 
