@@ -1,10 +1,14 @@
 // rephoto live-experiment --out DIR [--width W --height H --steps N --seeds S] [--no-ring]
 // The closed-loop experiment of `rephoto live` on the demo scene (src/rephoto/live/closed_loop.h):
 // suggested next views against random ones and against continuing the ring. Writes
-// DIR/closed_loop.csv, DIR/closed_loop.svg and the sequences' watch/run folders.
+// DIR/closed_loop.csv, DIR/closed_loop.svg and the sequences' watch/run folders (each run folder
+// also gets closed_loop.svg, which its live page shows).
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "command.h"
 #include "rephoto/core/error.h"
@@ -37,7 +41,18 @@ CommandRunner SetupLiveExperiment(CLI::App& app) {
     options.work = *out;
     const live::ClosedLoopResult r = live::RunClosedLoop(options);
     WriteTextFileAtomically(options.work / "closed_loop.csv", live::ClosedLoopCsv(r));
-    WriteTextFileAtomically(options.work / "closed_loop.svg", live::ClosedLoopSvg(r));
+    const std::string svg = live::ClosedLoopSvg(r);
+    WriteTextFileAtomically(options.work / "closed_loop.svg", svg);
+    // Also into every sequence's run folder: its live page (`rephoto live --out RUN`) shows it.
+    std::vector<const live::Sequence*> sequences = {&r.suggested, &r.ring};
+    for (const live::Sequence& s : r.random) sequences.push_back(&s);
+    for (const live::Sequence* s : sequences) {
+      const std::filesystem::path run = options.work / s->name / "run";
+      std::error_code ec;
+      if (!s->name.empty() && std::filesystem::is_directory(run, ec)) {
+        WriteTextFileAtomically(run / "closed_loop.svg", svg);
+      }
+    }
     fmt::print("{}", live::ClosedLoopCsv(r));
     return static_cast<int>(ExitCode::kOk);
   };

@@ -5,8 +5,8 @@ Run by the ctest test live/live_browser_test, which serves a live session holdin
 photos and a non-image, and adds 2 more photos once this script writes its signal file:
     /usr/bin/python3 live_page.py http://127.0.0.1:PORT SIGNAL_FILE
 Checks: the page shows the 3 photos, the curve, the latest photo with its prediction and error
-image (decoded), and suggestions with their rephotos and poses; the non-image is listed with its
-status. Then a marker is set on `window`, the signal file is written, and within 60 s the page
+image (decoded), suggestions with their rephotos and poses, and the run's closed-loop plot
+(RUN/closed_loop.svg, written by the test); the non-image is listed with its status. Then a marker is set on `window`, the signal file is written, and within 60 s the page
 shows 5 registered photos, a 5-photo curve and the new latest photo while the marker is still
 there (the same document: no reload). /api/live has the same photos in the same order. No
 console error or uncaught exception. Exit code 0 when every check passed.
@@ -43,7 +43,10 @@ def main():
                                  i => ({cls: i.className, ok: i.complete && i.naturalWidth > 0})),
               suggestions: Array.from(document.querySelectorAll('#suggestions figure code'),
                                       c => c.textContent),
-              marker: window.__liveMarker ?? null})""")
+              marker: window.__liveMarker ?? null,
+              loop: (() => { const i = document.getElementById('closed-loop-plot');
+                             return {shown: !document.getElementById('closed-loop').hidden,
+                                     ok: !!i && i.complete && i.naturalWidth > 0}; })()})""")
 
         def wait_for(predicate, seconds):
             deadline = time.time() + seconds
@@ -66,6 +69,8 @@ def main():
               f"latest photo, prediction and error image expected, got {kinds}")
         check(all(i["ok"] for i in s["images"]), f"an image did not load: {s['images']}")
         check(len(s["suggestions"]) >= 1, "no suggestion shown")
+        check(s["loop"]["shown"] and s["loop"]["ok"],
+              f"the run's closed-loop plot is not shown: {s['loop']}")
         for text in s["suggestions"]:
             pose = json.loads(text)
             check(set(pose) == {"camera", "qvec", "tvec"} and len(pose["qvec"]) == 4,

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "rephoto/core/file.h"
+#include "rephoto/live/closed_loop.h"
 #include "rephoto/live/demo_capture.h"
 #include "rephoto/live/live_server.h"
 #include "rephoto/live/live_session.h"
@@ -44,6 +45,14 @@ TEST(LiveBrowserTest, PageUpdatesWithoutReload) {
   for (int k = 0; k < 3; ++k) drop(k);
   testing::WriteFile(watch / "notes.txt", "no photo");
   session.HandleReady("notes.txt");
+  // The plot live-experiment leaves in each run folder (two steps of made-up figures).
+  ClosedLoopResult loop;
+  for (Sequence* s : {&loop.suggested, &loop.ring, &loop.random_median}) {
+    s->name = s == &loop.suggested ? "suggested" : s == &loop.ring ? "ring" : "random_median";
+    s->steps = {StepFigures{.added = 0, .unseen = 0.5, .heldout_error_all = 0.8},
+                StepFigures{.added = 1, .unseen = 0.3, .heldout_error_all = 0.6}};
+  }
+  WriteTextFileAtomically(run / "closed_loop.svg", ClosedLoopSvg(loop));
   LiveServer server(session, run);
   const int port = server.Bind("127.0.0.1", 0);
   std::thread http([&] { server.Run(); });

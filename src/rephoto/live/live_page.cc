@@ -27,6 +27,10 @@ figure.suggestion{max-width:330px}
 <p style="font-size:.85em;color:#555"><span style="color:#c33">&#9632;</span> mean 1-NCC of the prediction (covered pixels)
 &nbsp; <span style="color:#36c">&#9632;</span> completeness (share of the photo the earlier photos predict).
 A good capture drives the error down; a low completeness means the photo saw something new.</p>
+<section id="closed-loop" hidden><h2>Closed loop this run belongs to (<code>rephoto live-experiment</code>)</h2>
+<img id="closed-loop-plot" alt="unseen surface and held-out prediction error per photo added: suggested, ring, random"
+ style="max-width:720px;background:#fff">
+</section>
 <h2>Latest photo</h2>
 <div class="row" id="latest"></div>
 <h2>Next views</h2>
@@ -112,7 +116,16 @@ function render(s) {
 async function poll() {
   try {
     const r = await fetch("/api/live", {cache: "no-store"});
-    if (r.ok) { const s = await r.json(); if (s.version !== shown) { shown = s.version; render(s); } }
+    if (r.ok) {
+      const s = await r.json();
+      // The closed-loop plot, when the run has one (set once; the section shows when it loaded).
+      const plot = document.getElementById("closed-loop-plot");
+      if (s.closed_loop_plot && !plot.getAttribute("src")) {
+        plot.onload = () => { document.getElementById("closed-loop").hidden = false; };
+        plot.src = "/files/closed_loop.svg";
+      }
+      if (s.version !== shown) { shown = s.version; render(s); }
+    }
   } catch (e) { /* the server may be restarting: try again */ }
   setTimeout(poll, 1000);
 }

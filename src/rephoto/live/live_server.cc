@@ -73,9 +73,12 @@ LiveServer::LiveServer(const LiveSession& session, const fs::path& run)
   http_->Get("/api/live", [this](const httplib::Request&, httplib::Response& res) {
     Guarded(res, [&] {
       res.set_header("Cache-Control", "no-store");
-      res.set_content(
-          session_.Api().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
-          "application/json");
+      nlohmann::json api = session_.Api();
+      // Whether RUN holds a closed-loop plot (/files/closed_loop.svg), for the page.
+      std::error_code ec;
+      api["closed_loop_plot"] = fs::is_regular_file(run_ / "closed_loop.svg", ec);
+      res.set_content(api.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
+                      "application/json");
     });
   });
   http_->Get(R"(/files/suggestions/(transforms\.json|sparse/cameras\.txt|sparse/images\.txt|sparse/points3D\.txt))",
@@ -90,6 +93,18 @@ LiveServer::LiveServer(const LiveSession& session, const fs::path& run)
                                  which.ends_with(".json") ? "application/json" : "text/plain");
                });
              });
+  // The closed-loop plot that `rephoto live-experiment` leaves in each of its runs (a fixed
+  // name inside RUN; 404 for other runs). Served with a CSP that runs no script in it.
+  http_->Get("/files/closed_loop.svg", [this](const httplib::Request&, httplib::Response& res) {
+    Guarded(res, [&] {
+      const fs::path path = run_ / "closed_loop.svg";
+      std::error_code ec;
+      if (!fs::is_regular_file(path, ec)) return SendError(res, 404, "not found");
+      res.set_header("Cache-Control", "no-store");
+      res.set_header("Content-Security-Policy", "default-src 'none'; style-src 'unsafe-inline'");
+      res.set_content(ReadFileToString(path), "image/svg+xml");
+    });
+  });
   http_->Get(R"(/files/(photo|prediction|error|suggestion)/([^/]+))",
              [this](const httplib::Request& req, httplib::Response& res) {
                Guarded(res, [&] {
