@@ -67,7 +67,9 @@ ImageResult CompareCompat(const CompareOptions& options, metrics::CompatPreset p
   double lpips_whole = 0;
   if (std::find(options.metrics.begin(), options.metrics.end(), metrics::Metric::kLpips) !=
       options.metrics.end()) {
-    lpips_whole = LpipsModelFor(options)->Compute(photo_rgb, *rendered, nullptr, lpips_map).whole;
+    lpips_whole = LpipsModelFor(options)
+                      ->Compute(photo_rgb, *rendered, nullptr, lpips_map, /*masked=*/false)
+                      .whole;
   }
   for (metrics::Metric metric : options.metrics) {
     const double value = metric == metrics::Metric::kPsnr   ? values.psnr

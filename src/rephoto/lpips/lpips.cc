@@ -243,7 +243,7 @@ void FillInput(const metrics::RgbView& view, float* out) {
 }  // namespace
 
 LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView& b,
-                               const Mask* mask, Image* spatial_map) const {
+                               const Mask* mask, Image* spatial_map, bool masked) const {
   const int width = a.width(), height = a.height();
   REPHOTO_CHECK(b.width() == width && b.height() == height,
                 "lpips: images differ in size ({}x{} and {}x{})", width, height, b.width(),
@@ -452,6 +452,10 @@ LpipsValue LpipsModel::Compute(const metrics::RgbView& a, const metrics::RgbView
 
   LpipsValue result;
   for (double m : layer_means) result.whole += m;
+  if (!masked && spatial_map == nullptr) {
+    result.masked = std::numeric_limits<double>::quiet_NaN();
+    return result;
+  }
 
   // The spatial map: each layer's map upsampled bilinearly (align_corners=False, as
   // torch.nn.Upsample(size=..., mode='bilinear')) to width x height and summed.

@@ -99,11 +99,13 @@ class LpipsModel {
   // LPIPS between `a` and `b` (same size, RGB or RGBA: alpha ignored; floats in [0,1] or 8-bit
   // v standing for v/255). `mask` (same size; nullptr or empty = all valid) selects the pixels
   // of the masked value. When `spatial_map` is not null it receives the width x height x 1
-  // spatial map. Throws Error when the sizes differ, the image is too small for the network
+  // spatial map. With `masked` false (callers that need only the whole-image value, e.g.
+  // --compat) and no `spatial_map`, the layer maps are not upsampled: masked is NaN and
+  // masked_pixels 0. Throws Error when the sizes differ, the image is too small for the network
   // (AlexNet needs at least 31x31, VGG16 16x16) or the activations would exceed the memory
   // limit.
   LpipsValue Compute(const metrics::RgbView& a, const metrics::RgbView& b, const Mask* mask,
-                     Image* spatial_map = nullptr) const;
+                     Image* spatial_map = nullptr, bool masked = true) const;
 
   struct Conv {
     int cin = 0, cout = 0, kernel = 0, stride = 1, pad = 0;

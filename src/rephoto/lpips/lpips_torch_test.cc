@@ -125,6 +125,11 @@ TEST_F(LpipsTorch, EightBitInputEqualsFloat) {
     a8.data()[4 * p + 3] = 7;
   }
   EXPECT_EQ(model->Compute(a8, b, nullptr).whole, model->Compute(a, b, nullptr).whole);
+  // Whole-image only (--compat): the same whole value, no masked one.
+  const LpipsValue whole_only = model->Compute(a, b, nullptr, nullptr, /*masked=*/false);
+  EXPECT_EQ(whole_only.whole, model->Compute(a, b, nullptr).whole);
+  EXPECT_TRUE(std::isnan(whole_only.masked));
+  EXPECT_EQ(whole_only.masked_pixels, 0u);
 }
 
 // The same bits on every thread count and every REPHOTO_ISA path (oneDNN is capped at AVX2).
