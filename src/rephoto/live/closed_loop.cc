@@ -10,6 +10,7 @@
 
 #include "rephoto/compare/compare.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/stats.h"
 #include "rephoto/ibr/image_based_renderer.h"
 #include "rephoto/live/demo_capture.h"
 #include "rephoto/live/live_session.h"
@@ -160,8 +161,7 @@ ClosedLoopResult RunClosedLoop(const ClosedLoopOptions& options) {
     auto median = [&](auto field) {
       std::vector<double> v;
       for (const Sequence& s : result.random) v.push_back(field(s.steps[k]));
-      std::sort(v.begin(), v.end());
-      return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+      return Quantile(v, 0.5);
     };
     StepFigures f;
     f.added = static_cast<int>(k);
