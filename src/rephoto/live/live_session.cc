@@ -202,7 +202,8 @@ struct LiveSession::State {
   mutable std::mutex mutex;  // guards photos/api/version for the HTTP threads
   std::vector<Photo> photos;                 // one per name, in arrival order
   std::map<std::string, size_t> by_name;     // name -> index into photos
-  std::map<std::string, Image> depth_cache;  // name -> plane-sweep depth map
+  // name -> plane-sweep depth map (shared with the predictions that use it: no copy per use)
+  std::map<std::string, std::shared_ptr<const Image>> depth_cache;
   // The proxy of the last update (the envelope plus the support plane, live_model.h) ready for
   // ray casting: every photo's live depth map (LiveDepth). Null until a depth point exists.
   std::unique_ptr<render::RenderModel> proxy_model;
@@ -289,7 +290,8 @@ struct LiveSession::State {
     for (Photo& p : photos) {
       if (p.status == "registered" && p.has_depth) {
         try {
-          depth_cache[p.name] = ibr::ReadDepthMap(Dir("depth") / (p.name + ".bin"));
+          depth_cache[p.name] =
+              std::make_shared<const Image>(ibr::ReadDepthMap(Dir("depth") / (p.name + ".bin")));
         } catch (const std::exception& e) {
           LogWarning(e.what());
           p.has_depth = false;
@@ -352,15 +354,15 @@ struct LiveSession::State {
     auto plane = depth_cache.find(p.name);
     if (!proxy_model) {
       if (plane == depth_cache.end()) return nullptr;
-      return std::make_shared<const Image>(plane->second);
+      return plane->second;
     }
     auto cached = live_depth.find(p.name);
     if (cached != live_depth.end() && cached->second.proxy_id == proxy_id) return cached->second.depth;
     int w = std::min(options.depth_width, p.camera.width);
     int h = std::max(1, static_cast<int>(std::lround(double(p.camera.height) * w / p.camera.width)));
     if (plane != depth_cache.end()) {
-      w = plane->second.width();
-      h = plane->second.height();
+      w = plane->second->width();
+      h = plane->second->height();
     }
     const camera::Camera cam = p.camera.width == w ? p.camera : p.camera.Scaled(w, h);
     render::RenderOptions ro;
@@ -407,8 +409,8 @@ struct LiveSession::State {
       poses.push_back(photos[i].pose);
       auto it = depth_cache.find(photos[i].name);
       if (it == depth_cache.end()) continue;
-      inputs.push_back({photos[i].camera.Scaled(it->second.width(), it->second.height()),
-                        photos[i].pose, &it->second});
+      inputs.push_back({photos[i].camera.Scaled(it->second->width(), it->second->height()),
+                        photos[i].pose, it->second.get()});
     }
     Envelope env = BuildEnvelope(poses, inputs, options.envelope);
     // The proxy models an object-centred capture (the photos' axes converge on the object);
@@ -453,13 +455,13 @@ struct LiveSession::State {
       o.plane_sweep.num_planes = options.depth_planes;
       o.plane_sweep.min_ncc = 0.3;
       o.sweep_min_consistent = 0;  // one view estimated at a time; IBR's fusion checks views
-      const std::vector<Image> depths = ibr::EstimateDepthMaps(views, estimate, o);
-      const Image& d = depths[0];
+      std::vector<Image> depths = ibr::EstimateDepthMaps(views, estimate, o);
+      Image& d = depths[0];
       size_t finite = 0;
       for (size_t p = 0; p < d.pixel_count(); ++p) finite += std::isfinite(d.data()[p]);
       if (finite == 0) continue;  // no neighbour at a usable angle yet: try again later
       ibr::WriteColmapDepthMap(Dir("depth") / (photos[t].name + ".bin"), d);
-      depth_cache[photos[t].name] = d;
+      depth_cache[photos[t].name] = std::make_shared<const Image>(std::move(d));
       live_depth.erase(photos[t].name);
       std::lock_guard<std::mutex> lock(mutex);
       photos[t].has_depth = true;
