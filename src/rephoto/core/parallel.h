@@ -4,14 +4,18 @@
 // chunk_end) for each, possibly concurrently; fn must only write outputs owned by its chunk.
 // ParallelSum computes per-chunk partial results and adds them in chunk order, so the result
 // is bit-for-bit identical for any thread count (chunks depend on `grain`, not on threads).
+// ParallelInvoke runs independent tasks, possibly concurrently, and returns when all are done;
+// an exception thrown by a task reaches the caller (the first one, when several throw).
 #pragma once
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/partitioner.h>
 
 #include <algorithm>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace rephoto {
@@ -53,6 +57,12 @@ Result ParallelSum(int64_t begin, int64_t end, int64_t grain, Fn&& fn) {
   Result total = partial[0];
   for (size_t i = 1; i < partial.size(); ++i) total += partial[i];
   return total;
+}
+
+// Runs fns... (at least two), possibly concurrently; each must only write what it owns.
+template <typename... Fns>
+void ParallelInvoke(Fns&&... fns) {
+  tbb::parallel_invoke(std::forward<Fns>(fns)...);
 }
 
 // Limits the number of worker threads while alive (0 = all cores).

@@ -97,8 +97,12 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
       "median, diamond mean, whiskers min and max, dots the single values.</p>\n",
       run.AcrossFolds() ? "across" : "over", unit);
   html += PlotsHtml(plots) + "</section>\n";
+  // The 3D view and the example images are independent (each decodes its own images); they are
+  // made concurrently and put into the page in this order.
   bool with_view = false;
-  if (options.view3d) {
+  std::string view_html, examples_html;
+  auto view3d = [&] {
+    if (!options.view3d) return;
     const int primary = PrimaryIndex(run, options.primary_metric);
     const std::string metric = primary >= 0 ? run.metrics[primary] : options.primary_metric;
     // A projected PLY that cannot be read costs the view, not the report.
@@ -108,7 +112,7 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
           LoadRunView3dModels(run, metric, options.view3d_thumbnail_width, options.view3d_limits);
     } catch (const Error& e) {
       LogWarning(std::string("report: no 3D view: ") + e.what());
-      html += fmt::format(
+      view_html += fmt::format(
           "<section id=\"view3d-section\"><h2>The error on the model</h2><p "
           "class=\"problems\">No 3D view: {}</p></section>\n",
           HtmlEscape(e.what()));
@@ -119,18 +123,21 @@ void WriteRunReport(const fs::path& run_dir, const fs::path& out_html,
       }
       View3dData data;
       data.models = std::move(models);
-      html += View3dSectionHtml(data, metric);
+      view_html += View3dSectionHtml(data, metric);
       with_view = true;
     }
-  }
-
+  };
   const int primary = PrimaryIndex(run, options.primary_metric);
-  if (primary >= 0 && options.example_images > 0) {
-    html += fmt::format("<section id=\"examples\"><h2>Worst and best images by {}</h2>\n",
-                        HtmlEscape(run.metrics[primary]));
-    html += ExamplesHtml(run, primary, options.example_images, options.thumbnail_width);
-    html += "</section>\n";
-  }
+  auto examples = [&] {
+    if (primary < 0 || options.example_images <= 0) return;
+    examples_html = fmt::format("<section id=\"examples\"><h2>Worst and best images by {}</h2>\n",
+                                HtmlEscape(run.metrics[primary]));
+    examples_html += ExamplesHtml(run, primary, options.example_images, options.thumbnail_width);
+    examples_html += "</section>\n";
+  };
+  ParallelInvoke(view3d, examples);
+  html += view_html;
+  html += examples_html;
   if (run.layout == run::RunLayout::kEvaluate && !run.folds.empty()) {
     html += fmt::format("<section id=\"folds\"><h2>Per fold ({})</h2>\n", run.folds.size()) +
             PerFoldTableHtml(run) + "</section>\n";
