@@ -537,6 +537,12 @@ struct LiveSession::State {
       LogWarning(fmt::format("depth estimation after refined poses failed: {}", e.what()));
     }
     for (size_t i : moved) Put(photos[i]);
+    // The proxy was fused in the old frame: fuse it again before anything is predicted.
+    try {
+      BuildModel();
+    } catch (const std::exception& e) {
+      LogWarning(fmt::format("model after refined poses not rebuilt: {}", e.what()));
+    }
     return moved;
   }
 

@@ -23,7 +23,8 @@
 //      bundle adjustment); a photo whose pose moved by more than 0.1 degree or 0.2 % of the
 //      cameras' spread (median distance of the centres from their mean), or whose focal length
 //      changed by more than 0.1 %, gets its plane-sweep depth estimated again and its record
-//      appended (resume keeps the refined pose); smaller refinements are taken without that.
+//      appended (resume keeps the refined pose), and the proxy is fused again in the new frame;
+//      smaller refinements are taken without that.
 //      The prediction of the new photo then uses the refined poses. Earlier predictions stay as
 //      they were made (they are the record of the capture).
 //   3. Prediction (the live prediction, Predict below): image-based rendering
