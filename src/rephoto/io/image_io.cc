@@ -232,13 +232,14 @@ tjhandle Decompressor() {
 }
 
 bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::string& name,
-                    Image* image, Image8* image8);
+                    Image* image, Image8* image8, int min_width);
 
 // As DecodePng: 8-bit samples into `image8` when given (returns true), else floats.
+// min_width > 0: a reduced decode (ReadImagePreview).
 bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* image,
-                Image8* image8 = nullptr) {
+                Image8* image8 = nullptr, int min_width = 0) {
   try {
-    return DecodeJpegWith(Decompressor(), bytes, name, image, image8);
+    return DecodeJpegWith(Decompressor(), bytes, name, image, image8, min_width);
   } catch (...) {
     // A decoder that failed half-way keeps state (Huffman tables, markers) that made the next,
     // valid JPEG on this thread fail with "Bogus Huffman table definition": start afresh.
@@ -248,7 +249,7 @@ bool DecodeJpeg(std::span<const uint8_t> bytes, const std::string& name, Image* 
 }
 
 bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::string& name,
-                    Image* image, Image8* image8) {
+                    Image* image, Image8* image8, int min_width) {
   REPHOTO_CHECK(tj != nullptr, "{}: cannot initialize the JPEG decoder", name);
   // TurboJPEG 2.x takes non-const buffers but does not write to them.
   auto* data = const_cast<unsigned char*>(bytes.data());
@@ -263,6 +264,22 @@ bool DecodeJpegWith(tjhandle tj, std::span<const uint8_t> bytes, const std::stri
   const bool grey = colorspace == TJCS_GRAY;
   const int channels = grey ? 1 : 3;
   CheckSize(name, "JPEG", width, height, channels, image8 != nullptr ? 1 : 5);
+  if (min_width > 0 && min_width < width) {
+    // The smallest of libjpeg-turbo's DCT scaling factors (1/8, 1/4, 3/8, 1/2, ...) that keeps
+    // at least min_width columns: the decoder then skips most of the inverse DCT work.
+    int count = 0;
+    const tjscalingfactor* factors = tjGetScalingFactors(&count);
+    int best_width = width, best_height = height;
+    for (int i = 0; factors != nullptr && i < count; ++i) {
+      const int w = TJSCALED(width, factors[i]), h = TJSCALED(height, factors[i]);
+      if (w >= min_width && w < best_width && h >= 1) {
+        best_width = w;
+        best_height = h;
+      }
+    }
+    width = best_width;
+    height = best_height;
+  }
   UninitVector<uint8_t>& pixels = PixelScratch();
   uint8_t* target = nullptr;
   if (image8 != nullptr) {
@@ -777,6 +794,22 @@ bool ReadImage8(const fs::path& path, Image8* image8, Image* image) {
 Image ReadImage(const fs::path& path) {
   Image image;
   ReadImage(path, &image);
+  return image;
+}
+
+void ReadImagePreview(const fs::path& path, int min_width, Image* image) {
+  std::vector<uint8_t>& bytes = FileScratch();
+  ReadFileBytes(path, &bytes);
+  if (min_width > 0 && DetectFormat(bytes) == Format::kJpeg) {
+    DecodeJpeg(bytes, path.string(), image, nullptr, min_width);
+  } else {
+    DecodeImage(bytes, path.string(), image);
+  }
+}
+
+Image ReadImagePreview(const fs::path& path, int min_width) {
+  Image image;
+  ReadImagePreview(path, min_width, &image);
   return image;
 }
 

@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <tinyexr.h>
+#include <fmt/format.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -250,6 +252,34 @@ TEST(ImageIo, RealPhotoFromSharedData) {
     ++count;
   }
   EXPECT_EQ(count, 32);
+}
+
+// Reduced JPEG decodes for previews equal Pillow's draft mode (libjpeg's DCT scaling) at 1/8
+// and 1/4 (testdata/make_fixtures.py); a width the photo does not exceed, or 0, gives the full
+// decode; other formats are decoded at full size.
+TEST(ImageIo, JpegPreviewMatchesPillowDraftDecode) {
+  REPHOTO_REQUIRE_DATA("bundler_kermit/kermit000.jpg");
+  const fs::path photo = testing::SharedDataDir() / "bundler_kermit/kermit000.jpg";
+  for (int width : {80, 160}) {
+    const Image preview = ReadImagePreview(photo, width);
+    const Image reference =
+        ReadPillowReference(Fixture(fmt::format("kermit000_pillow_draft_{}.txt", width)));
+    ASSERT_EQ(preview.width(), reference.width()) << width;
+    ASSERT_EQ(preview.height(), reference.height()) << width;
+    ASSERT_EQ(preview.channels(), 3);
+    size_t differing = 0;
+    for (size_t i = 0; i < preview.size(); ++i) differing += preview.data()[i] != reference.data()[i];
+    EXPECT_EQ(differing, 0u) << width;
+  }
+  // 81 columns asked for: 1/8 gives 80, so 1/4 (160 wide).
+  EXPECT_EQ(ReadImagePreview(photo, 81).width(), 160);
+  const Image full = ReadImage(photo);
+  for (int width : {0, 640, 5000}) {
+    const Image same = ReadImagePreview(photo, width);
+    ASSERT_EQ(same.width(), 640);
+    EXPECT_TRUE(std::equal(full.data(), full.data() + full.size(), same.data())) << width;
+  }
+  EXPECT_EQ(ReadImagePreview(Fixture("rgb8.png"), 2).width(), ReadImage(Fixture("rgb8.png")).width());
 }
 
 Image RandomImage(int width, int height, int channels, std::mt19937_64& rng) {

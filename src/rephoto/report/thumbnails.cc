@@ -1,5 +1,7 @@
 #include "rephoto/report/thumbnails.h"
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -27,13 +29,13 @@ void ThumbnailSize(int width, int height, int max_width, int* out_width, int* ou
       std::max(1, static_cast<int>(std::lround(static_cast<double>(height) * max_width / width)));
 }
 
-Image Shrink(const Image& image, int max_width) {
+// `image` shrunk to at most max_width wide: `image` itself when it is not wider, else `out`.
+const Image& Shrink(const Image& image, int max_width, Image* out) {
   int w = 0, h = 0;
   ThumbnailSize(image.width(), image.height(), max_width, &w, &h);
   if (w == image.width() && h == image.height()) return image;
-  Image out;
-  compare::ResizeImage(image, w, h, &out);
-  return out;
+  compare::ResizeImage(image, w, h, out);
+  return *out;
 }
 
 uint8_t ToByte(float v) {
@@ -96,37 +98,62 @@ Thumbnail Failed(const std::string& message) {
 
 }  // namespace
 
-Thumbnail PhotoThumbnail(const fs::path& photo, int width) {
+ThumbnailScratches::ThumbnailScratches()
+    : slots_(static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()))) {}
+
+ThumbnailScratch* ThumbnailScratches::Get() {
+  const int index = tbb::this_task_arena::current_thread_index();
+  REPHOTO_CHECK(index >= 0 && static_cast<size_t>(index) < slots_.size(),
+                "thumbnail scratch: thread index {} outside the arena's {} slots", index,
+                slots_.size());
+  return &slots_[static_cast<size_t>(index)];
+}
+
+Thumbnail PhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scratch) {
   if (photo.empty()) return Failed("no photo");
+  ThumbnailScratch local;
+  ThumbnailScratch& s = scratch != nullptr ? *scratch : local;
   try {
-    return Jpeg(Shrink(io::ReadImage(photo), width), photo.string());
+    // The thumbnail's size from the photo's own size; a JPEG is decoded at a reduced size of at
+    // least that width (io::ReadImagePreview), then resampled to it.
+    const io::ImageHeader header = io::ReadImageHeader(photo);
+    int w = 0, h = 0;
+    ThumbnailSize(header.width, header.height, width, &w, &h);
+    io::ReadImagePreview(photo, w, &s.decoded);
+    if (s.decoded.width() == w && s.decoded.height() == h) return Jpeg(s.decoded, photo.string());
+    compare::ResizeImage(s.decoded, w, h, &s.shrunk);
+    return Jpeg(s.shrunk, photo.string());
   } catch (const Error& e) {
     return Failed(e.what());
   }
 }
 
-void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask) {
+void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask,
+                      ThumbnailScratch* scratch) {
   if (render.empty()) {
     *rephoto = *mask = Failed("no rendering");
     return;
   }
+  ThumbnailScratch local;
+  ThumbnailScratch& s = scratch != nullptr ? *scratch : local;
   try {
-    const Image image = io::ReadImage(render);
+    io::ReadImage(render, &s.decoded);
+    const Image& image = s.decoded;
     // Coverage before shrinking: alpha, else not pure black.
     const int c = image.channels();
-    Image coverage(image.width(), image.height(), 1);
+    s.coverage.Resize(image.width(), image.height(), 1);
     for (size_t i = 0; i < image.pixel_count(); ++i) {
       const float* p = image.data() + i * c;
       if (c == 2 || c == 4) {
-        coverage.data()[i] = p[c - 1] > 0.f ? 1.f : 0.f;
+        s.coverage.data()[i] = p[c - 1] > 0.f ? 1.f : 0.f;
       } else {
         bool black = true;
         for (int k = 0; k < c; ++k) black = black && p[k] == 0.f;
-        coverage.data()[i] = black ? 0.f : 1.f;
+        s.coverage.data()[i] = black ? 0.f : 1.f;
       }
     }
-    *rephoto = Jpeg(Shrink(image, width), render.string());
-    const Image small = Shrink(coverage, width);
+    *rephoto = Jpeg(Shrink(image, width, &s.shrunk), render.string());
+    const Image& small = Shrink(s.coverage, width, &s.weighted);
     std::vector<uint8_t> grey(small.pixel_count());
     for (size_t i = 0; i < grey.size(); ++i) grey[i] = ToByte(small.data()[i]);
     mask->width = small.width();
@@ -140,22 +167,26 @@ void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thu
 }
 
 Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metric metric,
-                         int width) {
+                         int width, ThumbnailScratch* scratch) {
   std::error_code ec;
+  ThumbnailScratch local;
+  ThumbnailScratch& s = scratch != nullptr ? *scratch : local;
   try {
     if (!exr.empty() && fs::exists(exr, ec)) {
-      const Image error = io::ReadImage(exr);
+      io::ReadImage(exr, &s.decoded);
+      const Image& error = s.decoded;
       REPHOTO_CHECK(error.channels() == 1, "{}: error image has {} channels, expected 1",
                     exr.string(), error.channels());
       // NaN-aware shrinking: (value * weight, weight) with weight 1 where evaluated.
-      Image weighted(error.width(), error.height(), 2);
+      Image& weighted = s.weighted;
+      weighted.Resize(error.width(), error.height(), 2);
       for (size_t i = 0; i < error.pixel_count(); ++i) {
         const float v = error.data()[i];
         const bool ok = std::isfinite(v);
         weighted.data()[2 * i] = ok ? v : 0.f;
         weighted.data()[2 * i + 1] = ok ? 1.f : 0.f;
       }
-      const Image small = Shrink(weighted, width);
+      const Image& small = Shrink(weighted, width, &s.shrunk);
       Image values(small.width(), small.height(), 1);
       for (size_t i = 0; i < values.pixel_count(); ++i) {
         const float w = small.data()[2 * i + 1];
@@ -167,7 +198,8 @@ Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metr
       return ErrorJpeg(rgba, values.width(), values.height(), exr.string());
     }
     if (!png.empty() && fs::exists(png, ec)) {
-      const Image small = Shrink(io::ReadImage(png), width);
+      io::ReadImage(png, &s.decoded);
+      const Image& small = Shrink(s.decoded, width, &s.shrunk);
       REPHOTO_CHECK(small.channels() == 4, "{}: error PNG has {} channels, expected RGBA",
                     png.string(), small.channels());
       std::vector<uint8_t> rgba(small.size());

@@ -11,12 +11,23 @@
 // Failures never throw: a missing or unreadable file gives an empty data_uri and the reason in
 // `error` (the report shows it in place of the image).
 //
-// Thread safety: reentrant (reads the images named; no shared state).
+// Memory: each call decodes its file at full size (JPEG photos at a reduced size) into the
+// caller's ThumbnailScratch when one is given, so that a series of thumbnails reuses the same
+// buffers instead of touching fresh memory for every image (a 12 MP error image's buffers are
+// about 150 MB: page faults were half of a report's CPU); ThumbnailScratches gives one per
+// worker thread.
+//
+// Thread safety: reentrant (reads the images named; no shared state) as long as each thread
+// uses its own scratch.
 #pragma once
+
+#include <tbb/task_arena.h>
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
+#include "rephoto/core/image.h"
 #include "rephoto/metrics/metrics.h"
 
 namespace rephoto::report {
@@ -28,16 +39,43 @@ struct Thumbnail {
   int height = 0;
 };
 
-Thumbnail PhotoThumbnail(const std::filesystem::path& photo, int width);
+// The photo at most `width` wide (never enlarged). JPEG photos are decoded at a reduced size
+// (io::ReadImagePreview: DCT scaling), so a 12 MP photo costs a fraction of a full decode; the
+// thumbnail is then close to, not equal to, a resampled full decode (it is only shown).
+// Buffers reused from one thumbnail to the next (see "Memory" above); null = fresh ones.
+struct ThumbnailScratch {
+  Image decoded, coverage, weighted, shrunk;
+};
+
+// One ThumbnailScratch per worker thread of the current task arena, for a ParallelFor over
+// images: Get() is the calling thread's. The buffers are freed with this object.
+class ThumbnailScratches {
+ public:
+  ThumbnailScratches();
+  // Runs fn(scratch) with the calling thread's scratch, isolated (tbb::this_task_arena::
+  // isolate): while a nested parallel loop inside fn waits, this thread does not start another
+  // image with the same scratch.
+  template <typename Fn>
+  void With(Fn&& fn) {
+    tbb::this_task_arena::isolate([&] { fn(Get()); });
+  }
+
+ private:
+  ThumbnailScratch* Get();
+  std::vector<ThumbnailScratch> slots_;
+};
+
+Thumbnail PhotoThumbnail(const std::filesystem::path& photo, int width,
+                         ThumbnailScratch* scratch = nullptr);
 
 // The rephoto and its mask (the rephoto's alpha, or for images without alpha the pixels that
 // are not pure black, as compare/compare.h decides coverage).
 void RenderThumbnails(const std::filesystem::path& render, int width, Thumbnail* rephoto,
-                      Thumbnail* mask);
+                      Thumbnail* mask, ThumbnailScratch* scratch = nullptr);
 
 // From errors/<name>.<metric>.exr when present (exact values), else the jet PNG written next
 // to it (shrunk as colours).
 Thumbnail ErrorThumbnail(const std::filesystem::path& exr, const std::filesystem::path& png,
-                         metrics::Metric metric, int width);
+                         metrics::Metric metric, int width, ThumbnailScratch* scratch = nullptr);
 
 }  // namespace rephoto::report

@@ -234,9 +234,30 @@ def make_real_photo_samples():
             f.write("%d %d %d %d %d\n" % ((x, y) + tuple(int(v) for v in rgb[y, x])))
 
 
+def make_reduced_jpeg_references():
+    """Pillow's reduced decodes (draft mode: libjpeg's DCT scaling) of a real photo at 1/8 and 1/4
+    (1/2 is not kept: 0.7 MB of text): the reference of io::ReadImagePreview."""
+    photo = os.path.join(HERE, "../../../../../shared/data/bundler_kermit/kermit000.jpg")
+    if not os.path.exists(photo):
+        return
+    for w, h in ((80, 60), (160, 120)):
+        im = Image.open(photo)
+        im.draft("RGB", (w, h))
+        rgb = np.asarray(im.convert("RGB"))
+        assert rgb.shape == (h, w, 3), rgb.shape
+        with open(os.path.join(HERE, "kermit000_pillow_draft_%d.txt" % w), "w") as f:
+            f.write("# Pillow %s draft-mode decode of shared/data/bundler_kermit/kermit000.jpg "
+                    "at %dx%d: width height channels, then values row by row\n"
+                    % (Image.__version__, w, h))
+            f.write("%d %d %d\n" % (w, h, 3))
+            for row in rgb:
+                f.write(" ".join(str(v) for v in row.reshape(-1)) + "\n")
+
+
 if __name__ == "__main__":
     make_pngs()
     make_exrs()
     make_pfms()
     make_jpegs()
     make_real_photo_samples()
+    make_reduced_jpeg_references()
