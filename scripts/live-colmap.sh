@@ -18,7 +18,7 @@ wait $pid
 /usr/bin/python3 - "$out/run/live.json" <<'PY'
 import json, sys
 api = json.load(open(sys.argv[1]))
-keys = ["register", "resync", "predict", "depth", "model", "suggest", "total"]
+keys = ["register", "predict", "depth", "model", "suggest", "total"]
 print("photo status completeness 1-ncc " + " ".join(keys))
 for p in api["photos"]:
     s = p.get("seconds", {})

@@ -1,6 +1,5 @@
 // rephoto live --watch DIR --out RUN [--listen HOST:PORT] [--suggestions K] [--colmap]
-//              [--colmap-bundle-every N] [--predict-width W] [--depth-width W] [--neighbors N]
-//              [--blur-ratio R]
+//              [--predict-width W] [--depth-width W] [--neighbors N] [--blur-ratio R]
 //              [--sidecar-wait S] [--stable-seconds S] [--exit-when-idle S]
 // Follows DIR while photos arrive: each new photo is predicted from the earlier ones before it
 // joins them, the errors are projected onto the current model and the next views are suggested
@@ -35,7 +34,6 @@ struct LiveArguments {
   double exit_when_idle = 0;
   bool colmap = false;
   int colmap_bootstrap = 0;
-  int colmap_bundle_every = 0;
   std::string colmap_binary = "colmap";
 };
 
@@ -56,11 +54,6 @@ CommandRunner SetupLive(CLI::App& app) {
   app.add_option("--exit-when-idle", args->exit_when_idle, "Exit after this many seconds without new files (0 = run until stopped)")->capture_default_str();
   app.add_flag("--colmap", args->colmap, "Register photos without a sidecar with COLMAP (colmap_registrar.h)");
   app.add_option("--colmap-bootstrap", args->colmap_bootstrap, "Photos the initial COLMAP reconstruction waits for (0 = default)");
-  app.add_option("--colmap-bundle-every", args->colmap_bundle_every,
-                 "A global COLMAP bundle adjustment every N registered photos (0 = never; the refined "
-                 "poses reach the earlier photos, whose depth is estimated again where they moved)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
   app.add_option("--colmap-binary", args->colmap_binary, "The colmap program")->capture_default_str();
   return [args]() {
     live::LiveOptions options = args->options;
@@ -73,7 +66,6 @@ CommandRunner SetupLive(CLI::App& app) {
       co.workspace = fs::path(args->out) / "colmap";
       co.colmap = args->colmap_binary;
       if (args->colmap_bootstrap > 0) co.bootstrap = args->colmap_bootstrap;
-      co.bundle_every = args->colmap_bundle_every;
       registrar = live::MakeColmapRegistrar(co);
       options.registrar = registrar.get();
     }

@@ -97,19 +97,6 @@ class ColmapRegistrar : public Registrar {
     return r;
   }
 
-  std::vector<Placed> Poses() override {
-    std::vector<Placed> out;
-    if (!HasModel()) return out;
-    const scene::ColmapModel m = scene::ReadColmapModel(Model());
-    for (const scene::ColmapImage& im : m.images) {
-      out.push_back({im.name, m.cameras.at(im.camera_id),
-                     camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1],
-                                                  im.quaternion[2], im.quaternion[3],
-                                                  im.translation)});
-    }
-    return out;
-  }
-
   Result Lookup(const std::string& name) override {
     Result r;
     if (!HasModel()) {

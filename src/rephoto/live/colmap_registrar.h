@@ -17,15 +17,12 @@
 //      adjustment around it), point_triangulator (new tracks), and, when bundle_every > 0,
 //      every bundle_every registrations a global bundle_adjuster; the photo is registered when
 //      the model then holds it, else kFailed ("COLMAP could not register it").
-// Poses are read from W/sparse/0 (scene/colmap.h) in COLMAP's world frame; Poses() reports all
-// of them after each call, so the live session takes the poses that image_registrator's local
-// bundle adjustment (and bundle_adjuster) refined (live_session.h, "Pose"). Global bundle
-// adjustment stays off by default: it moves the whole frame (gauge and scale are free), which
-// makes every photo's plane-sweep depth be estimated again (about 0.1-0.5 s per photo at the
-// default depth width), and the earlier predictions were made in the previous frame. Measured on
-// llff_fern/images_8 before poses were propagated: with bundle_every = 10 every photo after the
-// 10th was predicted with 1-NCC 0.73-0.81 (unrelated content: the frame had moved), against
-// 0.21-0.35 before it.
+// Poses are read from W/sparse/0 (scene/colmap.h) in COLMAP's world frame. Global bundle
+// adjustment is off by default: it moves the whole frame (gauge and scale are free), and the
+// poses of earlier photos are not propagated to their stored predictions and depth maps (the
+// live model keeps the pose each photo was registered with). Measured on llff_fern/images_8:
+// with bundle_every = 10 every photo after the 10th was predicted with 1-NCC 0.73-0.81
+// (unrelated content: the frame had moved), against 0.21-0.35 before it.
 // Thread safety: one registrar per workspace, used from one thread.
 #pragma once
 

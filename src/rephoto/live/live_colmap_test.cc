@@ -3,9 +3,7 @@
 // deferred until the initial reconstruction, then placed), and a photo of another scene (the
 // demo scene) cannot register and gets the status "unregistered", not a crash. The relative
 // poses COLMAP finds are checked against the dataset's own COLMAP model up to a similarity:
-// camera-centre distance ratios agree within 10 %; the session ends with the poses of COLMAP's
-// final model (with a global bundle adjustment after every registration, its refinements reach
-// the earlier photos; without the propagation the earlier photos keep their first poses). Needs `colmap` (scripts/install-deps.sh).
+// camera-centre distance ratios agree within 10 %. Needs `colmap` (scripts/install-deps.sh).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -37,7 +35,6 @@ TEST(LiveColmapTest, ShuffledRealPhotosRegisterAndAStrangerDoesNot) {
   ColmapRegistrarOptions co;
   co.workspace = run / "colmap";
   co.bootstrap = 4;
-  co.bundle_every = 1;  // a global bundle adjustment after each registration: earlier poses move
   const std::unique_ptr<Registrar> registrar = MakeColmapRegistrar(co);
   LiveOptions o;
   o.watch = watch;
@@ -88,18 +85,6 @@ TEST(LiveColmapTest, ShuffledRealPhotosRegisterAndAStrangerDoesNot) {
   std::sort(ratios.begin(), ratios.end());
   const double median = ratios[ratios.size() / 2];
   for (double r : ratios) EXPECT_NEAR(r / median, 1.0, 0.1);
-  // The session holds the poses of COLMAP's final model (its workspace, read independently):
-  // the refinements of the local bundle adjustments reached the earlier photos.
-  const scene::ColmapModel final_model = scene::ReadColmapModel(run / "colmap" / "sparse" / "0");
-  for (const auto& im : final_model.images) {
-    ASSERT_TRUE(by.count(im.name)) << im.name;
-    const camera::Pose expected = camera::Pose::FromQuaternion(
-        im.quaternion[0], im.quaternion[1], im.quaternion[2], im.quaternion[3], im.translation);
-    const camera::Pose held = ParseSidecar(by[im.name].dump(), im.name).cam_from_world;
-    EXPECT_LT((held.Center() - expected.Center()).norm(), 1e-6) << im.name;
-    EXPECT_LT((held.rotation - expected.rotation).norm(), 1e-6) << im.name;
-  }
-  EXPECT_EQ(final_model.images.size(), names.size());
 }
 
 }  // namespace

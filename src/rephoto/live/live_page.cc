@@ -40,7 +40,7 @@ COLMAP <a href="/files/suggestions/sparse/cameras.txt">cameras.txt</a> /
 <a href="/api/live">/api/live</a> "suggestions" has the pose sidecar's shape.</p>
 <div class="row" id="suggestions"></div>
 <h2>Photos</h2>
-<table id="photos"><thead><tr><th>#</th><th>photo</th><th>status</th><th>completeness</th><th>1-NCC</th><th>seconds (register / resync / predict / depth / model / suggest)</th><th>message</th></tr></thead><tbody></tbody></table>
+<table id="photos"><thead><tr><th>#</th><th>photo</th><th>status</th><th>completeness</th><th>1-NCC</th><th>seconds (register / predict / depth / model / suggest)</th><th>message</th></tr></thead><tbody></tbody></table>
 <script>
 "use strict";
 let shown = -1;
@@ -107,7 +107,7 @@ function render(s) {
     const tr = el("tr", {"data-name": p.name, "data-status": p.status});
     const sec = p.seconds || {};
     const cells = [i + 1, p.name, p.status, pct(p.completeness), fmt(p.error, 3),
-      ["register", "resync", "predict", "depth", "model", "suggest"].map(k => fmt(sec[k], 2)).join(" / "), p.message || ""];
+      ["register", "predict", "depth", "model", "suggest"].map(k => fmt(sec[k], 2)).join(" / "), p.message || ""];
     cells.forEach((c, k) => { const td = el("td", {}, String(c));
       if (k === 2) td.className = p.status === "registered" ? "status-registered" : "bad"; tr.appendChild(td); });
     tb.appendChild(tr);

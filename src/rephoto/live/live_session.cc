@@ -299,12 +299,6 @@ struct LiveSession::State {
       }
     }
     try {
-      SyncRegistrarPoses();  // refinements after the last record (kill -9 mid-photo)
-    } catch (const std::exception& e) {
-      LogWarning(fmt::format("resume: poses not synchronised with the registration engine: {}",
-                             e.what()));
-    }
-    try {
       BuildModel();
     } catch (const std::exception& e) {
       LogWarning(fmt::format("resume: model not rebuilt: {}", e.what()));
@@ -473,77 +467,6 @@ struct LiveSession::State {
       photos[t].has_depth = true;
       photos[t].depth_gap = NearestGap(t);
     }
-  }
-
-  // The registration engine's current poses (live_session.h, "Pose"): every registered photo
-  // it placed takes its current camera and pose; the ones that moved beyond the thresholds get
-  // their plane-sweep depth estimated again and their records appended. Returns those.
-  static constexpr double kMovedDegrees = 0.1;
-  static constexpr double kMovedSpread = 0.002;
-  static constexpr double kMovedFocal = 0.001;
-  std::vector<size_t> SyncRegistrarPoses() {
-    if (!options.registrar) return {};
-    const std::vector<Registrar::Placed> placed = options.registrar->Poses();
-    if (placed.empty()) return {};
-    const std::vector<size_t> reg = Registered();
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (size_t i : reg) mean += photos[i].pose.Center();
-    if (!reg.empty()) mean /= static_cast<double>(reg.size());
-    std::vector<double> spread;
-    for (size_t i : reg) spread.push_back((photos[i].pose.Center() - mean).norm());
-    double scale = 0;
-    if (!spread.empty()) {
-      std::nth_element(spread.begin(), spread.begin() + spread.size() / 2, spread.end());
-      scale = spread[spread.size() / 2];
-    }
-    std::vector<size_t> moved;
-    for (const Registrar::Placed& q : placed) {
-      const auto it = by_name.find(q.name);
-      if (it == by_name.end()) continue;
-      Photo& p = photos[it->second];
-      if (p.status != "registered" || p.pose_source != "colmap") continue;
-      const Eigen::Matrix3d relative = q.cam_from_world.rotation * p.pose.rotation.transpose();
-      const double degrees =
-          std::acos(std::clamp((relative.trace() - 1) / 2, -1.0, 1.0)) * 180 / M_PI;
-      const double shift = (q.cam_from_world.Center() - p.pose.Center()).norm();
-      const camera::Camera cam =
-          q.camera.width == p.camera.width && q.camera.height == p.camera.height
-              ? q.camera
-              : q.camera.Scaled(p.camera.width, p.camera.height);
-      const double focal = std::abs(cam.MeanFocalLength() / p.camera.MeanFocalLength() - 1);
-      if (cam.model != p.camera.model) continue;  // one engine, one camera model
-      const bool changed = degrees > 0 || shift > 0 || cam.params != p.camera.params;
-      if (!changed) continue;
-      {
-        std::lock_guard<std::mutex> lock(mutex);
-        p.pose = q.cam_from_world;
-        p.camera = cam;
-      }
-      live_depth.erase(p.name);
-      if (degrees > kMovedDegrees || shift > kMovedSpread * scale || focal > kMovedFocal) {
-        moved.push_back(it->second);
-      }
-    }
-    if (moved.empty()) return moved;
-    for (size_t i : moved) {
-      depth_cache.erase(photos[i].name);
-      std::lock_guard<std::mutex> lock(mutex);
-      photos[i].has_depth = false;
-      photos[i].depth_gap = 0;
-    }
-    try {
-      EstimateDepth(moved);
-    } catch (const std::exception& e) {
-      LogWarning(fmt::format("depth estimation after refined poses failed: {}", e.what()));
-    }
-    for (size_t i : moved) Put(photos[i]);
-    // The proxy was fused in the old frame: fuse it again before anything is predicted.
-    try {
-      BuildModel();
-    } catch (const std::exception& e) {
-      LogWarning(fmt::format("model after refined poses not rebuilt: {}", e.what()));
-    }
-    return moved;
   }
 
   // Angle (degrees) between the viewing directions of photo t and its nearest other registered
@@ -790,13 +713,6 @@ struct LiveSession::State {
       }
     } else if (options.registrar) {
       Registrar::Result r = preset ? *preset : options.registrar->Register(options.watch / name);
-      // The engine may have refined earlier poses (bundle adjustment), also when it could not
-      // place this photo: the prediction of this photo, made in the engine's current frame, and
-      // the model need them. Timed apart from the registration ("resync").
-      const auto ts = Clock::now();
-      p.seconds["register"] = Seconds(t0);
-      const size_t moved = SyncRegistrarPoses().size();
-      if (moved > 0) p.seconds["resync"] = Seconds(ts);
       if (r.status == Registrar::Result::kDeferred) {
         deferred.push_back({name, arrival, sha, sharpness});
         return;
@@ -804,6 +720,7 @@ struct LiveSession::State {
       if (r.status != Registrar::Result::kRegistered) {
         p.status = "unregistered";
         p.message = r.message.empty() ? "the registration engine could not place it" : r.message;
+        p.seconds["register"] = Seconds(t0);
         Put(p);
         return;
       }
@@ -811,9 +728,8 @@ struct LiveSession::State {
       p.pose = r.cam_from_world;
       p.has_pose = true;
       p.pose_source = "colmap";
-    } else {
-      p.seconds["register"] = Seconds(t0);
     }
+    p.seconds["register"] = Seconds(t0);
     // Prediction from the photos before it.
     const auto t1 = Clock::now();
     const camera::Camera pc = PredictCamera(p.camera);

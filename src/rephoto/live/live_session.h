@@ -18,15 +18,6 @@
 //      registration and the new content is ignored with a warning (its depth map and
 //      prediction belong to the first content).
 //   2. Pose: the sidecar <stem>.json (sidecar.h), else the registration engine (Registrar).
-//      After every registration by the engine (and at resume) the photos it placed before take
-//      the poses and cameras it holds now (Registrar::Poses: COLMAP refines earlier poses by
-//      bundle adjustment); a photo whose pose moved by more than 0.1 degree or 0.2 % of the
-//      cameras' spread (median distance of the centres from their mean), or whose focal length
-//      changed by more than 0.1 %, gets its plane-sweep depth estimated again and its record
-//      appended (resume keeps the refined pose), and the proxy is fused again in the new frame;
-//      smaller refinements are taken without that.
-//      The prediction of the new photo then uses the refined poses. Earlier predictions stay as
-//      they were made (they are the record of the capture).
 //   3. Prediction (the live prediction, Predict below): image-based rendering
 //      (ibr/image_based_renderer.h, IBR) from the `neighbors` registered photos nearest to it
 //      (camera distance plus viewing-angle difference), each with its live depth map. In an
@@ -103,15 +94,6 @@ class Registrar {
   // The pose of a photo added before, once the engine has placed it (kRegistered), else
   // kDeferred or kFailed.
   virtual Result Lookup(const std::string& name) = 0;
-  // Every photo the engine has placed, with its current camera and pose: an engine that refines
-  // poses it returned before (COLMAP's bundle adjustments) reports the refined ones. The
-  // default (an engine that never moves a pose once returned) reports none.
-  struct Placed {
-    std::string name;
-    camera::Camera camera;
-    camera::Pose cam_from_world;
-  };
-  virtual std::vector<Placed> Poses() { return {}; }
 };
 
 // The image-based rendering settings of the predictions and suggestion rephotos.

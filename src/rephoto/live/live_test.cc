@@ -8,8 +8,6 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <map>
-#include <sstream>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
@@ -384,130 +382,6 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     EXPECT_EQ(registered, 6u);
     EXPECT_EQ(api["suggestions"].size(), 3u);  // restored from suggestions/suggestions.json
     EXPECT_GT(api["model"]["unseen_fraction"].get<double>(), 0.2);
-  }
-}
-
-
-// A registration engine that places photos at known poses and can refine them later, as
-// COLMAP's bundle adjustment does (Registrar::Poses).
-class RefiningRegistrar : public Registrar {
- public:
-  explicit RefiningRegistrar(camera::Camera camera) : camera_(std::move(camera)) {}
-  std::map<std::string, camera::Pose> truth;   // where each photo is
-  std::map<std::string, camera::Pose> placed;  // what the engine holds now
-  Result Register(const fs::path& photo) override {
-    const std::string name = photo.filename().string();
-    placed[name] = truth.at(name);
-    return Lookup(name);
-  }
-  Result Lookup(const std::string& name) override {
-    Result r;
-    auto it = placed.find(name);
-    if (it == placed.end()) return r;
-    r.status = Result::kRegistered;
-    r.camera = camera_;
-    r.cam_from_world = it->second;
-    return r;
-  }
-  std::vector<Placed> Poses() override {
-    std::vector<Placed> out;
-    for (const auto& [name, pose] : placed) out.push_back({name, camera_, pose});
-    return out;
-  }
-
- private:
-  camera::Camera camera_;
-};
-
-// `pose` turned by `degrees` about the camera's own y axis (a yaw of the camera).
-camera::Pose Yawed(const camera::Pose& pose, double degrees) {
-  camera::Pose out = pose;
-  const Eigen::Matrix3d yaw =
-      Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const Eigen::Vector3d centre = pose.Center();
-  out.rotation = yaw * pose.rotation;
-  out.translation = -out.rotation * centre;
-  return out;
-}
-
-camera::Pose PoseOf(const nlohmann::json& api, const std::string& name) {
-  for (const auto& p : api["photos"])
-    if (p["name"] == name) return ParseSidecar(p.dump(), name).cam_from_world;
-  ADD_FAILURE() << name << " not in the API";
-  return {};
-}
-
-double AngleDegrees(const camera::Pose& a, const camera::Pose& b) {
-  const Eigen::Matrix3d r = a.rotation * b.rotation.transpose();
-  return std::acos(std::clamp((r.trace() - 1) / 2, -1.0, 1.0)) * 180 / M_PI;
-}
-
-// Poses the engine refines after it returned them (bundle adjustment) reach the session at the
-// next registration: a photo moved by 0.5 degree takes the new pose, gets its depth estimated
-// again and a new record; one moved by 0.02 degree (below the 0.1 degree threshold) takes the
-// new pose without either; after a restart both poses are the engine's.
-TEST(LiveSessionTest, RefinedRegistrationPosesReachTheSession) {
-  const fs::path base = testing::MakeTempDir();
-  const fs::path watch = base / "watch", run = base / "run";
-  fs::create_directories(watch);
-  DemoCapture capture(200, 150);
-  const Eigen::Vector3d target(0, 0, 0.45);
-  RefiningRegistrar registrar(capture.camera());
-  LiveOptions o;
-  o.watch = watch;
-  o.out = run;
-  o.predict_width = 200;
-  o.depth_width = 200;
-  o.candidates = 60;
-  o.registrar = &registrar;
-  auto drop = [&](int k) {
-    const double a = k * 0.3;
-    const std::string name = fmt::format("ring_{}.png", k);
-    const camera::Pose pose = LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5}, target);
-    registrar.truth[name] = pose;
-    io::WritePng(watch / name, capture.Photograph(pose, k));  // no sidecar: the engine places it
-    return name;
-  };
-  auto records_of = [&](const std::string& name) {
-    size_t n = 0;
-    std::istringstream lines(ReadFileToString(run / "live.jsonl"));
-    for (std::string line; std::getline(lines, line);)
-      n += nlohmann::json::parse(line)["name"] == name;
-    return n;
-  };
-  const camera::Pose moved = Yawed(LookAt({3.2 * std::cos(0.3), 3.2 * std::sin(0.3), 1.5}, target), 0.5);
-  const camera::Pose nudged = Yawed(LookAt({3.2 * std::cos(0.6), 3.2 * std::sin(0.6), 1.5}, target), 0.02);
-  {
-    LiveSession session(o);
-    for (int k = 0; k < 4; ++k) session.HandleReady(drop(k));
-    for (int k = 0; k < 4; ++k)
-      ASSERT_EQ(StatusOf(session.Api(), fmt::format("ring_{}.png", k)), "registered");
-    const size_t moved_records = records_of("ring_1.png");
-    const size_t nudged_records = records_of("ring_2.png");
-    const std::string depth_before = ReadFileToString(run / "depth" / "ring_1.png.bin");
-    // The engine refines two earlier poses while it registers the next photo.
-    registrar.placed["ring_1.png"] = moved;
-    registrar.placed["ring_2.png"] = nudged;
-    session.HandleReady(drop(4));
-    const nlohmann::json api = session.Api();
-    EXPECT_EQ(StatusOf(api, "ring_4.png"), "registered");
-    EXPECT_LT(AngleDegrees(PoseOf(api, "ring_1.png"), moved), 1e-6);
-    EXPECT_LT(AngleDegrees(PoseOf(api, "ring_2.png"), nudged), 1e-6);
-    EXPECT_LT((PoseOf(api, "ring_1.png").Center() - moved.Center()).norm(), 1e-6);
-    // Moved: depth again (a new depth map) and a record with the refined pose.
-    EXPECT_EQ(records_of("ring_1.png"), moved_records + 1);
-    EXPECT_TRUE(ReadFileToString(run / "depth" / "ring_1.png.bin") != depth_before)
-        << "ring_1's depth map was not estimated again";
-    // Nudged: the pose only.
-    EXPECT_EQ(records_of("ring_2.png"), nudged_records);
-  }
-  {
-    LiveSession session(o);  // resume: the records, then the engine's current poses
-    const nlohmann::json api = session.Api();
-    EXPECT_LT(AngleDegrees(PoseOf(api, "ring_1.png"), moved), 1e-6);
-    EXPECT_LT(AngleDegrees(PoseOf(api, "ring_2.png"), nudged), 1e-6);
-    for (int k = 0; k < 5; ++k)
-      EXPECT_EQ(StatusOf(api, fmt::format("ring_{}.png", k)), "registered");
   }
 }
 
