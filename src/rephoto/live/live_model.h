@@ -146,7 +146,9 @@ namespace rephoto::live {
 // photo's own plane-sweep depth was its prediction geometry) the closed loop was a frontier
 // walk no faster than continuing the ring (docs/live.md). When no candidate satisfies the
 // band, max_gap doubles until one does.
-// Weight of a vertex = area * need, need in [0, 1] given by the caller.
+// Weight of a vertex = area * need, need in [0, 1] given by the caller; need >= 1 marks unseen
+// surface. Once no candidate newly sees enough unseen surface, the choice is by view-space
+// coverage instead (PlanOptions::unseen_exhausted_fraction).
 struct PlanOptions {
   int count = 3;
   int candidates = 200;

@@ -575,6 +575,7 @@ struct LiveSession::State {
       j["unseen_area_fraction"] = total > 0 ? s.unseen_area / total : 0.0;
       j["visible_vertices"] = s.visible_vertices;
       j["chosen_by"] = s.view_coverage ? "view_coverage" : "surface";
+      j["coverage_gain_degrees"] = s.coverage_gain * 180 / M_PI;
       j["how"] = fmt::format(
           "stand at ({:.3f}, {:.3f}, {:.3f}), look at ({:.3f}, {:.3f}, {:.3f}), camera upright",
           c.x(), c.y(), c.z(), target.x(), target.y(), target.z());

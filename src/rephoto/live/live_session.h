@@ -42,7 +42,8 @@
 //   5. Model and suggestions: the envelope and support plane of all depth maps (live_model.h),
 //      the per-photo error images projected onto the envelope (project::ProjectErrors), and
 //      PlanNextViews on it with the need of unobserved envelope directions forced to 1 (they
-//      stand for unseen surface): K suggestions, each rendered by the live prediction.
+//      stand for unseen surface; once those are used up, by view-space coverage, see
+//      PlanOptions): K suggestions, each rendered by the live prediction.
 // Cost per photo is bounded by the neighbour counts and working widths, except the envelope
 // and the projection, which grow linearly with the photos (small: depth maps are subsampled,
 // error images are at predict_width).

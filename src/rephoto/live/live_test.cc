@@ -410,6 +410,8 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     EXPECT_GE(nearest, 8 - 0.5);
     EXPECT_LE(nearest, 90 + 0.5);
     EXPECT_GT(api["suggestions"][0]["unseen_area_fraction"].get<double>(), 0.0);
+    // One side photographed: the first suggestion is for the unseen surface.
+    EXPECT_EQ(api["suggestions"][0]["chosen_by"], "surface");
     EXPECT_TRUE(fs::exists(run / "suggestions" / "sparse" / "images.txt"));
     EXPECT_TRUE(fs::exists(run / "suggestions" / "transforms.json"));
     EXPECT_TRUE(fs::exists(run / "model.ply"));
