@@ -542,6 +542,7 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
   const double partner = options.stereo_partner_degrees * M_PI / 180;
   // Sum over the target directions of the angle to the nearest photo among `ph` that has another
   // photo of `ph` within `partner` (every photo when partner is 0); pi when there is none.
+  // (Nearest = largest cosine; one acos per target.)
   auto gap_sum = [&](const std::vector<Eigen::Vector3d>& ph) {
     std::vector<uint8_t> counts(ph.size(), 1);
     if (partner > 0)
@@ -552,10 +553,10 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
       }
     double sum = 0;
     for (size_t j : targets) {
-      double g = M_PI;
+      double best_cos = -2;
       for (size_t a = 0; a < ph.size(); ++a)
-        if (counts[a]) g = std::min(g, angle(dirs[j], ph[a]));
-      sum += g;
+        if (counts[a]) best_cos = std::max(best_cos, dirs[j].dot(ph[a]));
+      sum += best_cos < -1.5 ? M_PI : std::acos(std::clamp(best_cos, -1.0, 1.0));
     }
     return sum;
   };
