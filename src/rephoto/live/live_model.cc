@@ -540,10 +540,9 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
     return std::acos(std::clamp(a.dot(b), -1.0, 1.0));
   };
   const double partner = options.stereo_partner_degrees * M_PI / 180;
-  // Sum over the target directions of the angle to the nearest photo among `ph` that has another
-  // photo of `ph` within `partner` (every photo when partner is 0); pi when there is none.
-  // (Nearest = largest cosine; one acos per target.)
-  auto gap_sum = [&](const std::vector<Eigen::Vector3d>& ph) {
+  // Whether each photo of `ph` counts for view-space coverage: it has another photo of `ph`
+  // within `partner` (every photo when partner is 0).
+  auto partnered = [&](const std::vector<Eigen::Vector3d>& ph) {
     std::vector<uint8_t> counts(ph.size(), 1);
     if (partner > 0)
       for (size_t a = 0; a < ph.size(); ++a) {
@@ -551,6 +550,11 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
         for (size_t b = 0; b < ph.size() && !counts[a]; ++b)
           if (a != b && angle(ph[a], ph[b]) <= partner) counts[a] = 1;
       }
+    return counts;
+  };
+  // Sum over the target directions of the angle to the nearest photo of `ph` that counts; pi
+  // when none does. (Nearest = largest cosine; one acos per target.)
+  auto gap_sum = [&](const std::vector<Eigen::Vector3d>& ph, const std::vector<uint8_t>& counts) {
     double sum = 0;
     for (size_t j : targets) {
       double best_cos = -2;
@@ -587,15 +591,26 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
       if (band.empty()) continue;
       const bool exhausted = options.unseen_exhausted_fraction > 0 &&
                              best_unseen < options.unseen_exhausted_fraction * total_area;
-      const double gap_now = exhausted ? gap_sum(taken) : 0.0;
+      std::vector<uint8_t> counts_now;
+      double gap_now = 0;
+      if (exhausted) {
+        counts_now = partnered(taken);
+        gap_now = gap_sum(taken, counts_now);
+      }
       double best = -1, best_s = -1;
       size_t best_k = 0;
       for (size_t i = 0; i < band.size(); ++i) {
         double key = surface_score[i];
         if (exhausted) {
+          // The photos with the candidate added: it partners the photos within `partner` of
+          // it, and counts itself when it has one (cost linear in the photos per candidate).
           std::vector<Eigen::Vector3d> with = taken;
           with.push_back(dirs[band[i]]);
-          key = gap_now - gap_sum(with);
+          std::vector<uint8_t> counts = counts_now;
+          counts.push_back(partner > 0 ? 0 : 1);
+          for (size_t a = 0; partner > 0 && a < taken.size(); ++a)
+            if (angle(taken[a], with.back()) <= partner) counts[a] = counts.back() = 1;
+          key = gap_now - gap_sum(with, counts);
         }
         // Ties (e.g. no coverage gain anywhere) go to the larger surface score.
         if (key > best || (key == best && surface_score[i] > best_s)) {
