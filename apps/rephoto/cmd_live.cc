@@ -34,6 +34,7 @@ struct LiveArguments {
   double exit_when_idle = 0;
   bool colmap = false;
   int colmap_bootstrap = 0;
+  int colmap_bundle_every = 0;
   std::string colmap_binary = "colmap";
 };
 
@@ -54,6 +55,9 @@ CommandRunner SetupLive(CLI::App& app) {
   app.add_option("--exit-when-idle", args->exit_when_idle, "Exit after this many seconds without new files (0 = run until stopped)")->capture_default_str();
   app.add_flag("--colmap", args->colmap, "Register photos without a sidecar with COLMAP (colmap_registrar.h)");
   app.add_option("--colmap-bootstrap", args->colmap_bootstrap, "Photos the initial COLMAP reconstruction waits for (0 = default)");
+  app.add_option("--colmap-bundle-every", args->colmap_bundle_every,
+                 "Global COLMAP bundle adjustment every N registrations (0 = never; refined poses are taken over)")
+      ->capture_default_str();
   app.add_option("--colmap-binary", args->colmap_binary, "The colmap program")->capture_default_str();
   return [args]() {
     live::LiveOptions options = args->options;
@@ -66,6 +70,7 @@ CommandRunner SetupLive(CLI::App& app) {
       co.workspace = fs::path(args->out) / "colmap";
       co.colmap = args->colmap_binary;
       if (args->colmap_bootstrap > 0) co.bootstrap = args->colmap_bootstrap;
+      co.bundle_every = args->colmap_bundle_every;
       registrar = live::MakeColmapRegistrar(co);
       options.registrar = registrar.get();
     }

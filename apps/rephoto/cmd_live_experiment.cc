@@ -36,6 +36,13 @@ CommandRunner SetupLiveExperiment(CLI::App& app) {
   app.add_option("--max-gap", o->plan.max_gap_degrees,
                  "Planner: largest angle of a suggestion from its nearest photo (doubled when none fits)")
       ->capture_default_str();
+  app.add_option("--unseen-exhausted", o->plan.unseen_exhausted_fraction,
+                 "Planner: once no candidate sees unseen surface worth this fraction of the model, "
+                 "choose by view-space coverage (0 = never)")
+      ->capture_default_str();
+  app.add_option("--stereo-partner", o->plan.stereo_partner_degrees,
+                 "Planner, view-space coverage: a photo counts once another lies within this many degrees (0 = always)")
+      ->capture_default_str();
   return [o, out]() {
     live::ClosedLoopOptions options = *o;
     options.work = *out;

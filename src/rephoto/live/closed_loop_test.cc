@@ -2,8 +2,9 @@
 // 4 start photos, 8 more, random sequences as the median of 5 seeds. Asserts the part of the
 // acceptance criterion that holds (docs/live.md, "Closed loop"): from the 4th added photo on,
 // the suggested sequence leaves less of the object's true surface unseen than the ring and the
-// random median, at every step. The held-out prediction part does not hold (the ring and random
-// are lower at some steps) and is not asserted; its figures are printed. The unseen fraction is
+// random median, at every step. The held-out prediction part holds at 320 x 240 (docs/live.md,
+// about 70 s) but not at this size, where every sequence's prediction is poor (depth maps 160
+// pixels wide) and their order is noise; it is not asserted, its figures are printed. The unseen fraction is
 // ground-truth visibility (UnseenObjectFraction on the demo mesh), independent of the live model.
 #include <gtest/gtest.h>
 

@@ -118,6 +118,19 @@ class ColmapRegistrar : public Registrar {
     return r;
   }
 
+  std::vector<Placed> AllPlaced() override {
+    std::vector<Placed> out;
+    if (!HasModel()) return out;
+    const scene::ColmapModel m = scene::ReadColmapModel(Model());
+    for (const scene::ColmapImage& im : m.images) {
+      out.push_back({im.name, m.cameras.at(im.camera_id),
+                     camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1],
+                                                  im.quaternion[2], im.quaternion[3],
+                                                  im.translation)});
+    }
+    return out;
+  }
+
  private:
   std::string Db() const { return (o_.workspace / "database.db").string(); }
   std::string Images() const { return (o_.workspace / "images").string(); }

@@ -17,12 +17,13 @@
 //      adjustment around it), point_triangulator (new tracks), and, when bundle_every > 0,
 //      every bundle_every registrations a global bundle_adjuster; the photo is registered when
 //      the model then holds it, else kFailed ("COLMAP could not register it").
-// Poses are read from W/sparse/0 (scene/colmap.h) in COLMAP's world frame. Global bundle
-// adjustment is off by default: it moves the whole frame (gauge and scale are free), and the
-// poses of earlier photos are not propagated to their stored predictions and depth maps (the
-// live model keeps the pose each photo was registered with). Measured on llff_fern/images_8:
-// with bundle_every = 10 every photo after the 10th was predicted with 1-NCC 0.73-0.81
-// (unrelated content: the frame had moved), against 0.21-0.35 before it.
+// Poses are read from W/sparse/0 (scene/colmap.h) in COLMAP's world frame. AllPlaced returns
+// every photo of that model with its current pose: image_registrator's local bundle adjustment
+// and a global bundle_adjuster refine the poses of photos placed earlier, and the session takes
+// them over (live_session.h, pose_update.h). Global bundle adjustment is off by default (it
+// moves the whole frame: gauge and scale are free). Before the poses were taken over, with
+// bundle_every = 10 every fern photo after the 10th was predicted with 1-NCC 0.73-0.81
+// (unrelated content: the frame had moved), against 0.21-0.35 without it (docs/live.md).
 // Thread safety: one registrar per workspace, used from one thread.
 #pragma once
 

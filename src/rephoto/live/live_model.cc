@@ -522,32 +522,108 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
     seen[k] = suggest::VisibleVertices(surface, normals, camera, poses[k], &field);
   }
   std::vector<double> weight(need.size());
-  for (size_t v = 0; v < need.size(); ++v) weight[v] = env.area[v] * need[v];
+  double total_area = 0;
+  for (size_t v = 0; v < need.size(); ++v) {
+    weight[v] = env.area[v] * need[v];
+    total_area += env.area[v];
+  }
+  // View-space coverage (see PlanOptions::unseen_exhausted_fraction). Target directions: the
+  // candidates within the photos' elevation range, widened by half the candidates' spacing so
+  // that photos all at one elevation still have some.
+  const double half_spacing = 0.5 * std::sqrt(4 * M_PI / options.candidates);
+  std::vector<size_t> targets;
+  for (size_t j = 0; j < dirs.size(); ++j) {
+    const double el = std::asin(std::clamp(dirs[j].dot(up), -1.0, 1.0));
+    if (el >= el_lo - half_spacing && el <= el_hi + half_spacing) targets.push_back(j);
+  }
+  auto angle = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return std::acos(std::clamp(a.dot(b), -1.0, 1.0));
+  };
+  const double partner = options.stereo_partner_degrees * M_PI / 180;
+  // Whether each photo of `ph` counts for view-space coverage: it has another photo of `ph`
+  // within `partner` (every photo when partner is 0).
+  auto partnered = [&](const std::vector<Eigen::Vector3d>& ph) {
+    std::vector<uint8_t> counts(ph.size(), 1);
+    if (partner > 0)
+      for (size_t a = 0; a < ph.size(); ++a) {
+        counts[a] = 0;
+        for (size_t b = 0; b < ph.size() && !counts[a]; ++b)
+          if (a != b && angle(ph[a], ph[b]) <= partner) counts[a] = 1;
+      }
+    return counts;
+  };
+  // Sum over the target directions of the angle to the nearest photo of `ph` that counts; pi
+  // when none does. (Nearest = largest cosine; one acos per target.)
+  auto gap_sum = [&](const std::vector<Eigen::Vector3d>& ph, const std::vector<uint8_t>& counts) {
+    double sum = 0;
+    for (size_t j : targets) {
+      double best_cos = -2;
+      for (size_t a = 0; a < ph.size(); ++a)
+        if (counts[a]) best_cos = std::max(best_cos, dirs[j].dot(ph[a]));
+      sum += best_cos < -1.5 ? M_PI : std::acos(std::clamp(best_cos, -1.0, 1.0));
+    }
+    return sum;
+  };
   std::vector<PlannedView> out;
   std::vector<uint8_t> used(dirs.size(), 0);
   for (int pick = 0; pick < options.count; ++pick) {
     for (double max_gap = options.max_gap_degrees; max_gap <= 180; max_gap *= 2) {
       const double cos_min = std::cos(options.min_gap_degrees * M_PI / 180);
       const double cos_max = std::cos(max_gap * M_PI / 180);
-      double best = -1;
-      size_t best_k = 0;
+      std::vector<size_t> band;
+      std::vector<double> surface_score;
+      double best_unseen = 0;
       for (size_t k = 0; k < dirs.size(); ++k) {
         if (used[k]) continue;
         double nearest = -1;
         for (const Eigen::Vector3d& t : taken) nearest = std::max(nearest, dirs[k].dot(t));
         if (nearest > cos_min || nearest < cos_max) continue;
-        double s = 0;
-        for (size_t v = 0; v < weight.size(); ++v)
-          if (seen[k][v]) s += weight[v];
-        if (s > best) {
-          best = s;
-          best_k = k;
+        double s = 0, u = 0;
+        for (size_t v = 0; v < weight.size(); ++v) {
+          if (!seen[k][v]) continue;
+          s += weight[v];
+          if (need[v] >= 1 && weight[v] > 0) u += env.area[v];
+        }
+        band.push_back(k);
+        surface_score.push_back(s);
+        best_unseen = std::max(best_unseen, u);
+      }
+      if (band.empty()) continue;
+      const bool exhausted = options.unseen_exhausted_fraction > 0 &&
+                             best_unseen < options.unseen_exhausted_fraction * total_area;
+      std::vector<uint8_t> counts_now;
+      double gap_now = 0;
+      if (exhausted) {
+        counts_now = partnered(taken);
+        gap_now = gap_sum(taken, counts_now);
+      }
+      double best = -1, best_s = -1;
+      size_t best_k = 0;
+      for (size_t i = 0; i < band.size(); ++i) {
+        double key = surface_score[i];
+        if (exhausted) {
+          // The photos with the candidate added: it partners the photos within `partner` of
+          // it, and counts itself when it has one (cost linear in the photos per candidate).
+          std::vector<Eigen::Vector3d> with = taken;
+          with.push_back(dirs[band[i]]);
+          std::vector<uint8_t> counts = counts_now;
+          counts.push_back(partner > 0 ? 0 : 1);
+          for (size_t a = 0; partner > 0 && a < taken.size(); ++a)
+            if (angle(taken[a], with.back()) <= partner) counts[a] = counts.back() = 1;
+          key = gap_now - gap_sum(with, counts);
+        }
+        // Ties (e.g. no coverage gain anywhere) go to the larger surface score.
+        if (key > best || (key == best && surface_score[i] > best_s)) {
+          best = key;
+          best_s = surface_score[i];
+          best_k = band[i];
         }
       }
-      if (best < 0) continue;
       PlannedView pv;
       pv.cam_from_world = poses[best_k];
-      pv.score = best;
+      pv.score = best_s;
+      pv.view_coverage = exhausted;
+      if (exhausted) pv.coverage_gain = targets.empty() ? 0.0 : best / targets.size();
       for (size_t v = 0; v < weight.size(); ++v) {
         if (!seen[best_k][v]) continue;
         ++pv.visible_vertices;

@@ -146,13 +146,28 @@ namespace rephoto::live {
 // photo's own plane-sweep depth was its prediction geometry) the closed loop was a frontier
 // walk no faster than continuing the ring (docs/live.md). When no candidate satisfies the
 // band, max_gap doubles until one does.
-// Weight of a vertex = area * need, need in [0, 1] given by the caller.
+// Weight of a vertex = area * need, need in [0, 1] given by the caller; need >= 1 marks unseen
+// surface. Once no candidate newly sees enough unseen surface, the choice is by view-space
+// coverage instead (PlanOptions::unseen_exhausted_fraction).
 struct PlanOptions {
   int count = 3;
   int candidates = 200;
   double elevation_margin_degrees = 20;
   double min_gap_degrees = 8;
   double max_gap_degrees = 90;
+  // View-space coverage once the unseen surface is used up. While some candidate newly sees
+  // unobserved envelope area (need 1, not yet covered by an earlier pick) of at least this
+  // fraction of the envelope's area, the choice is by need-weighted area as above. After that,
+  // each candidate is scored by how much it closes the gaps of view space: the decrease of the
+  // sum, over the target directions (the candidates within the photos' elevation range, widened
+  // by half the candidates' spacing), of the angle to the nearest photo taken or suggested
+  // before it that has a stereo partner (another photo within stereo_partner_degrees; 0 = every
+  // photo counts). The live prediction's error grows with the angle from a view to the photos
+  // it is rendered from, and a photo without a close partner gets poor plane-sweep depth (the
+  // proxy keeps only multi-view consistent depth), so an isolated photo covers nothing until a
+  // partner is taken. 0 = never (surface only). docs/live.md has the measurements.
+  double unseen_exhausted_fraction = 0.12;
+  double stereo_partner_degrees = 25;
 };
 
 struct PlannedView {
@@ -160,6 +175,8 @@ struct PlannedView {
   double score = 0;           // weight it added when chosen
   double unseen_area = 0;     // area of need-1 vertices it newly sees
   size_t visible_vertices = 0;
+  bool view_coverage = false;  // chosen by view-space coverage (unseen surface used up)
+  double coverage_gain = 0;    // then: mean decrease of the target directions' gap (radians)
 };
 
 std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const Envelope& env,

@@ -141,6 +141,9 @@ struct Photo {
   // plane-sweep depth was estimated (the depth is estimated again when a photo at under half
   // that angle arrives); 0 = unknown.
   double depth_gap = 0;
+  // Its pose was refined by the registration engine after the depth map was estimated
+  // (live_session.h): the map (scaled with the frame) is used until it is estimated again.
+  bool depth_stale = false;
   bool has_error_image = false;
   std::map<std::string, double> seconds;
   std::string time;  // UTC ISO time of the record
@@ -158,6 +161,7 @@ struct Photo {
                         {"time", time},
                         {"has_depth", has_depth},
                         {"depth_gap", depth_gap},
+                        {"depth_stale", depth_stale},
                         {"has_error_image", has_error_image}};
     if (has_pose) {
       j.update(SidecarJson(camera, pose));
@@ -179,6 +183,7 @@ struct Photo {
     p.time = j.value("time", "");
     p.has_depth = j.value("has_depth", false);
     p.depth_gap = j["depth_gap"].is_number() ? j["depth_gap"].get<double>() : 0.0;
+    p.depth_stale = j.value("depth_stale", false);
     p.has_error_image = j.value("has_error_image", false);
     if (j.contains("qvec")) {
       const PoseSidecar s = ParseSidecar(j.dump(), "live.jsonl: " + p.name);
@@ -465,6 +470,7 @@ struct LiveSession::State {
       live_depth.erase(photos[t].name);
       std::lock_guard<std::mutex> lock(mutex);
       photos[t].has_depth = true;
+      photos[t].depth_stale = false;
       photos[t].depth_gap = NearestGap(t);
     }
   }
@@ -498,6 +504,7 @@ struct LiveSession::State {
     return out;
   }
   static constexpr size_t kRefreshPerPhoto = 1;
+  static constexpr size_t kStalePerPhoto = 4;
 
   void RefreshModelAndSuggestions(double* model_seconds, double* suggest_seconds) {
     const auto t0 = Clock::now();
@@ -574,6 +581,8 @@ struct LiveSession::State {
       j["score"] = s.score;
       j["unseen_area_fraction"] = total > 0 ? s.unseen_area / total : 0.0;
       j["visible_vertices"] = s.visible_vertices;
+      j["chosen_by"] = s.view_coverage ? "view_coverage" : "surface";
+      j["coverage_gain_degrees"] = s.coverage_gain * 180 / M_PI;
       j["how"] = fmt::format(
           "stand at ({:.3f}, {:.3f}, {:.3f}), look at ({:.3f}, {:.3f}, {:.3f}), camera upright",
           c.x(), c.y(), c.z(), target.x(), target.y(), target.z());
@@ -655,6 +664,68 @@ struct LiveSession::State {
   };
   std::vector<Deferred> deferred;  // photos the registration engine could not place yet
 
+  // Poses refined by the registration engine (live_session.h, "Poses refined by the engine"):
+  // the engine-placed photos whose pose or camera changed take the new ones; their depth maps
+  // are scaled with the frame or dropped for re-estimation (pose_update.h). Returns true when
+  // something changed (the caller rebuilds the proxy).
+  bool TakeRefinedPoses() {
+    if (!options.registrar) return false;
+    const std::vector<Registrar::Placed> placed = options.registrar->AllPlaced();
+    std::map<std::string, const Registrar::Placed*> by;
+    for (const Registrar::Placed& q : placed) by[q.name] = &q;
+    std::vector<size_t> index;
+    std::vector<camera::Pose> before, after;
+    for (size_t i : Registered()) {
+      if (photos[i].pose_source != "colmap") continue;
+      const auto it = by.find(photos[i].name);
+      if (it == by.end()) continue;
+      index.push_back(i);
+      before.push_back(photos[i].pose);
+      after.push_back(it->second->cam_from_world);
+    }
+    if (index.empty()) return false;
+    const std::vector<PoseChange> changes = ComparePoses(before, after, options.pose_update);
+    bool any = false;
+    for (size_t k = 0; k < index.size(); ++k) {
+      Photo p = photos[index[k]];
+      const Registrar::Placed& q = *by.at(p.name);
+      const double pose_delta =
+          std::max((q.cam_from_world.rotation - p.pose.rotation).cwiseAbs().maxCoeff(),
+                   (q.cam_from_world.translation - p.pose.translation).norm() /
+                       std::max(1e-12, p.pose.translation.norm() + 1));
+      double camera_delta = q.camera.model == p.camera.model && q.camera.width == p.camera.width &&
+                                    q.camera.height == p.camera.height &&
+                                    q.camera.params.size() == p.camera.params.size()
+                                ? 0.0
+                                : 1.0;
+      for (size_t j = 0; camera_delta < 1 && j < p.camera.params.size(); ++j)
+        camera_delta = std::max(camera_delta, std::abs(q.camera.params[j] - p.camera.params[j]) /
+                                                  std::max(1.0, std::abs(p.camera.params[j])));
+      if (pose_delta < 1e-12 && camera_delta < 1e-12) continue;
+      any = true;
+      p.pose = q.cam_from_world;
+      p.camera = q.camera;
+      const auto d = depth_cache.find(p.name);
+      // A focal length or principal point moved by more than 0.5 % changes the depth as much as
+      // a pose refinement does. A stale map is still scaled and used until the join steps of
+      // the next photos estimate it again (dropping it would leave the next prediction without
+      // depth after a global bundle adjustment).
+      if (d != depth_cache.end() && (changes[k].refresh_depth || camera_delta > 0.005))
+        p.depth_stale = true;
+      if (d != depth_cache.end() && std::abs(changes[k].scale - 1) > 1e-12) {
+        Image scaled = *d->second;
+        const float f = static_cast<float>(changes[k].scale);
+        for (size_t px = 0; px < scaled.pixel_count() * scaled.channels(); ++px)
+          scaled.data()[px] *= f;  // NaN (unknown) stays NaN
+        ibr::WriteColmapDepthMap(Dir("depth") / (p.name + ".bin"), scaled);
+        d->second = std::make_shared<const Image>(std::move(scaled));
+      }
+      live_depth.erase(p.name);
+      Put(p);
+    }
+    return any;
+  }
+
   // Photos the engine deferred: looked up again (in arrival order) after a registration.
   void RetryDeferred() {
     if (!options.registrar) return;
@@ -728,6 +799,13 @@ struct LiveSession::State {
       p.pose = r.cam_from_world;
       p.has_pose = true;
       p.pose_source = "colmap";
+      // The engine may have refined the earlier photos' poses (bundle adjustment): take them
+      // over before this photo is predicted from them, in the frame its own pose is in.
+      try {
+        if (TakeRefinedPoses()) BuildModel();
+      } catch (const std::exception& e) {
+        LogWarning(fmt::format("{}: refined poses not taken over: {}", name, e.what()));
+      }
     }
     p.seconds["register"] = Seconds(t0);
     // Prediction from the photos before it.
@@ -776,6 +854,16 @@ struct LiveSession::State {
     for (size_t i : Registered())
       if (!photos[i].has_depth) targets.push_back(i);
     for (size_t i : RefreshTargets(by_name[name])) targets.push_back(i);
+    // Depth maps made stale by refined poses: at most kStalePerPhoto per photo, oldest first.
+    size_t stale = 0;
+    for (size_t i : Registered()) {
+      if (stale == kStalePerPhoto) break;
+      if (photos[i].has_depth && photos[i].depth_stale &&
+          std::find(targets.begin(), targets.end(), i) == targets.end()) {
+        targets.push_back(i);
+        ++stale;
+      }
+    }
     try {
       EstimateDepth(targets);
     } catch (const std::exception& e) {

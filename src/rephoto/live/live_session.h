@@ -42,7 +42,15 @@
 //   5. Model and suggestions: the envelope and support plane of all depth maps (live_model.h),
 //      the per-photo error images projected onto the envelope (project::ProjectErrors), and
 //      PlanNextViews on it with the need of unobserved envelope directions forced to 1 (they
-//      stand for unseen surface): K suggestions, each rendered by the live prediction.
+//      stand for unseen surface; once those are used up, by view-space coverage, see
+//      PlanOptions): K suggestions, each rendered by the live prediction.
+// Poses refined by the engine: after each photo the registration engine placed (and before
+// that photo is predicted), the poses of all engine-placed photos (not sidecar ones) are read
+// again (Registrar::AllPlaced) and taken over when they changed. pose_update.h tells the frame's
+// move (a similarity: each depth map is multiplied by its scale) from a photo's own refinement
+// (moved more than 1 % of the cameras' spread or turned more than 0.5 degrees: its depth map is
+// dropped and estimated again with the photo's next join step). The proxy is rebuilt before the
+// prediction, and the changed photos' records are appended again (resume keeps the new poses).
 // Cost per photo is bounded by the neighbour counts and working widths, except the envelope
 // and the projection, which grow linearly with the photos (small: depth maps are subsampled,
 // error images are at predict_width).
@@ -74,6 +82,7 @@
 #include "rephoto/camera/camera.h"
 #include "rephoto/ibr/image_based_renderer.h"
 #include "rephoto/live/live_model.h"
+#include "rephoto/live/pose_update.h"
 
 namespace rephoto::live {
 
@@ -94,6 +103,16 @@ class Registrar {
   // The pose of a photo added before, once the engine has placed it (kRegistered), else
   // kDeferred or kFailed.
   virtual Result Lookup(const std::string& name) = 0;
+  // Every photo the engine has placed, with its current camera and pose. An engine that
+  // refines poses after placing a photo (bundle adjustment) returns the refined ones; the
+  // session takes them over after each registration (see "Poses refined by the engine" in
+  // LiveSession). Empty (the default): the engine never changes a pose it gave.
+  struct Placed {
+    std::string name;
+    camera::Camera camera;
+    camera::Pose cam_from_world;
+  };
+  virtual std::vector<Placed> AllPlaced() { return {}; }
 };
 
 // The image-based rendering settings of the predictions and suggestion rephotos.
@@ -112,6 +131,7 @@ struct LiveOptions {
   double sidecar_wait = 10; // seconds
   PlanOptions plan;         // next views (count and candidates come from the two above)
   EnvelopeOptions envelope;
+  PoseUpdateOptions pose_update;  // when the engine's refined poses need new depth maps
   Registrar* registrar = nullptr;  // not owned; null = sidecars only
   bool show_progress = false;
   void Check() const;

@@ -17,6 +17,7 @@
 #include "rephoto/live/live_session.h"
 #include "rephoto/live/sidecar.h"
 #include "rephoto/live/watcher.h"
+#include "rephoto/render/render_model.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::live {
@@ -151,6 +152,51 @@ TEST(EnvelopeTest, UpFromLevelCamerasLookingDownFromOneSide) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto& p : poses) mean -= p.rotation.row(1).transpose();
   EXPECT_LT(mean.normalized().z(), std::cos(10 * M_PI / 180));
+}
+
+TEST(PlanTest, ViewCoverageGivesALonePhotoItsPartnerFirst) {
+  // No unseen surface left (need 0 everywhere): the planner chooses by view-space coverage.
+  // Photos at azimuths 0, 20, 40 (partners of each other) and 180 (alone), all 18 degrees up.
+  // With a stereo partner within 25 degrees required, the lone photo covers nothing until a
+  // photo is taken beside it, so the first suggestion lies within 25 degrees of it. With every
+  // photo counting (partner 0), the largest gap of view space is the side between 180 and 360
+  // degrees, so the suggestion lies there, at least 45 degrees from every photo.
+  const Eigen::Vector3d target(0, 0, 0.45);
+  std::vector<camera::Pose> poses;
+  std::vector<Eigen::Vector3d> dirs;
+  for (double a : {0.0, 20.0, 40.0, 180.0}) {
+    const double r = a * M_PI / 180;
+    poses.push_back(LookAt({3.2 * std::cos(r), 3.2 * std::sin(r), 1.5}, target));
+    dirs.push_back((poses.back().Center() - target).normalized());
+  }
+  const Envelope env = BuildEnvelope(poses, {}, EnvelopeOptions());
+  ASSERT_NEAR((env.center - target).norm(), 0.0, 1e-6);
+  const render::RenderModel surface(env.mesh);
+  const camera::Camera cam{camera::CameraModel::kPinhole, 160, 120, {160, 160, 80, 60}};
+  auto plan = [&](double partner, float need_value) {
+    PlanOptions o;
+    o.count = 1;
+    o.stereo_partner_degrees = partner;
+    const std::vector<float> need(env.mesh.positions.size(), need_value);
+    const std::vector<PlannedView> p = PlanNextViews(surface, env, need, poses, cam, o);
+    EXPECT_EQ(p.size(), 1u);
+    return p.empty() ? PlannedView() : p[0];
+  };
+  auto degrees_to = [&](const PlannedView& v, size_t k) {
+    const Eigen::Vector3d d = (v.cam_from_world.Center() - target).normalized();
+    return std::acos(std::clamp(d.dot(dirs[k]), -1.0, 1.0)) * 180 / M_PI;
+  };
+  const PlannedView paired = plan(25, 0.f);
+  EXPECT_TRUE(paired.view_coverage);
+  EXPECT_GT(paired.coverage_gain, 0);
+  EXPECT_LE(degrees_to(paired, 3), 25.0);
+  const PlannedView open = plan(0, 0.f);
+  EXPECT_TRUE(open.view_coverage);
+  for (size_t k = 0; k < dirs.size(); ++k) EXPECT_GE(degrees_to(open, k), 45.0) << k;
+  const Eigen::Vector3d c = open.cam_from_world.Center() - target;
+  EXPECT_LT(c.y(), 0);  // between 180 and 360 degrees
+  // All surface unseen (need 1): the surface rule chooses, not view coverage.
+  EXPECT_FALSE(plan(25, 1.f).view_coverage);
 }
 
 TEST(EnvelopeTest, ObjectOnAFloorGivesSupportPlaneAndNoSpikes) {
@@ -364,6 +410,8 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     EXPECT_GE(nearest, 8 - 0.5);
     EXPECT_LE(nearest, 90 + 0.5);
     EXPECT_GT(api["suggestions"][0]["unseen_area_fraction"].get<double>(), 0.0);
+    // One side photographed: the first suggestion is for the unseen surface.
+    EXPECT_EQ(api["suggestions"][0]["chosen_by"], "surface");
     EXPECT_TRUE(fs::exists(run / "suggestions" / "sparse" / "images.txt"));
     EXPECT_TRUE(fs::exists(run / "suggestions" / "transforms.json"));
     EXPECT_TRUE(fs::exists(run / "model.ply"));

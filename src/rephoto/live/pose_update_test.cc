@@ -1,0 +1,252 @@
+// Poses refined by the registration engine (pose_update.h, live_session.h): the frame's move
+// (a similarity) against a photo's own refinement, closed form; and a session whose engine moves
+// the whole frame (and turns one photo) between two photos takes the new poses over: the
+// records hold them, depth maps are scaled with the frame or estimated again, and the next
+// photo is predicted in the new frame.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "rephoto/ibr/depth_map_io.h"
+#include "rephoto/live/demo_capture.h"
+#include "rephoto/live/live_session.h"
+#include "rephoto/live/pose_update.h"
+#include "rephoto/testing/testing.h"
+
+namespace rephoto::live {
+namespace {
+namespace fs = std::filesystem;
+
+// The pose after the world moves by X' = s Q X + t (the camera frame scales with it):
+// R' = R Q^T, T' = s T - R Q^T t, so that C' = s Q C + t.
+camera::Pose Moved(const camera::Pose& p, double s, const Eigen::Matrix3d& Q,
+                   const Eigen::Vector3d& t) {
+  camera::Pose m;
+  m.rotation = p.rotation * Q.transpose();
+  m.translation = s * p.translation - m.rotation * t;
+  return m;
+}
+
+// A pose turned by `degrees` about its own vertical axis (centre kept).
+camera::Pose Turned(const camera::Pose& p, double degrees) {
+  const Eigen::Vector3d c = p.Center();
+  camera::Pose m;
+  m.rotation = Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+               p.rotation;
+  m.translation = -m.rotation * c;
+  return m;
+}
+
+std::vector<camera::Pose> Ring(int n) {
+  std::vector<camera::Pose> poses;
+  for (int k = 0; k < n; ++k) {
+    const double a = k * 2 * M_PI / n;
+    poses.push_back(LookAt({3 * std::cos(a), 3 * std::sin(a), 1 + 0.2 * std::sin(3 * a)},
+                           {0, 0, 0.4}));
+  }
+  return poses;
+}
+
+const Eigen::Matrix3d kQ =
+    (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
+        .toRotationMatrix();
+const Eigen::Vector3d kT(1, -2, 0.5);
+
+TEST(PoseUpdateTest, FrameMoveIsAScaleAndNoRefresh) {
+  const std::vector<camera::Pose> before = Ring(8);
+  std::vector<camera::Pose> after;
+  for (const auto& p : before) after.push_back(Moved(p, 1.7, kQ, kT));
+  const std::vector<PoseChange> c = ComparePoses(before, after);
+  ASSERT_EQ(c.size(), 8u);
+  for (const PoseChange& x : c) {
+    EXPECT_NEAR(x.scale, 1.7, 1e-9);
+    EXPECT_NEAR(x.moved, 0, 1e-9);
+    EXPECT_NEAR(x.rotated_degrees, 0, 1e-5);
+    EXPECT_FALSE(x.refresh_depth);
+  }
+}
+
+TEST(PoseUpdateTest, OnePhotoTurnedOrMovedIsRefreshed) {
+  const std::vector<camera::Pose> before = Ring(12);
+  std::vector<camera::Pose> after;
+  for (const auto& p : before) after.push_back(Moved(p, 0.6, kQ, kT));
+  // Photo 3 turns by 2 degrees about its centre: the centres (and so the similarity) are
+  // unchanged, its residual rotation is exactly 2 degrees.
+  after[3] = Turned(after[3], 2.0);
+  // Photo 7's centre moves by 5 % of the centres' RMS spread (the spread of a ring of radius
+  // 3 * 0.6 with small height changes is about 1.8).
+  std::vector<PoseChange> c = ComparePoses(before, after);
+  EXPECT_NEAR(c[3].rotated_degrees, 2.0, 1e-6);
+  EXPECT_TRUE(c[3].refresh_depth);
+  for (size_t i = 0; i < c.size(); ++i)
+    if (i != 3) {
+      EXPECT_FALSE(c[i].refresh_depth) << i;
+    }
+  double spread = 0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : after) mean += p.Center() / 12.0;
+  for (const auto& p : after) spread += (p.Center() - mean).squaredNorm() / 12.0;
+  spread = std::sqrt(spread);
+  const Eigen::Vector3d c7 = after[7].Center() + Eigen::Vector3d(0, 0, 0.05 * spread);
+  after[7].translation = -after[7].rotation * c7;
+  c = ComparePoses(before, after);
+  // The least-squares similarity absorbs a share of the move (about 1/12 of it).
+  EXPECT_GT(c[7].moved, 0.04);
+  EXPECT_TRUE(c[7].refresh_depth);
+  for (size_t i = 0; i < c.size(); ++i)
+    if (i != 3 && i != 7) {
+      EXPECT_FALSE(c[i].refresh_depth) << i << " moved " << c[i].moved;
+    }
+  EXPECT_NE(testing::ErrorOf([&] { ComparePoses(before, {}); }), "");
+}
+
+// An engine that returns the poses of a table (the test moves them between photos).
+class TableRegistrar : public Registrar {
+ public:
+  std::map<std::string, Placed> table;
+  std::set<std::string> added;
+  Result Register(const fs::path& photo) override {
+    added.insert(photo.filename().string());
+    return Lookup(photo.filename().string());
+  }
+  Result Lookup(const std::string& name) override {
+    Result r;
+    const auto it = table.find(name);
+    if (it == table.end() || !added.count(name)) {
+      r.message = "unknown";
+      return r;
+    }
+    r.status = Result::kRegistered;
+    r.camera = it->second.camera;
+    r.cam_from_world = it->second.cam_from_world;
+    return r;
+  }
+  std::vector<Placed> AllPlaced() override {
+    std::vector<Placed> out;
+    for (const auto& [name, p] : table)
+      if (added.count(name)) out.push_back(p);
+    return out;
+  }
+};
+
+TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
+  const fs::path base = testing::MakeTempDir();
+  const fs::path watch = base / "watch", run = base / "run";
+  fs::create_directories(watch);
+  DemoCapture capture(240, 180);
+  const Eigen::Vector3d target(0, 0, 0.45);
+  TableRegistrar engine;
+  LiveOptions o;
+  o.watch = watch;
+  o.out = run;
+  o.predict_width = 240;
+  o.depth_width = 240;
+  o.candidates = 60;
+  o.suggestions = 1;
+  o.registrar = &engine;
+  std::vector<camera::Pose> truth;
+  for (int k = 0; k < 7; ++k) {
+    const double a = k * 0.3;
+    truth.push_back(LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5 - 0.1 * (k % 2)}, target));
+  }
+  auto name = [](int k) { return fmt::format("p{}.png", k); };
+  auto drop = [&](int k) {
+    capture.Drop(watch, fmt::format("p{}", k), truth[k], k);
+    fs::remove(watch / fmt::format("p{}.json", k));  // no sidecar: the engine places it
+  };
+  auto find = [](const nlohmann::json& api, const std::string& n) {
+    for (const auto& p : api["photos"])
+      if (p["name"] == n) return p;
+    return nlohmann::json();
+  };
+  const double s = 2.0;
+  std::map<std::string, Image> old_depth;
+  {
+    LiveSession session(o);
+    for (int k = 0; k < 6; ++k) {
+      engine.table[name(k)] = {name(k), capture.camera(), truth[k]};
+      drop(k);
+      session.HandleReady(name(k));
+    }
+    for (int k = 0; k < 6; ++k) {
+      const fs::path d = run / "depth" / (name(k) + ".bin");
+      ASSERT_TRUE(fs::exists(d)) << name(k);
+      old_depth[name(k)] = ibr::ReadDepthMap(d);
+    }
+    // The engine's bundle adjustment: the whole frame moves (scale 2, turned, shifted), and
+    // photo 2 turns by 1 degree more (a refinement of that photo against the others).
+    for (int k = 0; k < 7; ++k)
+      engine.table[name(k)] = {name(k), capture.camera(), Moved(truth[k], s, kQ, kT)};
+    engine.table[name(2)].cam_from_world = Turned(engine.table[name(2)].cam_from_world, 1.0);
+    // The next photo arrives in the new frame.
+    drop(6);
+    session.HandleReady(name(6));
+    const nlohmann::json api = session.Api();
+    for (int k = 0; k < 7; ++k) {
+      const nlohmann::json p = find(api, name(k));
+      ASSERT_FALSE(p.is_null()) << name(k);
+      EXPECT_EQ(p["status"], "registered") << name(k) << " " << p["message"];
+      const camera::Pose want = engine.table[name(k)].cam_from_world;
+      const Eigen::Vector4d q = want.Quaternion();
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(p["tvec"][i].get<double>(), want.translation[i], 1e-9);
+      for (int i = 0; i < 4; ++i) EXPECT_NEAR(p["qvec"][i].get<double>(), q[i], 1e-9);
+      EXPECT_TRUE(p["has_depth"].get<bool>()) << name(k);
+      EXPECT_FALSE(p["depth_stale"].get<bool>()) << name(k);  // photo 2 estimated again
+    }
+    // Photos that only moved with the frame: depth x 2 (camera-frame z scales with it).
+    for (int k : {0, 1, 3, 4, 5}) {
+      const Image d = ibr::ReadDepthMap(run / "depth" / (name(k) + ".bin"));
+      const Image& b = old_depth[name(k)];
+      ASSERT_EQ(d.pixel_count(), b.pixel_count());
+      size_t finite = 0;
+      for (size_t i = 0; i < d.pixel_count(); ++i) {
+        if (!std::isfinite(b.data()[i])) {
+          EXPECT_FALSE(std::isfinite(d.data()[i]));
+          continue;
+        }
+        ++finite;
+        EXPECT_NEAR(d.data()[i], s * b.data()[i], 1e-5 * s * b.data()[i]);
+      }
+      EXPECT_GT(finite, 100u) << name(k);
+    }
+    // Photo 2 was estimated again in the new frame: about twice as deep, but not the old map
+    // scaled (its pose changed relative to the others).
+    {
+      const Image d = ibr::ReadDepthMap(run / "depth" / (name(2) + ".bin"));
+      const Image& b = old_depth[name(2)];
+      double ratio_sum = 0;
+      size_t n = 0, differ = 0;
+      for (size_t i = 0; i < d.pixel_count(); ++i) {
+        if (!std::isfinite(b.data()[i]) || !std::isfinite(d.data()[i])) continue;
+        ratio_sum += d.data()[i] / b.data()[i];
+        ++n;
+        differ += std::abs(d.data()[i] - s * b.data()[i]) > 1e-4 * s * b.data()[i];
+      }
+      ASSERT_GT(n, 100u);
+      EXPECT_NEAR(ratio_sum / n, s, 0.2);
+      EXPECT_GT(differ, n / 10);
+    }
+    // The new photo is predicted from the earlier ones in the new frame.
+    const nlohmann::json last = find(api, name(6));
+    std::printf("p6 after the frame moved: completeness %.3f, 1-NCC %.3f\n",
+                last["completeness"].get<double>(), last["error"].get<double>());
+    EXPECT_GT(last["completeness"].get<double>(), 0.3);
+    EXPECT_LT(last["error"].get<double>(), 0.6);
+  }
+  // A restart keeps the new poses.
+  LiveSession resumed(o);
+  const nlohmann::json api = resumed.Api();
+  for (int k = 0; k < 7; ++k) {
+    const nlohmann::json p = find(api, name(k));
+    const camera::Pose want = engine.table[name(k)].cam_from_world;
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(p["tvec"][i].get<double>(), want.translation[i], 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace rephoto::live
