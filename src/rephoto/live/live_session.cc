@@ -304,6 +304,11 @@ struct LiveSession::State {
       }
     }
     try {
+      TakeRefinedPoses();  // refinements after the last record (a kill -9 mid-photo)
+    } catch (const std::exception& e) {
+      LogWarning(fmt::format("resume: refined poses not taken over: {}", e.what()));
+    }
+    try {
       BuildModel();
     } catch (const std::exception& e) {
       LogWarning(fmt::format("resume: model not rebuilt: {}", e.what()));
@@ -784,6 +789,14 @@ struct LiveSession::State {
       }
     } else if (options.registrar) {
       Registrar::Result r = preset ? *preset : options.registrar->Register(options.watch / name);
+      // The engine may have refined the earlier photos' poses (bundle adjustment), also in a
+      // call that could not place this photo: take them over before this photo is predicted
+      // from them, in the frame its own pose is in.
+      try {
+        if (TakeRefinedPoses()) BuildModel();
+      } catch (const std::exception& e) {
+        LogWarning(fmt::format("{}: refined poses not taken over: {}", name, e.what()));
+      }
       if (r.status == Registrar::Result::kDeferred) {
         deferred.push_back({name, arrival, sha, sharpness});
         return;
@@ -799,13 +812,6 @@ struct LiveSession::State {
       p.pose = r.cam_from_world;
       p.has_pose = true;
       p.pose_source = "colmap";
-      // The engine may have refined the earlier photos' poses (bundle adjustment): take them
-      // over before this photo is predicted from them, in the frame its own pose is in.
-      try {
-        if (TakeRefinedPoses()) BuildModel();
-      } catch (const std::exception& e) {
-        LogWarning(fmt::format("{}: refined poses not taken over: {}", name, e.what()));
-      }
     }
     p.seconds["register"] = Seconds(t0);
     // Prediction from the photos before it.

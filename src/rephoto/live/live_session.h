@@ -44,9 +44,10 @@
 //      PlanNextViews on it with the need of unobserved envelope directions forced to 1 (they
 //      stand for unseen surface; once those are used up, by view-space coverage, see
 //      PlanOptions): K suggestions, each rendered by the live prediction.
-// Poses refined by the engine: after each photo the registration engine placed (and before
-// that photo is predicted), the poses of all engine-placed photos (not sidecar ones) are read
-// again (Registrar::AllPlaced) and taken over when they changed. pose_update.h tells the frame's
+// Poses refined by the engine: after every call of the registration engine (also one that did
+// not place its photo; before that photo is predicted) and at resume, the poses of all
+// engine-placed photos (not sidecar ones) are read again (Registrar::AllPlaced) and taken over
+// when they changed. pose_update.h tells the frame's
 // move (a similarity: each depth map is multiplied by its scale) from a photo's own refinement
 // (moved more than 1 % of the cameras' spread or turned more than 0.5 degrees: its depth map is
 // dropped and estimated again with the photo's next join step). The proxy is rebuilt before the
