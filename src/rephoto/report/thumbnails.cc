@@ -98,15 +98,17 @@ Thumbnail Failed(const std::string& message) {
 
 }  // namespace
 
-ThumbnailScratches::ThumbnailScratches()
-    : slots_(static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()))) {}
+std::unique_ptr<ThumbnailScratch> ThumbnailScratches::Acquire() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (free_.empty()) return std::make_unique<ThumbnailScratch>();
+  std::unique_ptr<ThumbnailScratch> scratch = std::move(free_.back());
+  free_.pop_back();
+  return scratch;
+}
 
-ThumbnailScratch* ThumbnailScratches::Get() {
-  const int index = tbb::this_task_arena::current_thread_index();
-  REPHOTO_CHECK(index >= 0 && static_cast<size_t>(index) < slots_.size(),
-                "thumbnail scratch: thread index {} outside the arena's {} slots", index,
-                slots_.size());
-  return &slots_[static_cast<size_t>(index)];
+void ThumbnailScratches::Release(std::unique_ptr<ThumbnailScratch> scratch) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  free_.push_back(std::move(scratch));
 }
 
 Thumbnail PhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scratch) {

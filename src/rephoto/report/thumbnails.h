@@ -14,8 +14,8 @@
 // Memory: each call decodes its file at full size (JPEG photos at a reduced size) into the
 // caller's ThumbnailScratch when one is given, so that a series of thumbnails reuses the same
 // buffers instead of touching fresh memory for every image (a 12 MP error image's buffers are
-// about 150 MB: page faults were half of a report's CPU); ThumbnailScratches gives one per
-// worker thread.
+// about 150 MB: page faults were half of a report's CPU); ThumbnailScratches lends them to the
+// tasks of a parallel loop.
 //
 // Thread safety: reentrant (reads the images named; no shared state) as long as each thread
 // uses its own scratch.
@@ -24,6 +24,8 @@
 #include <tbb/task_arena.h>
 
 #include <filesystem>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -47,22 +49,32 @@ struct ThumbnailScratch {
   Image decoded, coverage, weighted, shrunk;
 };
 
-// One ThumbnailScratch per worker thread of the current task arena, for a ParallelFor over
-// images: Get() is the calling thread's. The buffers are freed with this object.
+// A pool of ThumbnailScratch for a ParallelFor over images: With() lends one to the calling
+// task and takes it back afterwards, so there are about as many as threads working at once
+// (no thread indices: works from any thread, also outside TBB's workers). The buffers are
+// freed with this object. Thread-safe.
 class ThumbnailScratches {
  public:
-  ThumbnailScratches();
-  // Runs fn(scratch) with the calling thread's scratch, isolated (tbb::this_task_arena::
+  // Runs fn(scratch) with a scratch no other task holds, isolated (tbb::this_task_arena::
   // isolate): while a nested parallel loop inside fn waits, this thread does not start another
-  // image with the same scratch.
+  // image (which would need another scratch).
   template <typename Fn>
   void With(Fn&& fn) {
-    tbb::this_task_arena::isolate([&] { fn(Get()); });
+    std::unique_ptr<ThumbnailScratch> scratch = Acquire();
+    try {
+      tbb::this_task_arena::isolate([&] { fn(scratch.get()); });
+    } catch (...) {
+      Release(std::move(scratch));
+      throw;
+    }
+    Release(std::move(scratch));
   }
 
  private:
-  ThumbnailScratch* Get();
-  std::vector<ThumbnailScratch> slots_;
+  std::unique_ptr<ThumbnailScratch> Acquire();
+  void Release(std::unique_ptr<ThumbnailScratch> scratch);
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<ThumbnailScratch>> free_;
 };
 
 Thumbnail PhotoThumbnail(const std::filesystem::path& photo, int width,
