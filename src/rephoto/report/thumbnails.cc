@@ -141,21 +141,23 @@ void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thu
   try {
     io::ReadImage(render, &s.decoded);
     const Image& image = s.decoded;
-    // Coverage before shrinking: alpha, else not pure black.
+    // Coverage before shrinking: alpha, else not pure black. (In the buffer the error image's
+    // weights use: one large buffer less per scratch.)
     const int c = image.channels();
-    s.coverage.Resize(image.width(), image.height(), 1);
+    Image& coverage = s.weighted;
+    coverage.Resize(image.width(), image.height(), 1);
     for (size_t i = 0; i < image.pixel_count(); ++i) {
       const float* p = image.data() + i * c;
       if (c == 2 || c == 4) {
-        s.coverage.data()[i] = p[c - 1] > 0.f ? 1.f : 0.f;
+        coverage.data()[i] = p[c - 1] > 0.f ? 1.f : 0.f;
       } else {
         bool black = true;
         for (int k = 0; k < c; ++k) black = black && p[k] == 0.f;
-        s.coverage.data()[i] = black ? 0.f : 1.f;
+        coverage.data()[i] = black ? 0.f : 1.f;
       }
     }
     *rephoto = Jpeg(Shrink(image, width, &s.shrunk), render.string());
-    const Image& small = Shrink(s.coverage, width, &s.weighted);
+    const Image& small = Shrink(coverage, width, &s.shrunk);  // the rephoto's JPEG is made
     std::vector<uint8_t> grey(small.pixel_count());
     for (size_t i = 0; i < grey.size(); ++i) grey[i] = ToByte(small.data()[i]);
     mask->width = small.width();

@@ -15,7 +15,11 @@
 // caller's ThumbnailScratch when one is given, so that a series of thumbnails reuses the same
 // buffers instead of touching fresh memory for every image (a 12 MP error image's buffers are
 // about 150 MB: page faults were half of a report's CPU); ThumbnailScratches lends them to the
-// tasks of a parallel loop.
+// tasks of a parallel loop. The price is memory: a scratch keeps its largest buffers until the
+// loop ends (per image processed at once, the largest decoded file plus an error image's
+// (value, weight) pairs: about 250 MB at 12 MP). Measured on 6 examples of 12 MP (JPEG
+// photos, PNG renderings, EXR errors, 2 threads): 1.62 s wall / 853 MiB peak against 2.47 s /
+// 627 MiB with fresh buffers and full-size JPEG decoding.
 //
 // Thread safety: reentrant (reads the images named; no shared state) as long as each thread
 // uses its own scratch.
@@ -46,7 +50,9 @@ struct Thumbnail {
 // thumbnail is then close to, not equal to, a resampled full decode (it is only shown).
 // Buffers reused from one thumbnail to the next (see "Memory" above); null = fresh ones.
 struct ThumbnailScratch {
-  Image decoded, coverage, weighted, shrunk;
+  Image decoded;   // the file at full size (a JPEG photo at reduced size)
+  Image weighted;  // an error image's (value, weight) pairs, or a rendering's coverage
+  Image shrunk;    // the thumbnail-size result
 };
 
 // A pool of ThumbnailScratch for a ParallelFor over images: With() lends one to the calling
