@@ -1,7 +1,10 @@
 #include "rephoto/live/colmap_registrar.h"
 
-#include <cstdlib>
 #include <fmt/format.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <map>
 
 #include "rephoto/cluster/subprocess.h"
 #include "rephoto/core/error.h"
@@ -74,7 +77,7 @@ class ColmapRegistrar : public Registrar {
         fs::rename(tmp / "0" / f, Model() / f);
       return Lookup(name);
     }
-    if (Lookup(name).status == Result::kRegistered) return Lookup(name);
+    if (Result placed = Lookup(name); placed.status == Result::kRegistered) return placed;
     std::string error;
     if (!Run({"image_registrator", "--database_path", Db(), "--input_path", Model().string(),
               "--output_path", Model().string()},
@@ -103,14 +106,11 @@ class ColmapRegistrar : public Registrar {
       r.status = Result::kDeferred;
       return r;
     }
-    const scene::ColmapModel m = scene::ReadColmapModel(Model());
-    for (const scene::ColmapImage& im : m.images) {
-      if (im.name != name) continue;
+    for (Placed& p : AllPlaced()) {
+      if (p.name != name) continue;
       r.status = Result::kRegistered;
-      r.camera = m.cameras.at(im.camera_id);
-      r.cam_from_world = camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1],
-                                                      im.quaternion[2], im.quaternion[3],
-                                                      im.translation);
+      r.camera = std::move(p.camera);
+      r.cam_from_world = p.cam_from_world;
       return r;
     }
     r.status = Result::kFailed;
@@ -118,12 +118,26 @@ class ColmapRegistrar : public Registrar {
     return r;
   }
 
+  // The model's cameras and images only (COLMAP writes it binary here): the points, the
+  // largest file, are not needed to know where the photos are.
   std::vector<Placed> AllPlaced() override {
     std::vector<Placed> out;
     if (!HasModel()) return out;
-    const scene::ColmapModel m = scene::ReadColmapModel(Model());
-    for (const scene::ColmapImage& im : m.images) {
-      out.push_back({im.name, m.cameras.at(im.camera_id),
+    auto open = [](const fs::path& path) {
+      std::ifstream in(path, std::ios::binary);
+      REPHOTO_CHECK(in.good(), "{}: cannot open", path.string());
+      return in;
+    };
+    std::ifstream cameras_file = open(Model() / "cameras.bin");
+    const std::map<uint32_t, camera::Camera> cameras =
+        scene::ReadColmapCamerasBinary(cameras_file, (Model() / "cameras.bin").string());
+    std::ifstream images_file = open(Model() / "images.bin");
+    for (const scene::ColmapImage& im :
+         scene::ReadColmapImagesBinary(images_file, (Model() / "images.bin").string())) {
+      const auto camera = cameras.find(im.camera_id);
+      REPHOTO_CHECK(camera != cameras.end(), "{}: image {} refers to camera {}, which is missing",
+                    (Model() / "images.bin").string(), im.name, im.camera_id);
+      out.push_back({im.name, camera->second,
                      camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1],
                                                   im.quaternion[2], im.quaternion[3],
                                                   im.translation)});
