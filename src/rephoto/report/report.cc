@@ -541,31 +541,26 @@ std::string SideBySideHtml(const Collection& c, const CollectionOptions& options
   for (size_t r = 0; r < rows.size(); ++r) {
     for (size_t k = 0; k <= c.runs.size(); ++k) jobs.push_back({r, k});
   }
-  ThumbnailScratches scratches;
-  ParallelFor(0, static_cast<int64_t>(jobs.size()), 1, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      scratches.With([&](ThumbnailScratch* scratch) {
-        Row& row = rows[jobs[i].first];
-        if (jobs[i].second == c.runs.size()) {
-          for (const Cell& cell : row.cells) {
-            if (cell.image && cell.image->status == "ok") {
-              row.photo = PhotoThumbnail(cell.run->run.PhotoPath(*cell.image), width, scratch);
-              break;
-            }
-          }
-          return;
+  ForEachThumbnailJob(static_cast<int64_t>(jobs.size()), [&](int64_t i,
+                                                              ThumbnailScratch* scratch) {
+    Row& row = rows[jobs[i].first];
+    if (jobs[i].second == c.runs.size()) {
+      for (const Cell& cell : row.cells) {
+        if (cell.image && cell.image->status == "ok") {
+          row.photo = PhotoThumbnail(cell.run->run.PhotoPath(*cell.image), width, scratch);
+          break;
         }
-        Cell& cell = row.cells[jobs[i].second];
-        if (cell.image == nullptr || cell.image->status != "ok") return;
-        Thumbnail mask;
-        RenderThumbnails(cell.run->run.RenderPath(*cell.image), width, &cell.rephoto, &mask,
-                         scratch);
-        const fs::path errors = cell.run->run.ImageDir(*cell.image) / "errors";
-        const std::string stem = cell.image->name + "." + options.primary_metric;
-        cell.error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed,
-                                    width, scratch);
-      });
+      }
+      return;
     }
+    Cell& cell = row.cells[jobs[i].second];
+    if (cell.image == nullptr || cell.image->status != "ok") return;
+    Thumbnail mask;
+    RenderThumbnails(cell.run->run.RenderPath(*cell.image), width, &cell.rephoto, &mask, scratch);
+    const fs::path errors = cell.run->run.ImageDir(*cell.image) / "errors";
+    const std::string stem = cell.image->name + "." + options.primary_metric;
+    cell.error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed,
+                                width, scratch);
   });
   const auto [low, high] = compare::ErrorColourRange(*parsed);
   auto image = [](const Thumbnail& t, const std::string& alt) {

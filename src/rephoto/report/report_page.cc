@@ -524,20 +524,16 @@ std::string ExamplesHtml(const run::RunData& run, int metric, int count, int thu
     Thumbnail photo, rephoto, mask, error;
   };
   std::vector<Thumbnails> thumbnails(shown.size());
-  ThumbnailScratches scratches;
-  ParallelFor(0, static_cast<int64_t>(shown.size()), 1, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      scratches.With([&](ThumbnailScratch* scratch) {
-        const run::ImageRow& image = *shown[i].second;
-        const std::filesystem::path errors = run.ImageDir(image) / "errors";
-        const std::string stem = image.name + "." + name;
-        Thumbnails& t = thumbnails[i];
-        RenderThumbnails(run.RenderPath(image), thumbnail_width, &t.rephoto, &t.mask, scratch);
-        t.photo = PhotoThumbnail(run.PhotoPath(image), thumbnail_width, scratch);
-        t.error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed,
-                                 thumbnail_width, scratch);
-      });
-    }
+  ForEachThumbnailJob(static_cast<int64_t>(shown.size()), [&](int64_t i,
+                                                               ThumbnailScratch* scratch) {
+    const run::ImageRow& image = *shown[i].second;
+    const std::filesystem::path errors = run.ImageDir(image) / "errors";
+    const std::string stem = image.name + "." + name;
+    Thumbnails& t = thumbnails[i];
+    RenderThumbnails(run.RenderPath(image), thumbnail_width, &t.rephoto, &t.mask, scratch);
+    t.photo = PhotoThumbnail(run.PhotoPath(image), thumbnail_width, scratch);
+    t.error = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed,
+                             thumbnail_width, scratch);
   });
   for (size_t i = 0; i < shown.size(); ++i) {
     const std::string& rank = shown[i].first;

@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "rephoto/core/image.h"
+#include "rephoto/core/parallel.h"
 #include "rephoto/metrics/metrics.h"
 
 namespace rephoto::report {
@@ -82,6 +83,18 @@ class ThumbnailScratches {
   std::mutex mutex_;
   std::vector<std::unique_ptr<ThumbnailScratch>> free_;
 };
+
+// fn(i, scratch) for every i in [0, count), one image per parallel task (core/parallel.h), each
+// call with a scratch of a ThumbnailScratches that no other running call holds.
+template <typename Fn>
+void ForEachThumbnailJob(int64_t count, Fn&& fn) {
+  ThumbnailScratches scratches;
+  ParallelFor(0, count, 1, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      scratches.With([&](ThumbnailScratch* scratch) { fn(i, scratch); });
+    }
+  });
+}
 
 Thumbnail PhotoThumbnail(const std::filesystem::path& photo, int width,
                          ThumbnailScratch* scratch = nullptr);

@@ -255,24 +255,20 @@ void AddImages(const run::RunData& run, const std::string& metric, int thumbnail
     if (m >= 0 && it->second->status == "ok") c.error = it->second->metrics[m];
     if (thumbnail_width > 0 && it->second->status == "ok") jobs.push_back({&c, it->second});
   }
-  ThumbnailScratches scratches;
-  ParallelFor(0, static_cast<int64_t>(jobs.size()), 1, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      scratches.With([&](ThumbnailScratch* scratch) {
-        View3dCamera& c = *jobs[i].first;
-        const run::ImageRow& image = *jobs[i].second;
-        c.photo_uri = PhotoThumbnail(run.PhotoPath(image), thumbnail_width, scratch).data_uri;
-        Thumbnail rephoto, mask;
-        RenderThumbnails(run.RenderPath(image), thumbnail_width, &rephoto, &mask, scratch);
-        c.rephoto_uri = rephoto.data_uri;
-        if (parsed) {
-          const fs::path errors = run.ImageDir(image) / "errors";
-          const std::string stem = image.name + "." + metric;
-          c.error_uri = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"),
-                                       *parsed, thumbnail_width, scratch)
-                            .data_uri;
-        }
-      });
+  ForEachThumbnailJob(static_cast<int64_t>(jobs.size()), [&](int64_t i,
+                                                              ThumbnailScratch* scratch) {
+    View3dCamera& c = *jobs[i].first;
+    const run::ImageRow& image = *jobs[i].second;
+    c.photo_uri = PhotoThumbnail(run.PhotoPath(image), thumbnail_width, scratch).data_uri;
+    Thumbnail rephoto, mask;
+    RenderThumbnails(run.RenderPath(image), thumbnail_width, &rephoto, &mask, scratch);
+    c.rephoto_uri = rephoto.data_uri;
+    if (parsed) {
+      const fs::path errors = run.ImageDir(image) / "errors";
+      const std::string stem = image.name + "." + metric;
+      c.error_uri = ErrorThumbnail(errors / (stem + ".exr"), errors / (stem + ".png"), *parsed,
+                                   thumbnail_width, scratch)
+                        .data_uri;
     }
   });
 }
