@@ -234,8 +234,11 @@ struct LiveSession::State {
     return buf;
   }
 
-  void Append(const Photo& p) {
-    const std::string line = p.Json().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  // Appends the records in one write and one fsync.
+  void Append(const std::vector<Photo>& records) {
+    std::string line;
+    for (const Photo& p : records)
+      line += p.Json().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
     const fs::path path = options.out / "live.jsonl";
     const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
     REPHOTO_CHECK(fd >= 0, "{}: cannot open for appending", path.string());
@@ -245,16 +248,23 @@ struct LiveSession::State {
     REPHOTO_CHECK(n == static_cast<ssize_t>(line.size()), "{}: write failed", path.string());
   }
 
-  void Put(Photo p) {
-    p.time = Now();
-    Append(p);
+  void Put(Photo p) { Put(std::vector<Photo>{std::move(p)}); }
+
+  // Several records (e.g. the photos a bundle adjustment moved) in one append.
+  void Put(std::vector<Photo> records) {
+    if (records.empty()) return;
+    const std::string now = Now();
+    for (Photo& p : records) p.time = now;
+    Append(records);
     std::lock_guard<std::mutex> lock(mutex);
-    auto it = by_name.find(p.name);
-    if (it == by_name.end()) {
-      by_name[p.name] = photos.size();
-      photos.push_back(std::move(p));
-    } else {
-      photos[it->second] = std::move(p);
+    for (Photo& p : records) {
+      auto it = by_name.find(p.name);
+      if (it == by_name.end()) {
+        by_name[p.name] = photos.size();
+        photos.push_back(std::move(p));
+      } else {
+        photos[it->second] = std::move(p);
+      }
     }
   }
 
@@ -691,6 +701,7 @@ struct LiveSession::State {
     if (index.empty()) return false;
     const std::vector<PoseChange> changes = ComparePoses(before, after, options.pose_update);
     bool any = false;
+    std::vector<Photo> changed;
     for (size_t k = 0; k < index.size(); ++k) {
       Photo p = photos[index[k]];
       const Registrar::Placed& q = *by.at(p.name);
@@ -726,8 +737,9 @@ struct LiveSession::State {
         d->second = std::make_shared<const Image>(std::move(scaled));
       }
       live_depth.erase(p.name);
-      Put(p);
+      changed.push_back(std::move(p));
     }
+    Put(std::move(changed));
     return any;
   }
 
@@ -877,9 +889,11 @@ struct LiveSession::State {
     }
     // Records of photos whose depth appeared or was refreshed now are appended again (resume
     // keeps it).
+    std::vector<Photo> refreshed;
     for (size_t i : targets) {
-      if (photos[i].has_depth && photos[i].name != name) Put(photos[i]);
+      if (photos[i].has_depth && photos[i].name != name) refreshed.push_back(photos[i]);
     }
+    Put(std::move(refreshed));
     double model_s = 0, suggest_s = 0;
     try {
       RefreshModelAndSuggestions(&model_s, &suggest_s);
