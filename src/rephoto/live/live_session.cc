@@ -40,6 +40,7 @@ void LiveOptions::Check() const {
   REPHOTO_CHECK_USAGE(neighbors >= 1, "live: --neighbors must be >= 1");
   REPHOTO_CHECK_USAGE(blur_ratio >= 0 && blur_ratio < 1, "live: --blur-ratio must be in [0, 1)");
   REPHOTO_CHECK_USAGE(sidecar_wait >= 0, "live: --sidecar-wait must be >= 0");
+  REPHOTO_CHECK_USAGE(log_compaction_slack >= 0, "live: log_compaction_slack must be >= 0");
   const fs::path w = fs::weakly_canonical(watch), o = fs::weakly_canonical(out);
   REPHOTO_CHECK_USAGE(w != o && std::mismatch(w.begin(), w.end(), o.begin(), o.end()).first != w.end(),
                       "live: --out must not be inside --watch");
@@ -223,6 +224,7 @@ struct LiveSession::State {
   nlohmann::json model = nlohmann::json::object();
   uint64_t version = 0;
   int64_t next_arrival = 0;
+  size_t log_records = 0;  // complete lines in live.jsonl
   nlohmann::json api;
 
   fs::path Dir(const std::string& sub) const { return options.out / sub; }
@@ -246,6 +248,42 @@ struct LiveSession::State {
     ::fsync(fd);
     ::close(fd);
     REPHOTO_CHECK(n == static_cast<ssize_t>(line.size()), "{}: write failed", path.string());
+    log_records += records.size();
+  }
+
+  // live.jsonl rewritten with the current record of each name, in arrival order (`photos`),
+  // when it has grown past the bound of LiveOptions::log_compaction_slack. The new content is
+  // on disk (fsync) before it replaces the old, so a kill or a power cut at any point leaves
+  // one of the two complete logs.
+  void CompactLogIfLong() {
+    std::string text;
+    size_t count = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (log_records <= photos.size() + static_cast<size_t>(options.log_compaction_slack))
+        return;
+      for (const Photo& p : photos)
+        text += p.Json().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+      count = photos.size();
+    }
+    const fs::path path = options.out / "live.jsonl";
+    const fs::path tmp = options.out / "live.jsonl.compact";
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    REPHOTO_CHECK(fd >= 0, "{}: cannot create", tmp.string());
+    const ssize_t n = ::write(fd, text.data(), text.size());
+    const bool synced = ::fsync(fd) == 0;
+    ::close(fd);
+    REPHOTO_CHECK(n == static_cast<ssize_t>(text.size()) && synced, "{}: write failed",
+                  tmp.string());
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    REPHOTO_CHECK(!ec, "{}: cannot replace with the compacted log: {}", path.string(), ec.message());
+    const int dir = ::open(options.out.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dir >= 0) {
+      ::fsync(dir);
+      ::close(dir);
+    }
+    log_records = count;
   }
 
   void Put(Photo p) { Put(std::vector<Photo>{std::move(p)}); }
@@ -256,16 +294,19 @@ struct LiveSession::State {
     const std::string now = Now();
     for (Photo& p : records) p.time = now;
     Append(records);
-    std::lock_guard<std::mutex> lock(mutex);
-    for (Photo& p : records) {
-      auto it = by_name.find(p.name);
-      if (it == by_name.end()) {
-        by_name[p.name] = photos.size();
-        photos.push_back(std::move(p));
-      } else {
-        photos[it->second] = std::move(p);
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      for (Photo& p : records) {
+        auto it = by_name.find(p.name);
+        if (it == by_name.end()) {
+          by_name[p.name] = photos.size();
+          photos.push_back(std::move(p));
+        } else {
+          photos[it->second] = std::move(p);
+        }
       }
     }
+    CompactLogIfLong();
   }
 
   void Resume() {
@@ -302,6 +343,8 @@ struct LiveSession::State {
         LogWarning(fmt::format("{}:{}: record ignored: {}", path.string(), line_no, e.what()));
       }
     }
+    log_records = line_no;
+    CompactLogIfLong();
     for (Photo& p : photos) {
       if (p.status == "registered" && p.has_depth) {
         try {

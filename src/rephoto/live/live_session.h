@@ -58,7 +58,8 @@
 //
 // Run folder RUN (one writer: run::OpenRunFolder kind "live"; kill -9 and restart resume):
 //   live.jsonl             one JSON record per processed file version, appended (a torn last
-//                          line is ignored at restart); the last record of a name counts
+//                          line is ignored at restart); the last record of a name counts;
+//                          rewritten with those alone when it grows long (log_compaction_slack)
 //   live.json              the state the page shows (= GET /api/live), replaced atomically
 //   photos/<name>.png      the photo at predict_width;  predictions/<name>.png its prediction
 //   errors/<name>.1-ncc.exr / .png   per-pixel error (NaN = not covered) and its colours
@@ -133,6 +134,11 @@ struct LiveOptions {
   PlanOptions plan;         // next views (count and candidates come from the two above)
   EnvelopeOptions envelope;
   PoseUpdateOptions pose_update;  // when the engine's refined poses need new depth maps
+  // live.jsonl is rewritten with the current record of each name (in arrival order; temp file,
+  // fsync, rename) when it holds more than names + log_compaction_slack records, checked after
+  // an append and at resume: the records a bundle adjustment appends again would otherwise
+  // grow it as photos^2 / interval. >= 0.
+  int log_compaction_slack = 256;
   Registrar* registrar = nullptr;  // not owned; null = sidecars only
   bool show_progress = false;
   void Check() const;

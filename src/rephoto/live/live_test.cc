@@ -8,6 +8,8 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <sstream>
 
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
@@ -430,6 +432,48 @@ TEST(LiveSessionTest, SimulatedCaptureStatusesPredictionsSuggestionsResume) {
     EXPECT_EQ(registered, 6u);
     EXPECT_EQ(api["suggestions"].size(), 3u);  // restored from suggestions/suggestions.json
     EXPECT_GT(api["model"]["unseen_fraction"].get<double>(), 0.2);
+  }
+  // Compaction: the log holds records appended again (depth maps estimated when a later photo
+  // came); a copy of the run opened with no slack is rewritten at resume to the last record of
+  // each name, in the order the names first appear, and resumes the same state.
+  std::vector<nlohmann::json> records;
+  {
+    std::istringstream in(before);
+    for (std::string line; std::getline(in, line);) records.push_back(nlohmann::json::parse(line));
+  }
+  std::vector<nlohmann::json> expected;
+  std::map<std::string, size_t> slot;
+  for (const nlohmann::json& r : records) {
+    const std::string name = r["name"];
+    if (!slot.count(name)) {
+      slot[name] = expected.size();
+      expected.push_back(r);
+    } else {
+      expected[slot[name]] = r;
+    }
+  }
+  ASSERT_GT(records.size(), expected.size());  // something to compact
+  const fs::path copy = base / "run-copy";
+  fs::copy(run, copy, fs::copy_options::recursive);
+  LiveOptions oc = o;
+  oc.out = copy;
+  oc.log_compaction_slack = 0;
+  {
+    LiveSession session(oc);
+    auto lines = [&] {
+      std::vector<nlohmann::json> out;
+      std::istringstream in(ReadFileToString(copy / "live.jsonl"));
+      for (std::string line; std::getline(in, line);) out.push_back(nlohmann::json::parse(line));
+      return out;
+    };
+    EXPECT_EQ(lines(), expected);
+    EXPECT_FALSE(fs::exists(copy / "live.jsonl.compact"));
+    for (const std::string& n : order) session.HandleReady(n);  // nothing redone
+    EXPECT_EQ(lines(), expected);
+    const nlohmann::json api = session.Api();
+    size_t registered = 0;
+    for (const auto& p : api["photos"]) registered += p["status"] == "registered";
+    EXPECT_EQ(registered, 6u);
   }
 }
 
