@@ -75,6 +75,14 @@ std::string Sha256(const std::string& bytes) {
   return s;
 }
 
+// A depth map times s (NaN, unknown, stays NaN).
+Image ScaledDepth(Image depth, double s) {
+  if (s == 1) return depth;
+  const float f = static_cast<float>(s);
+  for (size_t px = 0; px < depth.pixel_count() * depth.channels(); ++px) depth.data()[px] *= f;
+  return depth;
+}
+
 // Area-average reduction to width w (aspect kept), any channel count.
 Image Reduce(const Image& src, int w) {
   if (src.width() <= w) return src;
@@ -145,6 +153,10 @@ struct Photo {
   // Its pose was refined by the registration engine after the depth map was estimated
   // (live_session.h): the map (scaled with the frame) is used until it is estimated again.
   bool depth_stale = false;
+  // depth/<name>.bin stays as estimated; times depth_scale it is the depth in the current frame
+  // (the scale of the similarities bundle adjustments moved the frame by since; 1 after every
+  // estimation). A record without it (older runs rewrote the file) means 1.
+  double depth_scale = 1;
   bool has_error_image = false;
   std::map<std::string, double> seconds;
   std::string time;  // UTC ISO time of the record
@@ -163,6 +175,7 @@ struct Photo {
                         {"has_depth", has_depth},
                         {"depth_gap", depth_gap},
                         {"depth_stale", depth_stale},
+                        {"depth_scale", depth_scale},
                         {"has_error_image", has_error_image}};
     if (has_pose) {
       j.update(SidecarJson(camera, pose));
@@ -185,6 +198,9 @@ struct Photo {
     p.has_depth = j.value("has_depth", false);
     p.depth_gap = j["depth_gap"].is_number() ? j["depth_gap"].get<double>() : 0.0;
     p.depth_stale = j.value("depth_stale", false);
+    p.depth_scale = j["depth_scale"].is_number() ? j["depth_scale"].get<double>() : 1.0;
+    REPHOTO_CHECK(std::isfinite(p.depth_scale) && p.depth_scale > 0,
+                  "live.jsonl: {}: depth_scale must be a positive number", p.name);
     p.has_error_image = j.value("has_error_image", false);
     if (j.contains("qvec")) {
       const PoseSidecar s = ParseSidecar(j.dump(), "live.jsonl: " + p.name);
@@ -348,8 +364,8 @@ struct LiveSession::State {
     for (Photo& p : photos) {
       if (p.status == "registered" && p.has_depth) {
         try {
-          depth_cache[p.name] =
-              std::make_shared<const Image>(ibr::ReadDepthMap(Dir("depth") / (p.name + ".bin")));
+          depth_cache[p.name] = std::make_shared<const Image>(
+              ScaledDepth(ibr::ReadDepthMap(Dir("depth") / (p.name + ".bin")), p.depth_scale));
         } catch (const std::exception& e) {
           LogWarning(e.what());
           p.has_depth = false;
@@ -529,6 +545,7 @@ struct LiveSession::State {
       std::lock_guard<std::mutex> lock(mutex);
       photos[t].has_depth = true;
       photos[t].depth_stale = false;
+      photos[t].depth_scale = 1;
       photos[t].depth_gap = NearestGap(t);
     }
   }
@@ -771,13 +788,13 @@ struct LiveSession::State {
       // depth after a global bundle adjustment).
       if (d != depth_cache.end() && (changes[k].refresh_depth || camera_delta > 0.005))
         p.depth_stale = true;
+      // The file stays as estimated; the record carries the scale (no depth map rewritten per
+      // photo at every bundle adjustment).
       if (d != depth_cache.end() && std::abs(changes[k].scale - 1) > 1e-12) {
-        Image scaled = *d->second;
-        const float f = static_cast<float>(changes[k].scale);
-        for (size_t px = 0; px < scaled.pixel_count() * scaled.channels(); ++px)
-          scaled.data()[px] *= f;  // NaN (unknown) stays NaN
-        ibr::WriteColmapDepthMap(Dir("depth") / (p.name + ".bin"), scaled);
-        d->second = std::make_shared<const Image>(std::move(scaled));
+        // From the file, as a restart computes it (same values).
+        p.depth_scale *= changes[k].scale;
+        d->second = std::make_shared<const Image>(
+            ScaledDepth(ibr::ReadDepthMap(Dir("depth") / (p.name + ".bin")), p.depth_scale));
       }
       live_depth.erase(p.name);
       changed.push_back(std::move(p));

@@ -63,7 +63,8 @@
 //   live.json              the state the page shows (= GET /api/live), replaced atomically
 //   photos/<name>.png      the photo at predict_width;  predictions/<name>.png its prediction
 //   errors/<name>.1-ncc.exr / .png   per-pixel error (NaN = not covered) and its colours
-//   depth/<name>.bin       plane-sweep depth (COLMAP .bin)
+//   depth/<name>.bin       plane-sweep depth (COLMAP .bin) as estimated; times the record's
+//                          depth_scale it is in the current frame (bundle adjustments)
 //   model.ply              the envelope with projected errors (project::WriteProjectedPly)
 //   suggestions/suggestions.json, suggest_XX.png, suggest_XX.json (sidecar shape),
 //   suggestions/sparse/{cameras,images,points3D}.txt, suggestions/transforms.json
