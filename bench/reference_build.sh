@@ -27,7 +27,9 @@ if [ -e "$dir" ]; then
 fi
 git -C "$repo" worktree add --detach "$dir" "$rev" > /dev/null
 cd "$dir"
+note="run it with REPHOTO_ISA=avx2 for the AVX2 code"
 if ! git grep -q "REPHOTO_ISA" -- src/rephoto/core; then
+  note="AVX2 code forced"
   edit() {  # file sed-expression pattern-that-must-appear-after
     sed -i "$2" "$1"
     grep -q -- "$3" "$1" || { echo "reference_build: $1: the AVX2 edit did not apply" >&2; exit 1; }
@@ -46,4 +48,4 @@ if ! git grep -q "REPHOTO_ISA" -- src/rephoto/core; then
   fi
 fi
 bash scripts/build.sh > build.log 2>&1 || { echo "reference_build: build failed, see $dir/build.log" >&2; exit 1; }
-echo "$dir/build (revision $(git rev-parse --short HEAD), AVX2 code)"
+echo "$dir/build (revision $(git rev-parse --short HEAD); $note)"
