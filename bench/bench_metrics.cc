@@ -254,4 +254,94 @@ BENCHMARK(BM_Compat3dgsOneThread)
     ->MeasureProcessCPUTime()
     ->Unit(benchmark::kMillisecond);
 
+// Hardware floors of two kernels on the AVX2 path, for the ratio kernel / floor in one run
+// (docs/speed.md): the arithmetic the kernel cannot avoid at 12 MP, one thread, in registers
+// (no stores, no shuffles; census's neighbour loads from L1), 8-wide AVX2 instructions with enough independent chains
+// to hide their latency. What each kernel must at least execute per pixel:
+// - DSSIM (fused, Gaussian 11 x 11): 4 quantities x 3 channels x (11 vertical + 11 horizontal
+//   taps) = 264 multiply-adds, i.e. 33 8-wide FMAs;
+// - census (9 x 9 window): 80 neighbours x 2 images loaded and compared with the centre (160
+//   loads, 160 compares), the two masks XORed (80) and the differing bits counted (80 integer
+//   subtractions of the all-ones mask), per 8 pixels in 8-wide instructions.
+// A kernel at 2x its floor spends as much time on loads, shuffles and bookkeeping as on the
+// arithmetic it must do; a goal below the floor cannot be met with the same arithmetic.
+#if defined(__x86_64__)
+#include <immintrin.h>
+namespace {
+constexpr int64_t kFloorPixels = int64_t{4000} * 3000;
+
+__attribute__((target("avx2,fma"), noinline)) float DssimFmaFloorAvx2(int64_t pixels) {
+  __m256 acc[12];
+  for (int j = 0; j < 12; ++j) acc[j] = _mm256_set1_ps(0.001f * j);
+  const __m256 w = _mm256_set1_ps(0.999f), b = _mm256_set1_ps(1e-7f);
+  // 33 FMAs per pixel, 8 pixels per vector: 33 FMAs per 8 pixels per lane group.
+  const int64_t groups = pixels / 8 * 33 / 12;
+  for (int64_t g = 0; g < groups; ++g) {
+    for (int j = 0; j < 12; ++j) acc[j] = _mm256_fmadd_ps(acc[j], w, b);
+  }
+  __m256 s = acc[0];
+  for (int j = 1; j < 12; ++j) s = _mm256_add_ps(s, acc[j]);
+  float out[8];
+  _mm256_storeu_ps(out, s);
+  return out[0];
+}
+
+__attribute__((target("avx2,fma"), noinline)) int CensusFloorAvx2(int64_t pixels) {
+  // Per neighbour, as the kernel: its value in both images loaded (from L1 here), compared
+  // with the centres, the two masks XORed, the all-ones lanes subtracted from a count.
+  alignas(32) float p[80 * 8], q[80 * 8];
+  for (int i = 0; i < 80 * 8; ++i) {
+    p[i] = static_cast<float>((i * 37) % 101) / 101.f;
+    q[i] = static_cast<float>((i * 53) % 103) / 103.f;
+  }
+  __m256 c0 = _mm256_set1_ps(0.5f), c1 = _mm256_set1_ps(0.45f);
+  const __m256 step = _mm256_set1_ps(1e-7f);
+  __m256i count[4];
+  for (int j = 0; j < 4; ++j) count[j] = _mm256_setzero_si256();
+  for (int64_t g = 0; g < pixels / 8; ++g) {  // 8 pixels: 80 neighbours
+    for (int k = 0; k < 80; k += 4) {
+      for (int j = 0; j < 4; ++j) {
+        const __m256 a = _mm256_cmp_ps(_mm256_load_ps(p + 8 * (k + j)), c0, _CMP_LT_OQ);
+        const __m256 d = _mm256_cmp_ps(_mm256_load_ps(q + 8 * (k + j)), c1, _CMP_LT_OQ);
+        count[j] = _mm256_sub_epi32(count[j], _mm256_castps_si256(_mm256_xor_ps(a, d)));
+      }
+    }
+    c0 = _mm256_add_ps(c0, step);  // the next pixels' centres
+    c1 = _mm256_add_ps(c1, step);
+  }
+  __m256i s = _mm256_add_epi32(_mm256_add_epi32(count[0], count[1]),
+                               _mm256_add_epi32(count[2], count[3]));
+  int out[8];
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), s);
+  return out[0];
+}
+
+void BM_DssimFmaFloorAvx2(benchmark::State& state) {
+  if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) {
+    state.SkipWithError("no AVX2+FMA");
+    return;
+  }
+  for (auto _ : state) {
+    int64_t pixels = kFloorPixels;
+    benchmark::DoNotOptimize(pixels);  // not a constant: the loop runs every iteration
+    benchmark::DoNotOptimize(DssimFmaFloorAvx2(pixels));
+  }
+}
+BENCHMARK(BM_DssimFmaFloorAvx2)->UseRealTime()->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+
+void BM_CensusFloorAvx2(benchmark::State& state) {
+  if (!__builtin_cpu_supports("avx2")) {
+    state.SkipWithError("no AVX2");
+    return;
+  }
+  for (auto _ : state) {
+    int64_t pixels = kFloorPixels;
+    benchmark::DoNotOptimize(pixels);
+    benchmark::DoNotOptimize(CensusFloorAvx2(pixels));
+  }
+}
+BENCHMARK(BM_CensusFloorAvx2)->UseRealTime()->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+}  // namespace
+#endif
+
 BENCHMARK_MAIN();
