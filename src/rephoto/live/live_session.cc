@@ -252,18 +252,28 @@ struct LiveSession::State {
     return buf;
   }
 
+  // One line of live.jsonl per record.
+  static std::string RecordLines(const std::vector<Photo>& records) {
+    std::string text;
+    for (const Photo& p : records)
+      text += p.Json().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    return text;
+  }
+
+  // `text` into `path` opened with `flags`, in one write, on disk (fsync) before it returns.
+  static void WriteSynced(const fs::path& path, int flags, const std::string& text) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | flags, 0644);
+    REPHOTO_CHECK(fd >= 0, "{}: cannot open for writing", path.string());
+    const ssize_t n = ::write(fd, text.data(), text.size());
+    const bool synced = ::fsync(fd) == 0;
+    ::close(fd);
+    REPHOTO_CHECK(n == static_cast<ssize_t>(text.size()) && synced, "{}: write failed",
+                  path.string());
+  }
+
   // Appends the records in one write and one fsync.
   void Append(const std::vector<Photo>& records) {
-    std::string line;
-    for (const Photo& p : records)
-      line += p.Json().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-    const fs::path path = options.out / "live.jsonl";
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-    REPHOTO_CHECK(fd >= 0, "{}: cannot open for appending", path.string());
-    const ssize_t n = ::write(fd, line.data(), line.size());
-    ::fsync(fd);
-    ::close(fd);
-    REPHOTO_CHECK(n == static_cast<ssize_t>(line.size()), "{}: write failed", path.string());
+    WriteSynced(options.out / "live.jsonl", O_APPEND, RecordLines(records));
     log_records += records.size();
   }
 
@@ -278,19 +288,12 @@ struct LiveSession::State {
       std::lock_guard<std::mutex> lock(mutex);
       if (log_records <= photos.size() + static_cast<size_t>(options.log_compaction_slack))
         return;
-      for (const Photo& p : photos)
-        text += p.Json().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+      text = RecordLines(photos);
       count = photos.size();
     }
     const fs::path path = options.out / "live.jsonl";
     const fs::path tmp = options.out / "live.jsonl.compact";
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    REPHOTO_CHECK(fd >= 0, "{}: cannot create", tmp.string());
-    const ssize_t n = ::write(fd, text.data(), text.size());
-    const bool synced = ::fsync(fd) == 0;
-    ::close(fd);
-    REPHOTO_CHECK(n == static_cast<ssize_t>(text.size()) && synced, "{}: write failed",
-                  tmp.string());
+    WriteSynced(tmp, O_TRUNC, text);
     std::error_code ec;
     fs::rename(tmp, path, ec);
     REPHOTO_CHECK(!ec, "{}: cannot replace with the compacted log: {}", path.string(), ec.message());
