@@ -772,24 +772,17 @@ struct LiveSession::State {
           std::max((q.cam_from_world.rotation - p.pose.rotation).cwiseAbs().maxCoeff(),
                    (q.cam_from_world.translation - p.pose.translation).norm() /
                        std::max(1e-12, p.pose.translation.norm() + 1));
-      double camera_delta = q.camera.model == p.camera.model && q.camera.width == p.camera.width &&
-                                    q.camera.height == p.camera.height &&
-                                    q.camera.params.size() == p.camera.params.size()
-                                ? 0.0
-                                : 1.0;
-      for (size_t j = 0; camera_delta < 1 && j < p.camera.params.size(); ++j)
-        camera_delta = std::max(camera_delta, std::abs(q.camera.params[j] - p.camera.params[j]) /
-                                                  std::max(1.0, std::abs(p.camera.params[j])));
+      const double camera_delta = IntrinsicsChange(p.camera, q.camera);
       if (pose_delta < 1e-12 && camera_delta < 1e-12) continue;
       any = true;
       p.pose = q.cam_from_world;
       p.camera = q.camera;
       const auto d = depth_cache.find(p.name);
-      // A focal length or principal point moved by more than 0.5 % changes the depth as much as
-      // a pose refinement does. A stale map is still scaled and used until the join steps of
-      // the next photos estimate it again (dropping it would leave the next prediction without
-      // depth after a global bundle adjustment).
-      if (d != depth_cache.end() && (changes[k].refresh_depth || camera_delta > 0.005))
+      // A stale map is still scaled and used until the join steps of the next photos estimate
+      // it again (dropping it would leave the next prediction without depth after a global
+      // bundle adjustment).
+      if (d != depth_cache.end() &&
+          (changes[k].refresh_depth || camera_delta > options.pose_update.intrinsics_fraction))
         p.depth_stale = true;
       // The file stays as estimated; the record carries the scale (no depth map rewritten per
       // photo at every bundle adjustment).

@@ -96,4 +96,15 @@ std::vector<PoseChange> ComparePoses(const std::vector<camera::Pose>& before,
   return out;
 }
 
+double IntrinsicsChange(const camera::Camera& before, const camera::Camera& after) {
+  if (before.model != after.model || before.width != after.width ||
+      before.height != after.height || before.params.size() != after.params.size())
+    return 1.0;
+  double change = 0;
+  for (size_t j = 0; j < before.params.size(); ++j)
+    change = std::max(change, std::abs(after.params[j] - before.params[j]) /
+                                  std::max(1.0, std::abs(before.params[j])));
+  return change;
+}
+
 }  // namespace rephoto::live

@@ -28,6 +28,9 @@ namespace rephoto::live {
 struct PoseUpdateOptions {
   double move_fraction = 0.01;  // of the new centres' RMS distance from their centroid
   double rotate_degrees = 0.5;
+  // A photo's intrinsics refined by more than this (IntrinsicsChange) change its depth as much
+  // as a pose refinement does: its depth map is estimated again too.
+  double intrinsics_fraction = 0.005;
 };
 
 struct PoseChange {
@@ -42,5 +45,10 @@ struct PoseChange {
 std::vector<PoseChange> ComparePoses(const std::vector<camera::Pose>& before,
                                      const std::vector<camera::Pose>& after,
                                      const PoseUpdateOptions& options = {});
+
+// How much a camera's intrinsics changed: the largest relative change of a parameter (relative
+// to max(1, |before|): focal lengths and principal points in pixels, distortion unitless);
+// 1 when the model, the size or the parameter count differ.
+double IntrinsicsChange(const camera::Camera& before, const camera::Camera& after);
 
 }  // namespace rephoto::live

@@ -72,6 +72,29 @@ TEST(PoseUpdateTest, FrameMoveIsAScaleAndNoRefresh) {
   }
 }
 
+// IntrinsicsChange: the largest parameter change relative to max(1, |before|); 1 when the
+// cameras are not comparable (closed form).
+TEST(PoseUpdateTest, IntrinsicsChangeIsTheLargestRelativeParameterChange) {
+  camera::Camera a;
+  a.model = camera::CameraModel::kPinhole;
+  a.width = 640;
+  a.height = 480;
+  a.params = {1000, 1000, 320, 240};
+  EXPECT_EQ(IntrinsicsChange(a, a), 0.0);
+  camera::Camera b = a;
+  b.params = {1004, 1000, 320, 239};  // fx +0.4 %, cy -1/240
+  EXPECT_DOUBLE_EQ(IntrinsicsChange(a, b), 1.0 / 240);
+  b.params = {1004, 1000, 320, 240};
+  EXPECT_DOUBLE_EQ(IntrinsicsChange(a, b), 0.004);
+  b = a;
+  b.width = 641;
+  EXPECT_EQ(IntrinsicsChange(a, b), 1.0);
+  b = a;
+  b.model = camera::CameraModel::kSimpleRadial;
+  b.params = {1000, 320, 240, 0};
+  EXPECT_EQ(IntrinsicsChange(a, b), 1.0);
+}
+
 TEST(PoseUpdateTest, OnePhotoTurnedOrMovedIsRefreshed) {
   const std::vector<camera::Pose> before = Ring(12);
   std::vector<camera::Pose> after;
