@@ -1,7 +1,5 @@
 #include "rephoto/report/thumbnails.h"
 
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <cmath>
 #include <vector>
