@@ -389,6 +389,40 @@ __attribute__((always_inline)) inline int SpanBlend(const Splat& s, const BlendS
   return __builtin_popcount(static_cast<unsigned>(stop_bits));
 }
 
+// The chord [x0[i], x1[i]] of tile row i, i.e. of image row y_begin + i, of the Gaussian's
+// ellipse q <= level (a dx^2 + 2 b dy dx + c dy^2 - level <= 0 with dx = px - x; a > 0: the
+// conic is positive definite), clamped to the tile's columns as ClampToInt does; a row without
+// a chord gets x1 < x0. All kTile rows at once without a branch, so that the loop vectorises
+// (sqrt, divisions, ceil and floor are correctly rounded element-wise: the same values as one
+// row at a time). Which rows the caller uses does not change a pixel either way: pixels outside
+// the chord get alpha < 1/255 (level holds the rounding margin).
+struct RowChords {
+  alignas(64) int x0[kTile];
+  alignas(64) int x1[kTile];
+};
+
+[[gnu::always_inline]] inline void ComputeRowChords(const Splat& s, int x_begin, int x_end,
+                                                    int y_begin, RowChords* chords) {
+  const float lo0 = static_cast<float>(x_begin), hi0 = static_cast<float>(x_end);
+  const float lo1 = static_cast<float>(x_begin - 1), hi1 = static_cast<float>(x_end - 1);
+  for (int i = 0; i < kTile; ++i) {
+    const float dy = s.py - static_cast<float>(y_begin + i);
+    const float bdy = s.conic_b * dy;
+    const float disc = bdy * bdy - s.conic_a * (s.conic_c * dy * dy - s.level);
+    const bool has_chord = disc >= 0.0f;  // false for NaN too
+    const float root = __builtin_sqrtf(has_chord ? disc : 0.0f);
+    const float dx_low = (-bdy - root) / s.conic_a, dx_high = (-bdy + root) / s.conic_a;
+    float f0 = std::ceil(s.px - dx_high - 0.01f);
+    float f1 = std::floor(s.px - dx_low + 0.01f);
+    f0 = f0 > lo0 ? f0 : lo0;  // ClampToInt(f0, x_begin, x_end), NaN to the low bound
+    f0 = f0 >= hi0 ? hi0 : f0;
+    f1 = f1 > lo1 ? f1 : lo1;  // ClampToInt(f1, x_begin - 1, x_end - 1)
+    f1 = f1 >= hi1 ? hi1 : f1;
+    chords->x0[i] = has_chord ? static_cast<int>(f0) : x_end;
+    chords->x1[i] = has_chord ? static_cast<int>(f1) : x_begin - 1;
+  }
+}
+
 // Blends the Gaussians entries[begin, end) (front to back) into one tile, the reference's
 // per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse; the
 // 8 pixels around a chord of at most 8 pixels, or both 8-pixel halves of the row for a longer
@@ -408,22 +442,21 @@ __attribute__((always_inline)) inline int SpanBlend(const Splat& s, const BlendS
     const Splat& s = splats[entries[e]];
     const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
     const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
+    if (y1 < y0) {  // no row of the tile within reach: nothing blended
+      if (with_error) sums_we[e] = sums_w[e] = 0.0f;
+      continue;
+    }
+    RowChords chords;
+    ComputeRowChords(s, x_begin, x_end, y_begin, &chords);
     int span_count = 0;
     for (int y = y0; y <= y1; ++y) {
       const int row_index = y - y_begin;
       const uint32_t row_done = state->row_done[row_index];
       if (row_done == (1u << kTile) - 1) continue;
-      // The row's chord of the ellipse q <= level: a dx^2 + 2 b dy dx + c dy^2 - level <= 0
-      // with dx = px - x (a > 0: the conic is positive definite).
+      const int x0 = chords.x0[row_index], x1 = chords.x1[row_index];
+      if (x1 < x0) continue;
       const float dy = s.py - static_cast<float>(y);
       const float bdy = s.conic_b * dy;
-      const float disc = bdy * bdy - s.conic_a * (s.conic_c * dy * dy - s.level);
-      if (!(disc >= 0.0f)) continue;
-      const float root = std::sqrt(disc);
-      const float dx_low = (-bdy - root) / s.conic_a, dx_high = (-bdy + root) / s.conic_a;
-      const int x0 = ClampToInt(std::ceil(s.px - dx_high - 0.01f), x_begin, x_end);
-      const int x1 = ClampToInt(std::floor(s.px - dx_low + 0.01f), x_begin - 1, x_end - 1);
-      if (x1 < x0) continue;
       // Eight pixels [h, h + 8) that hold the chord [x0, x1] when it is at most 8 wide,
       // otherwise the two halves of the row.
       const int lo = x0 - x_begin, hi = x1 - x_begin;
@@ -441,6 +474,13 @@ __attribute__((always_inline)) inline int SpanBlend(const Splat& s, const BlendS
     }
     int stops = 0;
     int k = 0;
+    for (; k + 3 < span_count; k += 4) {
+      V8f power[4], alpha[4];
+      for (int j = 0; j < 4; ++j) SpanAlpha(s, spans[k + j], state->pixel_x, &power[j], &alpha[j]);
+      for (int j = 0; j < 4; ++j) {
+        stops += SpanBlend(s, spans[k + j], power[j], alpha[j], with_error, state);
+      }
+    }
     for (; k + 1 < span_count; k += 2) {
       V8f power0, alpha0, power1, alpha1;
       SpanAlpha(s, spans[k], state->pixel_x, &power0, &alpha0);
