@@ -258,8 +258,10 @@ BENCHMARK(BM_Compat3dgsOneThread)
 // (docs/speed.md): the arithmetic the kernel cannot avoid at 12 MP, one thread, in registers
 // (no stores, no shuffles; census's neighbour loads from L1), 8-wide AVX2 instructions with enough independent chains
 // to hide their latency. What each kernel must at least execute per pixel:
-// - DSSIM (fused, Gaussian 11 x 11): 4 quantities x 3 channels x (11 vertical + 11 horizontal
-//   taps) = 264 multiply-adds, i.e. 33 8-wide FMAs;
+// - DSSIM (fused, Gaussian 11 x 11): 4 quantities x 3 channels x 2 passes, each output of a
+//   pass one multiply for the centre tap and, for the 5 symmetric pairs, an add and an FMA:
+//   144 multiply(-add)s and 120 adds per pixel, i.e. per 8 pixels 144 8-wide FMAs and 120
+//   8-wide adds (a CPU with separate add and FMA pipes, as Zen, overlaps them);
 // - census (9 x 9 window): 80 neighbours x 2 images loaded and compared with the centre (160
 //   loads, 160 compares), the two masks XORed (80) and the differing bits counted (80 integer
 //   subtractions of the all-ones mask), per 8 pixels in 8-wide instructions.
@@ -271,16 +273,24 @@ namespace {
 constexpr int64_t kFloorPixels = int64_t{4000} * 3000;
 
 __attribute__((target("avx2,fma"), noinline)) float DssimFmaFloorAvx2(int64_t pixels) {
-  __m256 acc[12];
-  for (int j = 0; j < 12; ++j) acc[j] = _mm256_set1_ps(0.001f * j);
+  // 8 FMA chains and 6 add chains (enough to cover their latencies at 2 per cycle; 16
+  // registers with the two constants). One group: 24 FMAs and 20 adds; 6 groups per 8 pixels.
+  __m256 acc[8], sum[6];
+  for (int j = 0; j < 8; ++j) acc[j] = _mm256_set1_ps(0.001f * j);
+  for (int j = 0; j < 6; ++j) sum[j] = _mm256_set1_ps(0.002f * j);
   const __m256 w = _mm256_set1_ps(0.999f), b = _mm256_set1_ps(1e-7f);
-  // 33 FMAs per pixel, 8 pixels per vector: 33 FMAs per 8 pixels per lane group.
-  const int64_t groups = pixels / 8 * 33 / 12;
+  const int64_t groups = pixels / 8 * 6;
   for (int64_t g = 0; g < groups; ++g) {
-    for (int j = 0; j < 12; ++j) acc[j] = _mm256_fmadd_ps(acc[j], w, b);
+    for (int k = 0; k < 3; ++k) {
+      for (int j = 0; j < 8; ++j) acc[j] = _mm256_fmadd_ps(acc[j], w, b);
+      for (int j = 0; j < 6; ++j) sum[j] = _mm256_add_ps(sum[j], b);
+    }
+    sum[0] = _mm256_add_ps(sum[0], b);
+    sum[1] = _mm256_add_ps(sum[1], b);
   }
   __m256 s = acc[0];
-  for (int j = 1; j < 12; ++j) s = _mm256_add_ps(s, acc[j]);
+  for (int j = 1; j < 8; ++j) s = _mm256_add_ps(s, acc[j]);
+  for (int j = 0; j < 6; ++j) s = _mm256_add_ps(s, sum[j]);
   float out[8];
   _mm256_storeu_ps(out, s);
   return out[0];
