@@ -154,6 +154,14 @@ void SsimVerticalRows(const float* const* rows, const float* weights, int r, int
 // Horizontal filter of the 4 planes of n values of SsimVerticalRows' output: out[q * n + i] =
 // weighted sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
 void SsimHorizontalFused(const float* in, const float* weights, int r, int n, float* out);
+// The same horizontal filter for 8 output rows at once, on transposed data (the path without
+// AVX-512, where the taps of one row vector are shuffles across 128-bit halves): tin (n x 8
+// floats, scratch) receives each plane of the 8 rows transposed, value i of row t at
+// tin[8 i + t], so that every tap is a whole vector; out[(q * n + i) * 8 + t] = the filtered
+// value i of plane q of row t, for i in [3r, n - 3r). The same arithmetic per value as
+// SsimHorizontalFused, so the same bits.
+void SsimHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
+                               float* tin, float* out);
 
 // The SSIM settings of a call.
 struct SsimSetup {
