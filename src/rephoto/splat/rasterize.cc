@@ -423,81 +423,95 @@ struct RowChords {
   }
 }
 
+// One Gaussian's spans in a tile and their alpha (PrepareGaussian), made before the previous
+// Gaussian is blended so that their arithmetic overlaps its blend (SpanAlpha only reads the
+// Gaussian; the spans read row_done, which that blend can only grow: a span whose pixels all
+// stop meanwhile is blended as a no-op, every pixel of it being done).
+struct PreparedGaussian {
+  BlendSpan spans[2 * kTile];
+  V8f power[2 * kTile], alpha[2 * kTile];
+  int span_count = 0;
+  int y0 = 0, y1 = -1;  // y1 < y0: no row of the tile within reach
+};
+
+[[gnu::always_inline]] inline void PrepareGaussian(const Splat& s, int x_begin, int y_begin,
+                                                   int x_end, int y_end, const TileState& state,
+                                                   PreparedGaussian* p) {
+  p->y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
+  p->y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
+  p->span_count = 0;
+  if (p->y1 < p->y0) return;
+  RowChords chords;
+  ComputeRowChords(s, x_begin, x_end, y_begin, &chords);
+  int span_count = 0;
+  for (int y = p->y0; y <= p->y1; ++y) {
+    const int row_index = y - y_begin;
+    const uint32_t row_done = state.row_done[row_index];
+    if (row_done == (1u << kTile) - 1) continue;
+    const int x0 = chords.x0[row_index], x1 = chords.x1[row_index];
+    if (x1 < x0) continue;
+    const float dy = s.py - static_cast<float>(y);
+    const float bdy = s.conic_b * dy;
+    // Eight pixels [h, h + 8) that hold the chord [x0, x1] when it is at most 8 wide,
+    // otherwise the two halves of the row.
+    const int lo = x0 - x_begin, hi = x1 - x_begin;
+    const int h_first = hi - lo < 8 ? std::min(lo, kTile - 8) : 0;
+    const int h_last = hi - lo < 8 ? h_first : 8;
+    for (int h = h_first; h <= h_last; h += 8) {
+      if (((row_done >> h) & 0xffu) == 0xffu) continue;
+      p->spans[span_count++] = {row_index * kTile, h, dy, bdy};
+    }
+  }
+  p->span_count = span_count;
+  for (int k = 0; k < span_count; ++k) {
+    SpanAlpha(s, p->spans[k], state.pixel_x, &p->power[k], &p->alpha[k]);
+  }
+}
+
 // Blends the Gaussians entries[begin, end) (front to back) into one tile, the reference's
 // per-pixel loop. Rows are cut to the chord of the Gaussian's alpha >= 1/255 ellipse; the
 // 8 pixels around a chord of at most 8 pixels, or both 8-pixel halves of the row for a longer
 // one (unless all their pixels have stopped), are the Gaussian's spans. Spans are evaluated
-// without branches on 8-float vectors, two at a time (an AVX2 + FMA variant and an SSE2 one,
-// core/isa.h; the arithmetic is the same IEEE float operations in both). Pixels outside the
-// chord get alpha < 1/255 and change nothing, stopped pixels change nothing, and the spans of one
-// Gaussian share no pixel, so neither the skipping nor the order changes a bit. `sums`
-// (optional) receives per entry the sums of w * error and of w over valid error pixels.
+// without branches on 8-float vectors (an AVX2 + FMA variant and an SSE2 one, core/isa.h; the
+// arithmetic is the same IEEE float operations in both), the next Gaussian's while this one
+// is blended. Pixels outside the chord get alpha < 1/255 and change nothing, stopped pixels
+// change nothing, and the spans of one Gaussian share no pixel, so neither the skipping nor
+// the order changes a bit. `sums` (optional) receives per entry the sums of w * error and of w
+// over valid error pixels.
 [[gnu::always_inline]] inline void BlendTileBody(const Splat* splats, const uint32_t* entries,
                                                  uint32_t begin, uint32_t end, int x_begin,
                                                  int y_begin, int x_end, int y_end, bool with_error,
                                                  TileState* state, float* sums_we, float* sums_w) {
-  BlendSpan spans[2 * kTile];
-  for (uint32_t e = begin; e < end && state->done_count < kTilePixels; ++e) {
+  if (begin >= end) return;
+  PreparedGaussian prepared[2];
+  int cur = 0;
+  PrepareGaussian(splats[entries[begin]], x_begin, y_begin, x_end, y_end, *state, &prepared[0]);
+  for (uint32_t e = begin; e < end && state->done_count < kTilePixels; ++e, cur ^= 1) {
     if (e + 8 < end) __builtin_prefetch(&splats[entries[e + 8]]);
+    if (e + 1 < end) {
+      PrepareGaussian(splats[entries[e + 1]], x_begin, y_begin, x_end, y_end, *state,
+                      &prepared[cur ^ 1]);
+    }
     const Splat& s = splats[entries[e]];
-    const int y0 = ClampToInt(std::ceil(s.py - s.ext_y), y_begin, y_end - 1);
-    const int y1 = ClampToInt(std::floor(s.py + s.ext_y), y_begin - 1, y_end - 1);
-    if (y1 < y0) {  // no row of the tile within reach: nothing blended
+    const PreparedGaussian& p = prepared[cur];
+    if (p.y1 < p.y0) {  // no row of the tile within reach: nothing blended
       if (with_error) sums_we[e] = sums_w[e] = 0.0f;
       continue;
     }
-    RowChords chords;
-    ComputeRowChords(s, x_begin, x_end, y_begin, &chords);
-    int span_count = 0;
-    for (int y = y0; y <= y1; ++y) {
-      const int row_index = y - y_begin;
-      const uint32_t row_done = state->row_done[row_index];
-      if (row_done == (1u << kTile) - 1) continue;
-      const int x0 = chords.x0[row_index], x1 = chords.x1[row_index];
-      if (x1 < x0) continue;
-      const float dy = s.py - static_cast<float>(y);
-      const float bdy = s.conic_b * dy;
-      // Eight pixels [h, h + 8) that hold the chord [x0, x1] when it is at most 8 wide,
-      // otherwise the two halves of the row.
-      const int lo = x0 - x_begin, hi = x1 - x_begin;
-      const int h_first = hi - lo < 8 ? std::min(lo, kTile - 8) : 0;
-      const int h_last = hi - lo < 8 ? h_first : 8;
-      for (int h = h_first; h <= h_last; h += 8) {
-        if (((row_done >> h) & 0xffu) == 0xffu) continue;
-        spans[span_count++] = {row_index * kTile, h, dy, bdy};
-      }
-    }
     if (with_error) {
-      for (int i = (y0 - y_begin) * kTile; i < (y1 + 1 - y_begin) * kTile; ++i) {
+      for (int i = (p.y0 - y_begin) * kTile; i < (p.y1 + 1 - y_begin) * kTile; ++i) {
         state->weights[i] = 0.0f;
       }
     }
     int stops = 0;
-    int k = 0;
-    for (; k + 3 < span_count; k += 4) {
-      V8f power[4], alpha[4];
-      for (int j = 0; j < 4; ++j) SpanAlpha(s, spans[k + j], state->pixel_x, &power[j], &alpha[j]);
-      for (int j = 0; j < 4; ++j) {
-        stops += SpanBlend(s, spans[k + j], power[j], alpha[j], with_error, state);
-      }
-    }
-    for (; k + 1 < span_count; k += 2) {
-      V8f power0, alpha0, power1, alpha1;
-      SpanAlpha(s, spans[k], state->pixel_x, &power0, &alpha0);
-      SpanAlpha(s, spans[k + 1], state->pixel_x, &power1, &alpha1);
-      stops += SpanBlend(s, spans[k], power0, alpha0, with_error, state);
-      stops += SpanBlend(s, spans[k + 1], power1, alpha1, with_error, state);
-    }
-    if (k < span_count) {
-      V8f power, alpha;
-      SpanAlpha(s, spans[k], state->pixel_x, &power, &alpha);
-      stops += SpanBlend(s, spans[k], power, alpha, with_error, state);
+    for (int k = 0; k < p.span_count; ++k) {
+      stops += SpanBlend(s, p.spans[k], p.power[k], p.alpha[k], with_error, state);
     }
     state->done_count += stops;
     if (with_error) {
       // Per row in order, as the reference's per-pixel sums (zero weights add nothing).
       float sum_we = 0, sum_w = 0;
-      for (int y = y0; y <= y1; ++y) {
+      for (int y = p.y0; y <= p.y1; ++y) {
         const int row = (y - y_begin) * kTile;
         float row_we = 0, row_w = 0;
         for (int i = 0; i < kTile; ++i) {
