@@ -109,11 +109,30 @@ struct TileRect {
   return static_cast<int>(v);
 }
 
-// Projects Gaussian g; false when it is culled.
-[[gnu::always_inline]] inline bool Project(const GaussianModel& model, size_t g, const Pinhole& cam,
-                                           const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans,
-                                           const Eigen::Vector3f& center, GaussianMode mode,
-                                           int grid_x, int grid_y, Splat* splat, TileRect* rect) {
+// What projecting one Gaussian computes before its tile range (ProjectCore, or 8 at a time in
+// ProjectCore8).
+struct Projected {
+  float depth, opacity, cov_a, cov_c, cov_b, det_inv, radius, px, py;
+};
+
+// The camera constants of the Jacobian clamp.
+struct ClampLimits {
+  float x_pos, x_neg, y_pos, y_neg;
+  explicit ClampLimits(const Pinhole& cam) {
+    const float tan_x = 0.5f * cam.width / cam.fx, tan_y = 0.5f * cam.height / cam.fy;
+    x_pos = (cam.width - cam.cx) / cam.fx + 0.3f * tan_x;
+    x_neg = cam.cx / cam.fx + 0.3f * tan_x;
+    y_pos = (cam.height - cam.cy) / cam.fy + 0.3f * tan_y;
+    y_neg = cam.cy / cam.fy + 0.3f * tan_y;
+  }
+};
+
+// Gaussian g up to its 2-D footprint; false when it is culled.
+[[gnu::always_inline]] inline bool ProjectCore(const GaussianModel& model, size_t g,
+                                               const Pinhole& cam, const ClampLimits& lim,
+                                               const Eigen::Matrix3f& rot,
+                                               const Eigen::Vector3f& trans, GaussianMode mode,
+                                               Projected* out) {
   const Eigen::Vector3f& mean = model.positions[g];
   const Eigen::Vector3f p = rot * mean + trans;
   if (p.z() <= kNearZ) return false;
@@ -131,14 +150,9 @@ struct TileRect {
   const Eigen::Matrix3f sigma = m * m.transpose();
 
   // EWA (computeCov2D) with the Jacobian clamp.
-  const float tan_x = 0.5f * cam.width / cam.fx, tan_y = 0.5f * cam.height / cam.fy;
-  const float lim_x_pos = (cam.width - cam.cx) / cam.fx + 0.3f * tan_x;
-  const float lim_x_neg = cam.cx / cam.fx + 0.3f * tan_x;
-  const float lim_y_pos = (cam.height - cam.cy) / cam.fy + 0.3f * tan_y;
-  const float lim_y_neg = cam.cy / cam.fy + 0.3f * tan_y;
   const float tz = p.z();
-  const float tx = std::min(lim_x_pos, std::max(-lim_x_neg, p.x() / tz)) * tz;
-  const float ty = std::min(lim_y_pos, std::max(-lim_y_neg, p.y() / tz)) * tz;
+  const float tx = std::min(lim.x_pos, std::max(-lim.x_neg, p.x() / tz)) * tz;
+  const float ty = std::min(lim.y_pos, std::max(-lim.y_neg, p.y() / tz)) * tz;
   Eigen::Matrix<float, 2, 3> jac;
   jac << cam.fx / tz, 0.0f, -(cam.fx * tx) / (tz * tz), 0.0f, cam.fy / tz,
       -(cam.fy * ty) / (tz * tz);
@@ -154,13 +168,30 @@ struct TileRect {
     opacity *= std::sqrt(std::max(0.0f, det_orig / det));
     if (!(opacity >= kMinAlpha)) return false;
   }
-  const float det_inv = 1.0f / det;
   const float mid = 0.5f * (cov_a + cov_c);
   const float lambda1 = mid + std::sqrt(std::max(0.1f, mid * mid - det));
   const float lambda2 = mid - std::sqrt(std::max(0.1f, mid * mid - det));
-  const float radius = std::ceil(3.0f * std::sqrt(std::max(lambda1, lambda2)));
-  const float px = cam.fx * p.x() / p.z() + cam.cx - 0.5f;
-  const float py = cam.fy * p.y() / p.z() + cam.cy - 0.5f;
+  *out = {p.z(),
+          opacity,
+          cov_a,
+          cov_c,
+          cov_b,
+          1.0f / det,
+          std::ceil(3.0f * std::sqrt(std::max(lambda1, lambda2))),
+          cam.fx * p.x() / p.z() + cam.cx - 0.5f,
+          cam.fy * p.y() / p.z() + cam.cy - 0.5f};
+  return true;
+}
+
+// The rest of the projection of Gaussian g from ProjectCore's values: tile range, alpha
+// ellipse, colour; false when it is culled.
+[[gnu::always_inline]] inline bool ProjectFinish(const GaussianModel& model, size_t g,
+                                                 const Projected& pr,
+                                                 const Eigen::Vector3f& center, int grid_x,
+                                                 int grid_y, Splat* splat, TileRect* rect) {
+  const float radius = pr.radius, px = pr.px, py = pr.py;
+  const float cov_a = pr.cov_a, cov_b = pr.cov_b, cov_c = pr.cov_c, det_inv = pr.det_inv;
+  const float opacity = pr.opacity;
   rect->x0 = TileBound((px - radius) / kTile, grid_x);
   rect->y0 = TileBound((py - radius) / kTile, grid_y);
   rect->x1 = TileBound((px + radius + kTile - 1) / kTile, grid_x);
@@ -188,7 +219,7 @@ struct TileRect {
   rect->y1 = std::min(rect->y1, TileBound((py + splat->ext_y) / kTile + 1.0f, grid_y));
   if (rect->x1 <= rect->x0 || rect->y1 <= rect->y0) return false;
 
-  const Eigen::Vector3f dir = (mean - center).normalized();
+  const Eigen::Vector3f dir = (model.positions[g] - center).normalized();
   const Eigen::Vector3f color =
       ShColor(model.sh.data() + g * model.ShCoefficients() * 3, model.sh_degree, dir);
   splat->px = px;
@@ -200,38 +231,9 @@ struct TileRect {
   splat->r = color[0];
   splat->g = color[1];
   splat->b = color[2];
-  splat->depth = p.z();
+  splat->depth = pr.depth;
   return true;
 }
-
-// Projects Gaussians [begin, end) (visible[g] = 1 where not culled); returns how many are
-// visible. Compiled per ISA path (core/isa.h): the same IEEE operations on each (no contraction,
-// libm's logf, correctly rounded sqrt and ceil), only the encoding differs.
-[[gnu::always_inline]] inline uint32_t ProjectRangeBody(
-    const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
-    const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
-    GaussianMode mode, int grid_x, int grid_y, Splat* splats, TileRect* rects, uint8_t* visible) {
-  uint32_t count = 0;
-  const size_t sh_floats = static_cast<size_t>(model.ShCoefficients()) * 3;
-  for (int64_t g = begin; g < end; ++g) {
-    // The colour coefficients (192 B at degree 3) of a Gaussian a few ahead: read only for the
-    // visible ones, a stream with gaps that the hardware prefetcher followed late.
-    if (g + 12 < end) {
-      const char* sh = reinterpret_cast<const char*>(model.sh.data() + (g + 12) * sh_floats);
-      for (size_t b = 0; b < sh_floats * sizeof(float); b += 64) __builtin_prefetch(sh + b);
-    }
-    visible[g] = Project(model, static_cast<size_t>(g), cam, rot, trans, center, mode, grid_x,
-                         grid_y, &splats[g], &rects[g]);
-    count += visible[g];
-  }
-  return count;
-}
-REPHOTO_ISA_DISPATCH_AVX2(
-    uint32_t, ProjectRange,
-    (const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
-     const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
-     GaussianMode mode, int grid_x, int grid_y, Splat* splats, TileRect* rects, uint8_t* visible),
-    (model, begin, end, cam, rot, trans, center, mode, grid_x, grid_y, splats, rects, visible))
 
 // An array of n trivially constructible T left uninitialized (std::vector would zero it on
 // one thread before the parallel loops that fill it; here each page is first touched by the
@@ -286,6 +288,163 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
   return bits;
 #endif
 }
+
+// v in every lane, bit for bit (V8f{} + v would turn -0 into +0).
+[[gnu::always_inline]] inline V8f Broadcast8(float v) { return V8f{v, v, v, v, v, v, v, v}; }
+
+// ProjectCore for the 8 Gaussians [g, g + 8): the same IEEE operations per lane, in the same
+// order (Eigen's 3-term dot products are a0 + (a1 + a2), its min/max are selects, sqrt and
+// ceil correctly rounded on every path), so each lane holds the bits ProjectCore gives; a lane
+// that ProjectCore culls has keep[j] = 0 (its values are garbage).
+[[gnu::always_inline]] inline void ProjectCore8(const GaussianModel& model, size_t g,
+                                                const Pinhole& cam, const ClampLimits& lim,
+                                                const Eigen::Matrix3f& rot,
+                                                const Eigen::Vector3f& trans, GaussianMode mode,
+                                                Projected* out, bool* keep) {
+  alignas(32) float in[11][8];
+  for (int j = 0; j < 8; ++j) {
+    const Eigen::Vector3f& mean = model.positions[g + j];
+    const Eigen::Vector3f& sc = model.scales[g + j];
+    const Eigen::Vector4f& q = model.rotations[g + j];
+    for (int k = 0; k < 3; ++k) in[k][j] = mean[k];
+    for (int k = 0; k < 3; ++k) in[3 + k][j] = sc[k];
+    for (int k = 0; k < 4; ++k) in[6 + k][j] = q[k];
+    in[10][j] = model.opacities[g + j];
+  }
+  auto load = [&](int k) { return *reinterpret_cast<const V8f*>(in[k]); };
+  auto dot3 = [](V8f a0, V8f b0, V8f a1, V8f b1, V8f a2, V8f b2) {
+    return a0 * b0 + (a1 * b1 + a2 * b2);
+  };
+  auto vmax = [](V8f a, V8f b) { return a < b ? b : a; };  // std::max(a, b)
+  auto vmin = [](V8f a, V8f b) { return b < a ? b : a; };  // std::min(a, b)
+  auto vsqrt = [](V8f v) {
+    V8f r;
+    for (int j = 0; j < 8; ++j) r[j] = __builtin_sqrtf(v[j]);
+    return r;
+  };
+  const V8f mx = load(0), my = load(1), mz = load(2);
+  const V8f sx = load(3), sy = load(4), sz = load(5);
+  const V8f r = load(6), x = load(7), y = load(8), z = load(9);
+  const V8f opacity_raw = load(10);
+  V8f p[3];
+  for (int i = 0; i < 3; ++i) {
+    p[i] = dot3(Broadcast8(rot(i, 0)), mx, Broadcast8(rot(i, 1)), my, Broadcast8(rot(i, 2)), mz) + trans[i];
+  }
+  V8i alive = ~(p[2] <= kNearZ) & (opacity_raw >= kMinAlpha);  // as ProjectCore's tests (NaN)
+  // rq, then m = rq * diag(s), sigma = m m^T.
+  V8f rq[3][3];
+  rq[0][0] = 1.f - 2.f * (y * y + z * z);
+  rq[0][1] = 2.f * (x * y - r * z);
+  rq[0][2] = 2.f * (x * z + r * y);
+  rq[1][0] = 2.f * (x * y + r * z);
+  rq[1][1] = 1.f - 2.f * (x * x + z * z);
+  rq[1][2] = 2.f * (y * z - r * x);
+  rq[2][0] = 2.f * (x * z - r * y);
+  rq[2][1] = 2.f * (y * z + r * x);
+  rq[2][2] = 1.f - 2.f * (x * x + y * y);
+  const V8f s3[3] = {sx, sy, sz};
+  V8f m[3][3];
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) m[i][k] = rq[i][k] * s3[k];
+  }
+  V8f sigma[3][3];
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      sigma[i][k] = dot3(m[i][0], m[k][0], m[i][1], m[k][1], m[i][2], m[k][2]);
+    }
+  }
+  const V8f tz = p[2];
+  const V8f tx = vmin(Broadcast8(lim.x_pos), vmax(Broadcast8(-lim.x_neg), p[0] / tz)) * tz;
+  const V8f ty = vmin(Broadcast8(lim.y_pos), vmax(Broadcast8(-lim.y_neg), p[1] / tz)) * tz;
+  const V8f zero{};
+  const V8f jac[2][3] = {{cam.fx / tz, zero, -(cam.fx * tx) / (tz * tz)},
+                         {zero, cam.fy / tz, -(cam.fy * ty) / (tz * tz)}};
+  V8f t[2][3];
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      t[i][k] = dot3(jac[i][0], Broadcast8(rot(0, k)), jac[i][1], Broadcast8(rot(1, k)), jac[i][2],
+                     Broadcast8(rot(2, k)));
+    }
+  }
+  V8f ts[2][3];  // t * sigma
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      ts[i][k] = dot3(t[i][0], sigma[0][k], t[i][1], sigma[1][k], t[i][2], sigma[2][k]);
+    }
+  }
+  const V8f cov_a0 = dot3(ts[0][0], t[0][0], ts[0][1], t[0][1], ts[0][2], t[0][2]);
+  const V8f cov_b = dot3(ts[0][0], t[1][0], ts[0][1], t[1][1], ts[0][2], t[1][2]);
+  const V8f cov_c0 = dot3(ts[1][0], t[1][0], ts[1][1], t[1][1], ts[1][2], t[1][2]);
+  const V8f cov_a = cov_a0 + kDilation, cov_c = cov_c0 + kDilation;
+  const V8f det = cov_a * cov_c - cov_b * cov_b;
+  alive &= det != 0.0f;
+  V8f opacity = opacity_raw;
+  if (mode == GaussianMode::kAntialiased) {
+    const V8f det_orig = cov_a0 * cov_c0 - cov_b * cov_b;
+    opacity *= vsqrt(vmax(zero, det_orig / det));
+    alive &= opacity >= kMinAlpha;
+  }
+  const V8f mid = 0.5f * (cov_a + cov_c);
+  const V8f lambda1 = mid + vsqrt(vmax(Broadcast8(0.1f), mid * mid - det));
+  const V8f lambda2 = mid - vsqrt(vmax(Broadcast8(0.1f), mid * mid - det));
+  const V8f root = vsqrt(vmax(lambda1, lambda2));
+  V8f radius;
+  for (int j = 0; j < 8; ++j) radius[j] = std::ceil(3.0f * root[j]);
+  const V8f det_inv = 1.0f / det;
+  const V8f px = cam.fx * p[0] / p[2] + cam.cx - 0.5f;
+  const V8f py = cam.fy * p[1] / p[2] + cam.cy - 0.5f;
+  for (int j = 0; j < 8; ++j) {
+    keep[j] = alive[j] != 0;
+    out[j] = {p[2][j], opacity[j], cov_a[j], cov_c[j], cov_b[j], det_inv[j], radius[j], px[j],
+              py[j]};
+  }
+}
+
+// Projects Gaussians [begin, end) (visible[g] = 1 where not culled); returns how many are
+// visible. Compiled per ISA path (core/isa.h): the same IEEE operations on each (no contraction,
+// libm's logf, correctly rounded sqrt and ceil), only the encoding differs. Whole groups of 8
+// go through ProjectCore8 (the same values as ProjectCore, one Gaussian at a time, for the
+// rest).
+[[gnu::always_inline]] inline uint32_t ProjectRangeBody(
+    const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
+    const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
+    GaussianMode mode, int grid_x, int grid_y, Splat* splats, TileRect* rects, uint8_t* visible) {
+  uint32_t count = 0;
+  const size_t sh_floats = static_cast<size_t>(model.ShCoefficients()) * 3;
+  const ClampLimits lim(cam);
+  int64_t g = begin;
+  for (; g + 8 <= end; g += 8) {
+    // The colour coefficients (192 B at degree 3) of the next group: read only for the
+    // visible ones, a stream with gaps that the hardware prefetcher followed late.
+    if (g + 16 <= end) {
+      const char* sh = reinterpret_cast<const char*>(model.sh.data() + (g + 8) * sh_floats);
+      for (size_t b = 0; b < 8 * sh_floats * sizeof(float); b += 64) __builtin_prefetch(sh + b);
+    }
+    Projected pr[8];
+    bool keep[8];
+    ProjectCore8(model, static_cast<size_t>(g), cam, lim, rot, trans, mode, pr, keep);
+    for (int j = 0; j < 8; ++j) {
+      const size_t i = static_cast<size_t>(g + j);
+      visible[i] =
+          keep[j] && ProjectFinish(model, i, pr[j], center, grid_x, grid_y, &splats[i], &rects[i]);
+      count += visible[i];
+    }
+  }
+  for (; g < end; ++g) {
+    Projected pr;
+    const size_t i = static_cast<size_t>(g);
+    visible[i] = ProjectCore(model, i, cam, lim, rot, trans, mode, &pr) &&
+                 ProjectFinish(model, i, pr, center, grid_x, grid_y, &splats[i], &rects[i]);
+    count += visible[i];
+  }
+  return count;
+}
+REPHOTO_ISA_DISPATCH_AVX2(
+    uint32_t, ProjectRange,
+    (const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
+     const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
+     GaussianMode mode, int grid_x, int grid_y, Splat* splats, TileRect* rects, uint8_t* visible),
+    (model, begin, end, cam, rot, trans, center, mode, grid_x, grid_y, splats, rects, visible))
 
 // exp(x) for x <= 0 (larger x are clamped to 0; callers mask them anyway), relative error
 // below 2e-7: Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a degree-6 Taylor polynomial
