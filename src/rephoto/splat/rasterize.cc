@@ -186,9 +186,9 @@ struct ClampLimits {
 // The rest of the projection of Gaussian g from ProjectCore's values: tile range, alpha
 // ellipse, colour; false when it is culled.
 [[gnu::always_inline]] inline bool ProjectFinish(const GaussianModel& model, size_t g,
-                                                 const Projected& pr,
-                                                 const Eigen::Vector3f& center, int grid_x,
-                                                 int grid_y, Splat* splat, TileRect* rect) {
+                                                 const Projected& pr, const Eigen::Vector3f& center,
+                                                 int grid_x, int grid_y, Splat* splat,
+                                                 TileRect* rect) {
   const float radius = pr.radius, px = pr.px, py = pr.py;
   const float cov_a = pr.cov_a, cov_b = pr.cov_b, cov_c = pr.cov_c, det_inv = pr.det_inv;
   const float opacity = pr.opacity;
@@ -289,9 +289,6 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
 #endif
 }
 
-// v in every lane, bit for bit (V8f{} + v would turn -0 into +0).
-[[gnu::always_inline]] inline V8f Broadcast8(float v) { return V8f{v, v, v, v, v, v, v, v}; }
-
 // ProjectCore for the 8 Gaussians [g, g + 8): the same IEEE operations per lane, in the same
 // order (Eigen's 3-term dot products are a0 + (a1 + a2), its min/max are selects, sqrt and
 // ceil correctly rounded on every path), so each lane holds the bits ProjectCore gives; a lane
@@ -311,24 +308,26 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
     for (int k = 0; k < 4; ++k) in[6 + k][j] = q[k];
     in[10][j] = model.opacities[g + j];
   }
-  auto load = [&](int k) { return *reinterpret_cast<const V8f*>(in[k]); };
-  auto dot3 = [](V8f a0, V8f b0, V8f a1, V8f b1, V8f a2, V8f b2) {
-    return a0 * b0 + (a1 * b1 + a2 * b2);
+  // Macros, not functions returning vectors: without AVX a by-value 32-byte vector changes the
+  // ABI (GCC's -Wpsabi). REPHOTO_BROADCAST8 puts v in every lane bit for bit (V8f{} + v would turn
+  // -0 into +0); REPHOTO_VMAX / _VMIN are std::max / std::min (the same selects).
+#define REPHOTO_LOAD8(k) (*reinterpret_cast<const V8f*>(in[k]))
+#define REPHOTO_BROADCAST8(v) (V8f{(v), (v), (v), (v), (v), (v), (v), (v)})
+#define REPHOTO_DOT3(a0, b0, a1, b1, a2, b2) ((a0) * (b0) + ((a1) * (b1) + (a2) * (b2)))
+#define REPHOTO_VMAX(a, b) ((a) < (b) ? (b) : (a))
+#define REPHOTO_VMIN(a, b) ((b) < (a) ? (b) : (a))
+  const auto sqrt8 = [](const V8f& v, V8f* r) {
+    for (int j = 0; j < 8; ++j) (*r)[j] = __builtin_sqrtf(v[j]);
   };
-  auto vmax = [](V8f a, V8f b) { return a < b ? b : a; };  // std::max(a, b)
-  auto vmin = [](V8f a, V8f b) { return b < a ? b : a; };  // std::min(a, b)
-  auto vsqrt = [](V8f v) {
-    V8f r;
-    for (int j = 0; j < 8; ++j) r[j] = __builtin_sqrtf(v[j]);
-    return r;
-  };
-  const V8f mx = load(0), my = load(1), mz = load(2);
-  const V8f sx = load(3), sy = load(4), sz = load(5);
-  const V8f r = load(6), x = load(7), y = load(8), z = load(9);
-  const V8f opacity_raw = load(10);
+  const V8f mx = REPHOTO_LOAD8(0), my = REPHOTO_LOAD8(1), mz = REPHOTO_LOAD8(2);
+  const V8f sx = REPHOTO_LOAD8(3), sy = REPHOTO_LOAD8(4), sz = REPHOTO_LOAD8(5);
+  const V8f r = REPHOTO_LOAD8(6), x = REPHOTO_LOAD8(7), y = REPHOTO_LOAD8(8), z = REPHOTO_LOAD8(9);
+  const V8f opacity_raw = REPHOTO_LOAD8(10);
   V8f p[3];
   for (int i = 0; i < 3; ++i) {
-    p[i] = dot3(Broadcast8(rot(i, 0)), mx, Broadcast8(rot(i, 1)), my, Broadcast8(rot(i, 2)), mz) + trans[i];
+    p[i] = REPHOTO_DOT3(REPHOTO_BROADCAST8(rot(i, 0)), mx, REPHOTO_BROADCAST8(rot(i, 1)), my,
+                        REPHOTO_BROADCAST8(rot(i, 2)), mz) +
+           trans[i];
   }
   V8i alive = ~(p[2] <= kNearZ) & (opacity_raw >= kMinAlpha);  // as ProjectCore's tests (NaN)
   // rq, then m = rq * diag(s), sigma = m m^T.
@@ -350,44 +349,56 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
   V8f sigma[3][3];
   for (int i = 0; i < 3; ++i) {
     for (int k = 0; k < 3; ++k) {
-      sigma[i][k] = dot3(m[i][0], m[k][0], m[i][1], m[k][1], m[i][2], m[k][2]);
+      sigma[i][k] = REPHOTO_DOT3(m[i][0], m[k][0], m[i][1], m[k][1], m[i][2], m[k][2]);
     }
   }
   const V8f tz = p[2];
-  const V8f tx = vmin(Broadcast8(lim.x_pos), vmax(Broadcast8(-lim.x_neg), p[0] / tz)) * tz;
-  const V8f ty = vmin(Broadcast8(lim.y_pos), vmax(Broadcast8(-lim.y_neg), p[1] / tz)) * tz;
+  const V8f tx = REPHOTO_VMIN(REPHOTO_BROADCAST8(lim.x_pos),
+                              REPHOTO_VMAX(REPHOTO_BROADCAST8(-lim.x_neg), p[0] / tz)) *
+                 tz;
+  const V8f ty = REPHOTO_VMIN(REPHOTO_BROADCAST8(lim.y_pos),
+                              REPHOTO_VMAX(REPHOTO_BROADCAST8(-lim.y_neg), p[1] / tz)) *
+                 tz;
   const V8f zero{};
   const V8f jac[2][3] = {{cam.fx / tz, zero, -(cam.fx * tx) / (tz * tz)},
                          {zero, cam.fy / tz, -(cam.fy * ty) / (tz * tz)}};
   V8f t[2][3];
   for (int i = 0; i < 2; ++i) {
     for (int k = 0; k < 3; ++k) {
-      t[i][k] = dot3(jac[i][0], Broadcast8(rot(0, k)), jac[i][1], Broadcast8(rot(1, k)), jac[i][2],
-                     Broadcast8(rot(2, k)));
+      t[i][k] =
+          REPHOTO_DOT3(jac[i][0], REPHOTO_BROADCAST8(rot(0, k)), jac[i][1],
+                       REPHOTO_BROADCAST8(rot(1, k)), jac[i][2], REPHOTO_BROADCAST8(rot(2, k)));
     }
   }
   V8f ts[2][3];  // t * sigma
   for (int i = 0; i < 2; ++i) {
     for (int k = 0; k < 3; ++k) {
-      ts[i][k] = dot3(t[i][0], sigma[0][k], t[i][1], sigma[1][k], t[i][2], sigma[2][k]);
+      ts[i][k] = REPHOTO_DOT3(t[i][0], sigma[0][k], t[i][1], sigma[1][k], t[i][2], sigma[2][k]);
     }
   }
-  const V8f cov_a0 = dot3(ts[0][0], t[0][0], ts[0][1], t[0][1], ts[0][2], t[0][2]);
-  const V8f cov_b = dot3(ts[0][0], t[1][0], ts[0][1], t[1][1], ts[0][2], t[1][2]);
-  const V8f cov_c0 = dot3(ts[1][0], t[1][0], ts[1][1], t[1][1], ts[1][2], t[1][2]);
+  const V8f cov_a0 = REPHOTO_DOT3(ts[0][0], t[0][0], ts[0][1], t[0][1], ts[0][2], t[0][2]);
+  const V8f cov_b = REPHOTO_DOT3(ts[0][0], t[1][0], ts[0][1], t[1][1], ts[0][2], t[1][2]);
+  const V8f cov_c0 = REPHOTO_DOT3(ts[1][0], t[1][0], ts[1][1], t[1][1], ts[1][2], t[1][2]);
   const V8f cov_a = cov_a0 + kDilation, cov_c = cov_c0 + kDilation;
   const V8f det = cov_a * cov_c - cov_b * cov_b;
   alive &= det != 0.0f;
   V8f opacity = opacity_raw;
   if (mode == GaussianMode::kAntialiased) {
     const V8f det_orig = cov_a0 * cov_c0 - cov_b * cov_b;
-    opacity *= vsqrt(vmax(zero, det_orig / det));
+    const V8f ratio = det_orig / det;
+    V8f root_ratio;
+    sqrt8(REPHOTO_VMAX(zero, ratio), &root_ratio);
+    opacity *= root_ratio;
     alive &= opacity >= kMinAlpha;
   }
   const V8f mid = 0.5f * (cov_a + cov_c);
-  const V8f lambda1 = mid + vsqrt(vmax(Broadcast8(0.1f), mid * mid - det));
-  const V8f lambda2 = mid - vsqrt(vmax(Broadcast8(0.1f), mid * mid - det));
-  const V8f root = vsqrt(vmax(lambda1, lambda2));
+  const V8f spread = mid * mid - det;
+  V8f root_spread;
+  sqrt8(REPHOTO_VMAX(REPHOTO_BROADCAST8(0.1f), spread), &root_spread);
+  const V8f lambda1 = mid + root_spread;
+  const V8f lambda2 = mid - root_spread;
+  V8f root;
+  sqrt8(REPHOTO_VMAX(lambda1, lambda2), &root);
   V8f radius;
   for (int j = 0; j < 8; ++j) radius[j] = std::ceil(3.0f * root[j]);
   const V8f det_inv = 1.0f / det;
@@ -395,10 +406,15 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
   const V8f py = cam.fy * p[1] / p[2] + cam.cy - 0.5f;
   for (int j = 0; j < 8; ++j) {
     keep[j] = alive[j] != 0;
-    out[j] = {p[2][j], opacity[j], cov_a[j], cov_c[j], cov_b[j], det_inv[j], radius[j], px[j],
-              py[j]};
+    out[j] = {p[2][j],    opacity[j], cov_a[j], cov_c[j], cov_b[j],
+              det_inv[j], radius[j],  px[j],    py[j]};
   }
 }
+#undef REPHOTO_LOAD8
+#undef REPHOTO_BROADCAST8
+#undef REPHOTO_DOT3
+#undef REPHOTO_VMAX
+#undef REPHOTO_VMIN
 
 // Projects Gaussians [begin, end) (visible[g] = 1 where not culled); returns how many are
 // visible. Compiled per ISA path (core/isa.h): the same IEEE operations on each (no contraction,
@@ -699,11 +715,6 @@ REPHOTO_ISA_DISPATCH_AVX2(void, BlendTile,
                           (splats, entries, begin, end, x_begin, y_begin, x_end, y_end, with_error,
                            state, sums_we, sums_w))
 
-struct Band {
-  std::vector<uint32_t> offsets;  // per tile of the band, +1
-  std::vector<uint32_t> entries;  // indices into the depth order, front to back per tile
-};
-
 // Rasterizes on a pinhole grid. `error` (optional, width x height floats, NaN = skip) with
 // `accumulator` adds per-Gaussian weights.
 void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const camera::Pose& pose,
@@ -770,33 +781,57 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   splats.reset();
   rects.reset();
 
-  // Per-tile lists, built per band of tile rows (each band scans the sorted Gaussians once).
-  const int band_rows = std::max(1, (grid_y + 15) / 16);
-  const int band_count = (grid_y + band_rows - 1) / band_rows;
-  std::vector<Band> bands(band_count);
-  ParallelFor(0, band_count, 1, [&](int64_t bb, int64_t be) {
-    for (int64_t band_index = bb; band_index < be; ++band_index) {
-      Band& band = bands[band_index];
-      const int ty0 = static_cast<int>(band_index) * band_rows;
-      const int ty1 = std::min(grid_y, ty0 + band_rows);
-      const int tiles = (ty1 - ty0) * grid_x;
-      band.offsets.assign(tiles + 1, 0);
-      for (uint32_t i = 0; i < visible_count; ++i) {
+  // Per-tile lists: a counting sort of the (tile, Gaussian) entries by tile, in chunks of the
+  // depth order counted and filled in parallel (each chunk's entries of a tile go after the
+  // earlier chunks' ones, so every tile's list is in depth order).
+  const int64_t tiles = static_cast<int64_t>(grid_x) * grid_y;
+  // Up to 32 chunks of at least 16k Gaussians, and at most 16 MB of per-chunk tile counters
+  // (a 16k x 16k image has a million tiles).
+  const int64_t list_chunks = std::clamp<int64_t>(
+      std::min<int64_t>(static_cast<int64_t>(visible_count / 16384), (int64_t{4} << 20) / tiles), 1,
+      32);
+  auto chunk_range = [&](int64_t c) {
+    return std::pair<uint32_t, uint32_t>(
+        static_cast<uint32_t>(visible_count * c / list_chunks),
+        static_cast<uint32_t>(visible_count * (c + 1) / list_chunks));
+  };
+  std::vector<uint32_t> cursor(static_cast<size_t>(list_chunks * tiles), 0);
+  ParallelFor(0, list_chunks, 1, [&](int64_t cb, int64_t ce) {
+    for (int64_t c = cb; c < ce; ++c) {
+      uint32_t* count = cursor.data() + c * tiles;
+      const auto [i0, i1] = chunk_range(c);
+      for (uint32_t i = i0; i < i1; ++i) {
         const TileRect& r = sorted_rects[i];
-        const int y0 = std::max(r.y0, ty0), y1 = std::min(r.y1, ty1);
-        for (int ty = y0; ty < y1; ++ty) {
-          for (int tx = r.x0; tx < r.x1; ++tx) ++band.offsets[(ty - ty0) * grid_x + tx + 1];
+        for (int ty = r.y0; ty < r.y1; ++ty) {
+          for (int tx = r.x0; tx < r.x1; ++tx) ++count[static_cast<int64_t>(ty) * grid_x + tx];
         }
       }
-      for (int t = 0; t < tiles; ++t) band.offsets[t + 1] += band.offsets[t];
-      band.entries.resize(band.offsets[tiles]);
-      std::vector<uint32_t> cursor(band.offsets.begin(), band.offsets.end() - 1);
-      for (uint32_t i = 0; i < visible_count; ++i) {
+    }
+  });
+  std::vector<uint32_t> tile_offsets(static_cast<size_t>(tiles) + 1, 0);
+  {
+    uint32_t at = 0;
+    for (int64_t t = 0; t < tiles; ++t) {
+      tile_offsets[t] = at;
+      for (int64_t c = 0; c < list_chunks; ++c) {
+        const uint32_t n_ct = cursor[c * tiles + t];
+        cursor[c * tiles + t] = at;
+        at += n_ct;
+      }
+    }
+    tile_offsets[tiles] = at;
+  }
+  const size_t entry_count = tile_offsets[tiles];
+  auto entries = UninitializedArray<uint32_t>(std::max<size_t>(entry_count, 1));
+  ParallelFor(0, list_chunks, 1, [&](int64_t cb, int64_t ce) {
+    for (int64_t c = cb; c < ce; ++c) {
+      uint32_t* at = cursor.data() + c * tiles;
+      const auto [i0, i1] = chunk_range(c);
+      for (uint32_t i = i0; i < i1; ++i) {
         const TileRect& r = sorted_rects[i];
-        const int y0 = std::max(r.y0, ty0), y1 = std::min(r.y1, ty1);
-        for (int ty = y0; ty < y1; ++ty) {
+        for (int ty = r.y0; ty < r.y1; ++ty) {
           for (int tx = r.x0; tx < r.x1; ++tx) {
-            band.entries[cursor[(ty - ty0) * grid_x + tx]++] = i;
+            entries[at[static_cast<int64_t>(ty) * grid_x + tx]++] = i;
           }
         }
       }
@@ -807,16 +842,11 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   if (stats) {
     stats->sort_ms = std::chrono::duration<double, std::milli>(blend_start - sort_start).count();
     stats->visible = visible_count;
-    stats->tile_entries = 0;
-    for (const Band& band : bands) stats->tile_entries += band.entries.size();
+    stats->tile_entries = entry_count;
   }
 
-  std::vector<std::vector<float>> entry_weighted_error(accumulator ? band_count : 0);
-  std::vector<std::vector<float>> entry_weight(accumulator ? band_count : 0);
-  for (size_t b = 0; b < entry_weight.size(); ++b) {
-    entry_weighted_error[b].assign(bands[b].entries.size(), 0.0f);
-    entry_weight[b].assign(bands[b].entries.size(), 0.0f);
-  }
+  std::vector<float> entry_weighted_error(accumulator ? entry_count : 0, 0.0f);
+  std::vector<float> entry_weight(accumulator ? entry_count : 0, 0.0f);
 
   color->Resize(cam.width, cam.height, 4);
   depth->Resize(cam.width, cam.height, 1);
@@ -825,18 +855,15 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
     TileState state;
     for (int64_t tile = tb; tile < te; ++tile) {
       const int tx = static_cast<int>(tile % grid_x), ty = static_cast<int>(tile / grid_x);
-      const int band_index = ty / band_rows;
-      const Band& band = bands[band_index];
-      const int local = (ty - band_index * band_rows) * grid_x + tx;
       const int x_begin = tx * kTile, y_begin = ty * kTile;
       const int x_end = std::min(cam.width, x_begin + kTile);
       const int y_end = std::min(cam.height, y_begin + kTile);
       state.Reset(x_begin, x_end - x_begin, y_end - y_begin);
       if (error != nullptr) state.SetError(error, cam.width, x_begin, y_begin);
-      BlendTile(sorted.get(), band.entries.data(), band.offsets[local], band.offsets[local + 1],
-                x_begin, y_begin, x_end, y_end, error != nullptr, &state,
-                error != nullptr ? entry_weighted_error[band_index].data() : nullptr,
-                error != nullptr ? entry_weight[band_index].data() : nullptr);
+      BlendTile(sorted.get(), entries.get(), tile_offsets[tile], tile_offsets[tile + 1], x_begin,
+                y_begin, x_end, y_end, error != nullptr, &state,
+                error != nullptr ? entry_weighted_error.data() : nullptr,
+                error != nullptr ? entry_weight.data() : nullptr);
       for (int y = y_begin; y < y_end; ++y) {
         float* out = color->row(y) + static_cast<size_t>(x_begin) * 4;
         float* out_depth = depth->row(y) + x_begin;
@@ -854,13 +881,11 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
     }
   });
   if (accumulator != nullptr) {
-    // In (band, tile, depth) order: the same sums for any thread count.
-    for (int b = 0; b < band_count; ++b) {
-      for (size_t e = 0; e < bands[b].entries.size(); ++e) {
-        const uint32_t g = order[bands[b].entries[e]];
-        accumulator->weighted_error[g] += entry_weighted_error[b][e];
-        accumulator->weight[g] += entry_weight[b][e];
-      }
+    // In (tile, depth) order: the same sums for any thread count.
+    for (size_t e = 0; e < entry_count; ++e) {
+      const uint32_t g = order[entries[e]];
+      accumulator->weighted_error[g] += entry_weighted_error[e];
+      accumulator->weight[g] += entry_weight[e];
     }
   }
   if (stats) stats->blend_ms = MillisecondsSince(blend_start);
