@@ -245,21 +245,50 @@ std::unique_ptr<T[]> UninitializedArray(size_t n) {
 
 // Stable LSD radix sort of n (key, value) pairs by key (non-negative float bits order as
 // floats), 11 bits per pass. `keys` and `values` hold the result; the *_tmp arrays (n each) are
-// scratch.
+// scratch. Each pass is counted and scattered in parallel over contiguous chunks (chunk c's
+// keys of a bucket go after the earlier chunks' ones: stable, the same order as one thread).
 void RadixSort(size_t n, std::unique_ptr<uint32_t[]>& keys, std::unique_ptr<uint32_t[]>& values,
                std::unique_ptr<uint32_t[]>& keys_tmp, std::unique_ptr<uint32_t[]>& values_tmp) {
   constexpr int kBits = 11;
-  constexpr uint32_t kMask = (1u << kBits) - 1;
+  constexpr uint32_t kBuckets = 1u << kBits, kMask = kBuckets - 1;
+  if (n == 0) return;
+  const int64_t chunks = std::clamp<int64_t>(static_cast<int64_t>(n / 65536), 1, 16);
+  auto range = [&](int64_t c) {
+    return std::pair<size_t, size_t>(n * c / chunks, n * (c + 1) / chunks);
+  };
+  std::vector<size_t> at(static_cast<size_t>(chunks) * kBuckets);
   for (int shift = 0; shift < 32; shift += kBits) {
-    size_t count[kMask + 2] = {};
-    for (size_t i = 0; i < n; ++i) ++count[((keys[i] >> shift) & kMask) + 1];
-    if (n == 0 || count[((keys[0] >> shift) & kMask) + 1] == n) continue;  // one bucket
-    for (uint32_t b = 0; b <= kMask; ++b) count[b + 1] += count[b];
-    for (size_t i = 0; i < n; ++i) {
-      const size_t at = count[(keys[i] >> shift) & kMask]++;
-      keys_tmp[at] = keys[i];
-      values_tmp[at] = values[i];
+    std::fill(at.begin(), at.end(), 0);
+    ParallelFor(0, chunks, 1, [&](int64_t cb, int64_t ce) {
+      for (int64_t c = cb; c < ce; ++c) {
+        size_t* count = at.data() + c * kBuckets;
+        const auto [i0, i1] = range(c);
+        for (size_t i = i0; i < i1; ++i) ++count[(keys[i] >> shift) & kMask];
+      }
+    });
+    const uint32_t first = (keys[0] >> shift) & kMask;
+    size_t in_first = 0;
+    for (int64_t c = 0; c < chunks; ++c) in_first += at[c * kBuckets + first];
+    if (in_first == n) continue;  // one bucket: this pass keeps the order
+    size_t total = 0;
+    for (uint32_t b = 0; b < kBuckets; ++b) {
+      for (int64_t c = 0; c < chunks; ++c) {
+        const size_t count = at[c * kBuckets + b];
+        at[c * kBuckets + b] = total;
+        total += count;
+      }
     }
+    ParallelFor(0, chunks, 1, [&](int64_t cb, int64_t ce) {
+      for (int64_t c = cb; c < ce; ++c) {
+        size_t* cursor = at.data() + c * kBuckets;
+        const auto [i0, i1] = range(c);
+        for (size_t i = i0; i < i1; ++i) {
+          const size_t to = cursor[(keys[i] >> shift) & kMask]++;
+          keys_tmp[to] = keys[i];
+          values_tmp[to] = values[i];
+        }
+      }
+    });
     keys.swap(keys_tmp);
     values.swap(values_tmp);
   }
