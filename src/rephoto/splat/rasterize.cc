@@ -109,8 +109,7 @@ struct TileRect {
   return static_cast<int>(v);
 }
 
-// What projecting one Gaussian computes before its tile range (ProjectCore, or 8 at a time in
-// ProjectCore8).
+// What projecting one Gaussian computes before its tile range (ProjectCore8).
 struct Projected {
   float depth, opacity, cov_a, cov_c, cov_b, det_inv, radius, px, py;
 };
@@ -127,63 +126,7 @@ struct ClampLimits {
   }
 };
 
-// Gaussian g up to its 2-D footprint; false when it is culled.
-[[gnu::always_inline]] inline bool ProjectCore(const GaussianModel& model, size_t g,
-                                               const Pinhole& cam, const ClampLimits& lim,
-                                               const Eigen::Matrix3f& rot,
-                                               const Eigen::Vector3f& trans, GaussianMode mode,
-                                               Projected* out) {
-  const Eigen::Vector3f& mean = model.positions[g];
-  const Eigen::Vector3f p = rot * mean + trans;
-  if (p.z() <= kNearZ) return false;
-  const float opacity_raw = model.opacities[g];
-  if (!(opacity_raw >= kMinAlpha)) return false;  // can never reach alpha >= 1/255
-
-  // Sigma = R S S^T R^T (computeCov3D).
-  const Eigen::Vector4f& q = model.rotations[g];
-  const float r = q[0], x = q[1], y = q[2], z = q[3];
-  Eigen::Matrix3f rq;
-  rq << 1.f - 2.f * (y * y + z * z), 2.f * (x * y - r * z), 2.f * (x * z + r * y),
-      2.f * (x * y + r * z), 1.f - 2.f * (x * x + z * z), 2.f * (y * z - r * x),
-      2.f * (x * z - r * y), 2.f * (y * z + r * x), 1.f - 2.f * (x * x + y * y);
-  const Eigen::Matrix3f m = rq * model.scales[g].asDiagonal();
-  const Eigen::Matrix3f sigma = m * m.transpose();
-
-  // EWA (computeCov2D) with the Jacobian clamp.
-  const float tz = p.z();
-  const float tx = std::min(lim.x_pos, std::max(-lim.x_neg, p.x() / tz)) * tz;
-  const float ty = std::min(lim.y_pos, std::max(-lim.y_neg, p.y() / tz)) * tz;
-  Eigen::Matrix<float, 2, 3> jac;
-  jac << cam.fx / tz, 0.0f, -(cam.fx * tx) / (tz * tz), 0.0f, cam.fy / tz,
-      -(cam.fy * ty) / (tz * tz);
-  const Eigen::Matrix<float, 2, 3> t = jac * rot;
-  const Eigen::Matrix2f cov = t * sigma * t.transpose();
-  const float cov_a0 = cov(0, 0), cov_b = cov(0, 1), cov_c0 = cov(1, 1);
-  const float cov_a = cov_a0 + kDilation, cov_c = cov_c0 + kDilation;
-  const float det = cov_a * cov_c - cov_b * cov_b;
-  if (det == 0.0f) return false;
-  float opacity = opacity_raw;
-  if (mode == GaussianMode::kAntialiased) {
-    const float det_orig = cov_a0 * cov_c0 - cov_b * cov_b;
-    opacity *= std::sqrt(std::max(0.0f, det_orig / det));
-    if (!(opacity >= kMinAlpha)) return false;
-  }
-  const float mid = 0.5f * (cov_a + cov_c);
-  const float lambda1 = mid + std::sqrt(std::max(0.1f, mid * mid - det));
-  const float lambda2 = mid - std::sqrt(std::max(0.1f, mid * mid - det));
-  *out = {p.z(),
-          opacity,
-          cov_a,
-          cov_c,
-          cov_b,
-          1.0f / det,
-          std::ceil(3.0f * std::sqrt(std::max(lambda1, lambda2))),
-          cam.fx * p.x() / p.z() + cam.cx - 0.5f,
-          cam.fy * p.y() / p.z() + cam.cy - 0.5f};
-  return true;
-}
-
-// The rest of the projection of Gaussian g from ProjectCore's values: tile range, alpha
+// The rest of the projection of Gaussian g from ProjectCore8's values: tile range, alpha
 // ellipse, colour; false when it is culled.
 [[gnu::always_inline]] inline bool ProjectFinish(const GaussianModel& model, size_t g,
                                                  const Projected& pr, const Eigen::Vector3f& center,
@@ -318,24 +261,27 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
 #endif
 }
 
-// ProjectCore for the 8 Gaussians [g, g + 8): the same IEEE operations per lane, in the same
-// order (Eigen's 3-term dot products are a0 + (a1 + a2), its min/max are selects, sqrt and
-// ceil correctly rounded on every path), so each lane holds the bits ProjectCore gives; a lane
-// that ProjectCore culls has keep[j] = 0 (its values are garbage).
-[[gnu::always_inline]] inline void ProjectCore8(const GaussianModel& model, size_t g,
+// The Gaussians index[0..7] up to their 2-D footprint (computeCov3D, computeCov2D with the
+// Jacobian clamp, the culling tests of the reference), one per lane of 8-float vectors; a lane
+// the reference culls gets keep[j] = 0 (its values are garbage). The operations and their order
+// are those of the earlier one-at-a-time Eigen code (its 3-term dot products are
+// a0 + (a1 + a2), its min/max selects), which gave the same bits; sqrt and ceil are correctly
+// rounded on every path, so every lane has the same bits on every ISA path.
+[[gnu::always_inline]] inline void ProjectCore8(const GaussianModel& model, const size_t* index,
                                                 const Pinhole& cam, const ClampLimits& lim,
                                                 const Eigen::Matrix3f& rot,
                                                 const Eigen::Vector3f& trans, GaussianMode mode,
                                                 Projected* out, bool* keep) {
   alignas(32) float in[11][8];
   for (int j = 0; j < 8; ++j) {
-    const Eigen::Vector3f& mean = model.positions[g + j];
-    const Eigen::Vector3f& sc = model.scales[g + j];
-    const Eigen::Vector4f& q = model.rotations[g + j];
+    const size_t g = index[j];
+    const Eigen::Vector3f& mean = model.positions[g];
+    const Eigen::Vector3f& sc = model.scales[g];
+    const Eigen::Vector4f& q = model.rotations[g];
     for (int k = 0; k < 3; ++k) in[k][j] = mean[k];
     for (int k = 0; k < 3; ++k) in[3 + k][j] = sc[k];
     for (int k = 0; k < 4; ++k) in[6 + k][j] = q[k];
-    in[10][j] = model.opacities[g + j];
+    in[10][j] = model.opacities[g];
   }
   // Macros, not functions returning vectors: without AVX a by-value 32-byte vector changes the
   // ABI (GCC's -Wpsabi). REPHOTO_BROADCAST8 puts v in every lane bit for bit (V8f{} + v would turn
@@ -358,7 +304,7 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
                         REPHOTO_BROADCAST8(rot(i, 2)), mz) +
            trans[i];
   }
-  V8i alive = ~(p[2] <= kNearZ) & (opacity_raw >= kMinAlpha);  // as ProjectCore's tests (NaN)
+  V8i alive = ~(p[2] <= kNearZ) & (opacity_raw >= kMinAlpha);  // the reference's tests (NaN)
   // rq, then m = rq * diag(s), sigma = m m^T.
   V8f rq[3][3];
   rq[0][0] = 1.f - 2.f * (y * y + z * z);
@@ -375,10 +321,11 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
   for (int i = 0; i < 3; ++i) {
     for (int k = 0; k < 3; ++k) m[i][k] = rq[i][k] * s3[k];
   }
-  V8f sigma[3][3];
+  V8f sigma[3][3];  // symmetric: sigma[k][i] is the same products in the same order
   for (int i = 0; i < 3; ++i) {
-    for (int k = 0; k < 3; ++k) {
+    for (int k = i; k < 3; ++k) {
       sigma[i][k] = REPHOTO_DOT3(m[i][0], m[k][0], m[i][1], m[k][1], m[i][2], m[k][2]);
+      sigma[k][i] = sigma[i][k];
     }
   }
   const V8f tz = p[2];
@@ -447,9 +394,8 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
 
 // Projects Gaussians [begin, end) (visible[g] = 1 where not culled); returns how many are
 // visible. Compiled per ISA path (core/isa.h): the same IEEE operations on each (no contraction,
-// libm's logf, correctly rounded sqrt and ceil), only the encoding differs. Whole groups of 8
-// go through ProjectCore8 (the same values as ProjectCore, one Gaussian at a time, for the
-// rest).
+// libm's logf, correctly rounded sqrt and ceil), only the encoding differs. Groups of 8; the
+// last group's missing lanes repeat its last Gaussian (computed, not written).
 [[gnu::always_inline]] inline uint32_t ProjectRangeBody(
     const GaussianModel& model, int64_t begin, int64_t end, const Pinhole& cam,
     const Eigen::Matrix3f& rot, const Eigen::Vector3f& trans, const Eigen::Vector3f& center,
@@ -457,30 +403,25 @@ __attribute__((always_inline)) inline int MoveMask(const V8i& mask) {
   uint32_t count = 0;
   const size_t sh_floats = static_cast<size_t>(model.ShCoefficients()) * 3;
   const ClampLimits lim(cam);
-  int64_t g = begin;
-  for (; g + 8 <= end; g += 8) {
+  for (int64_t g = begin; g < end; g += 8) {
     // The colour coefficients (192 B at degree 3) of the next group: read only for the
     // visible ones, a stream with gaps that the hardware prefetcher followed late.
     if (g + 16 <= end) {
       const char* sh = reinterpret_cast<const char*>(model.sh.data() + (g + 8) * sh_floats);
       for (size_t b = 0; b < 8 * sh_floats * sizeof(float); b += 64) __builtin_prefetch(sh + b);
     }
+    const int lanes = static_cast<int>(std::min<int64_t>(8, end - g));
+    size_t index[8];
+    for (int j = 0; j < 8; ++j) index[j] = static_cast<size_t>(g + std::min(j, lanes - 1));
     Projected pr[8];
     bool keep[8];
-    ProjectCore8(model, static_cast<size_t>(g), cam, lim, rot, trans, mode, pr, keep);
-    for (int j = 0; j < 8; ++j) {
-      const size_t i = static_cast<size_t>(g + j);
+    ProjectCore8(model, index, cam, lim, rot, trans, mode, pr, keep);
+    for (int j = 0; j < lanes; ++j) {
+      const size_t i = index[j];
       visible[i] =
           keep[j] && ProjectFinish(model, i, pr[j], center, grid_x, grid_y, &splats[i], &rects[i]);
       count += visible[i];
     }
-  }
-  for (; g < end; ++g) {
-    Projected pr;
-    const size_t i = static_cast<size_t>(g);
-    visible[i] = ProjectCore(model, i, cam, lim, rot, trans, mode, &pr) &&
-                 ProjectFinish(model, i, pr, center, grid_x, grid_y, &splats[i], &rects[i]);
-    count += visible[i];
   }
   return count;
 }

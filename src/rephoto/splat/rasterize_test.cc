@@ -204,15 +204,16 @@ TEST_F(ReferenceFixtures, SameResultOnEveryIsaPath) {
   }
 }
 
-// The projection takes whole groups of 8 Gaussians in vectors and the last n % 8 one at a
-// time (rasterize.cc ProjectCore8 / ProjectCore); both must give the same bits. Rotating the
-// model's order moves each Gaussian between a vector lane and the one-at-a-time path; with
-// distinct depths the depth order is the same, so the renders must be the same bytes.
+// The projection takes the Gaussians 8 at a time, one per vector lane, the last group padded
+// with copies of its last Gaussian (rasterize.cc ProjectCore8): a Gaussian's result must not
+// depend on its lane or on the others in its group. Rotating the model's order moves each
+// Gaussian to another lane and group (and some into the padded one); with distinct depths the
+// depth order is the same, so the renders must be the same bytes.
 TEST_F(ReferenceFixtures, SameResultWhicheverGaussiansAreProjectedTogether) {
   const fs::path base = Dir() / "scene_3";
   GaussianModel model = ReadGaussians(fs::path(base.string() + ".ply"));
   const FixtureView view = ReadView(base.string() + ".json");
-  // Three fewer, so that there is a one-at-a-time tail (the fixture holds a multiple of 8).
+  // Three fewer, so that the last group is padded (the fixture holds a multiple of 8).
   ASSERT_GT(model.size(), 16u);
   const size_t kept = model.size() - (model.size() % 8 == 0 ? 3 : 0);
   model.positions.resize(kept);
