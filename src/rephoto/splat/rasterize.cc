@@ -186,51 +186,88 @@ std::unique_ptr<T[]> UninitializedArray(size_t n) {
   return std::unique_ptr<T[]>(new T[n]);
 }
 
-// Stable LSD radix sort of n (key, value) pairs by key (non-negative float bits order as
-// floats), 11 bits per pass. `keys` and `values` hold the result; the *_tmp arrays (n each) are
-// scratch. Each pass is counted and scattered in parallel over contiguous chunks (chunk c's
-// keys of a bucket go after the earlier chunks' ones: stable, the same order as one thread).
+// A stable counting sort by bucket of items in contiguous chunks, counted and placed in
+// parallel (the depth radix sort's passes and the per-tile lists). for_each(c, fn) calls
+// fn(bucket, item) for the items of chunk c in their order (an item may be in several
+// buckets). Each chunk's items of a bucket go after the earlier chunks' ones, so the result is
+// the order one thread would give. Positions are 32-bit (fewer than 2^32 items).
+class ChunkedBuckets {
+ public:
+  ChunkedBuckets(int64_t chunks, int64_t buckets)
+      : chunks_(chunks), buckets_(buckets), at_(static_cast<size_t>(chunks * buckets)) {}
+
+  // Counts the items per chunk and bucket.
+  template <typename ForEach>
+  void Count(const ForEach& for_each) {
+    std::fill(at_.begin(), at_.end(), 0);
+    ParallelFor(0, chunks_, 1, [&](int64_t cb, int64_t ce) {
+      for (int64_t c = cb; c < ce; ++c) {
+        uint32_t* count = at_.data() + c * buckets_;
+        for_each(c, [&](int64_t bucket, uint32_t) { ++count[bucket]; });
+      }
+    });
+  }
+  // After Count: how many items bucket b holds.
+  uint32_t InBucket(int64_t b) const {
+    uint32_t n = 0;
+    for (int64_t c = 0; c < chunks_; ++c) n += at_[c * buckets_ + b];
+    return n;
+  }
+  // After Count: turns the counts into first positions (buckets in order, chunks in order
+  // within a bucket); starts (optional, buckets + 1 values) receives each bucket's first
+  // position and the total. Returns the total.
+  uint32_t Prefix(uint32_t* starts = nullptr) {
+    uint32_t total = 0;
+    for (int64_t b = 0; b < buckets_; ++b) {
+      if (starts) starts[b] = total;
+      for (int64_t c = 0; c < chunks_; ++c) {
+        const uint32_t n = at_[c * buckets_ + b];
+        at_[c * buckets_ + b] = total;
+        total += n;
+      }
+    }
+    if (starts) starts[buckets_] = total;
+    return total;
+  }
+  // After Prefix: place(position, item) for every (bucket, item) that for_each gives.
+  template <typename ForEach, typename Place>
+  void PlaceAll(const ForEach& for_each, const Place& place) {
+    ParallelFor(0, chunks_, 1, [&](int64_t cb, int64_t ce) {
+      for (int64_t c = cb; c < ce; ++c) {
+        uint32_t* at = at_.data() + c * buckets_;
+        for_each(c, [&](int64_t bucket, uint32_t item) { place(at[bucket]++, item); });
+      }
+    });
+  }
+
+ private:
+  int64_t chunks_, buckets_;
+  std::vector<uint32_t> at_;  // per chunk and bucket: the count, then the next position
+};
+
+// Stable LSD radix sort of n < 2^32 (key, value) pairs by key (non-negative float bits order as
+// floats), 11 bits per pass, each pass a ChunkedBuckets sort. `keys` and `values` hold the
+// result; the *_tmp arrays (n each) are scratch.
 void RadixSort(size_t n, std::unique_ptr<uint32_t[]>& keys, std::unique_ptr<uint32_t[]>& values,
                std::unique_ptr<uint32_t[]>& keys_tmp, std::unique_ptr<uint32_t[]>& values_tmp) {
   constexpr int kBits = 11;
   constexpr uint32_t kBuckets = 1u << kBits, kMask = kBuckets - 1;
   if (n == 0) return;
   const int64_t chunks = std::clamp<int64_t>(static_cast<int64_t>(n / 65536), 1, 16);
-  auto range = [&](int64_t c) {
-    return std::pair<size_t, size_t>(n * c / chunks, n * (c + 1) / chunks);
-  };
-  std::vector<size_t> at(static_cast<size_t>(chunks) * kBuckets);
+  ChunkedBuckets sorter(chunks, kBuckets);
   for (int shift = 0; shift < 32; shift += kBits) {
-    std::fill(at.begin(), at.end(), 0);
-    ParallelFor(0, chunks, 1, [&](int64_t cb, int64_t ce) {
-      for (int64_t c = cb; c < ce; ++c) {
-        size_t* count = at.data() + c * kBuckets;
-        const auto [i0, i1] = range(c);
-        for (size_t i = i0; i < i1; ++i) ++count[(keys[i] >> shift) & kMask];
-      }
-    });
-    const uint32_t first = (keys[0] >> shift) & kMask;
-    size_t in_first = 0;
-    for (int64_t c = 0; c < chunks; ++c) in_first += at[c * kBuckets + first];
-    if (in_first == n) continue;  // one bucket: this pass keeps the order
-    size_t total = 0;
-    for (uint32_t b = 0; b < kBuckets; ++b) {
-      for (int64_t c = 0; c < chunks; ++c) {
-        const size_t count = at[c * kBuckets + b];
-        at[c * kBuckets + b] = total;
-        total += count;
-      }
-    }
-    ParallelFor(0, chunks, 1, [&](int64_t cb, int64_t ce) {
-      for (int64_t c = cb; c < ce; ++c) {
-        size_t* cursor = at.data() + c * kBuckets;
-        const auto [i0, i1] = range(c);
-        for (size_t i = i0; i < i1; ++i) {
-          const size_t to = cursor[(keys[i] >> shift) & kMask]++;
-          keys_tmp[to] = keys[i];
-          values_tmp[to] = values[i];
-        }
-      }
+    const uint32_t* k = keys.get();
+    auto for_each = [&](int64_t c, const auto& fn) {
+      const size_t i1 = n * (c + 1) / chunks;
+      for (size_t i = n * c / chunks; i < i1; ++i)
+        fn((k[i] >> shift) & kMask, static_cast<uint32_t>(i));
+    };
+    sorter.Count(for_each);
+    if (sorter.InBucket((k[0] >> shift) & kMask) == n) continue;  // one bucket: order kept
+    sorter.Prefix();
+    sorter.PlaceAll(for_each, [&](uint32_t to, uint32_t i) {
+      keys_tmp[to] = k[i];
+      values_tmp[to] = values[i];
     });
     keys.swap(keys_tmp);
     values.swap(values_tmp);
@@ -751,62 +788,29 @@ void RasterizePinhole(const GaussianModel& model, const Pinhole& cam, const came
   splats.reset();
   rects.reset();
 
-  // Per-tile lists: a counting sort of the (tile, Gaussian) entries by tile, in chunks of the
-  // depth order counted and filled in parallel (each chunk's entries of a tile go after the
-  // earlier chunks' ones, so every tile's list is in depth order).
+  // Per-tile lists: the (tile, Gaussian) entries sorted by tile (ChunkedBuckets over chunks of
+  // the depth order, so every tile's list is in depth order).
   const int64_t tiles = static_cast<int64_t>(grid_x) * grid_y;
   // Up to 32 chunks of at least 16k Gaussians, and at most 16 MB of per-chunk tile counters
   // (a 16k x 16k image has a million tiles).
   const int64_t list_chunks = std::clamp<int64_t>(
       std::min<int64_t>(static_cast<int64_t>(visible_count / 16384), (int64_t{4} << 20) / tiles), 1,
       32);
-  auto chunk_range = [&](int64_t c) {
-    return std::pair<uint32_t, uint32_t>(
-        static_cast<uint32_t>(visible_count * c / list_chunks),
-        static_cast<uint32_t>(visible_count * (c + 1) / list_chunks));
+  ChunkedBuckets lists(list_chunks, tiles);
+  auto for_each = [&](int64_t c, const auto& fn) {
+    const uint32_t i1 = static_cast<uint32_t>(visible_count * (c + 1) / list_chunks);
+    for (uint32_t i = static_cast<uint32_t>(visible_count * c / list_chunks); i < i1; ++i) {
+      const TileRect& r = sorted_rects[i];
+      for (int ty = r.y0; ty < r.y1; ++ty) {
+        for (int tx = r.x0; tx < r.x1; ++tx) fn(static_cast<int64_t>(ty) * grid_x + tx, i);
+      }
+    }
   };
-  std::vector<uint32_t> cursor(static_cast<size_t>(list_chunks * tiles), 0);
-  ParallelFor(0, list_chunks, 1, [&](int64_t cb, int64_t ce) {
-    for (int64_t c = cb; c < ce; ++c) {
-      uint32_t* count = cursor.data() + c * tiles;
-      const auto [i0, i1] = chunk_range(c);
-      for (uint32_t i = i0; i < i1; ++i) {
-        const TileRect& r = sorted_rects[i];
-        for (int ty = r.y0; ty < r.y1; ++ty) {
-          for (int tx = r.x0; tx < r.x1; ++tx) ++count[static_cast<int64_t>(ty) * grid_x + tx];
-        }
-      }
-    }
-  });
-  std::vector<uint32_t> tile_offsets(static_cast<size_t>(tiles) + 1, 0);
-  {
-    uint32_t at = 0;
-    for (int64_t t = 0; t < tiles; ++t) {
-      tile_offsets[t] = at;
-      for (int64_t c = 0; c < list_chunks; ++c) {
-        const uint32_t n_ct = cursor[c * tiles + t];
-        cursor[c * tiles + t] = at;
-        at += n_ct;
-      }
-    }
-    tile_offsets[tiles] = at;
-  }
-  const size_t entry_count = tile_offsets[tiles];
+  lists.Count(for_each);
+  std::vector<uint32_t> tile_offsets(static_cast<size_t>(tiles) + 1);
+  const size_t entry_count = lists.Prefix(tile_offsets.data());
   auto entries = UninitializedArray<uint32_t>(std::max<size_t>(entry_count, 1));
-  ParallelFor(0, list_chunks, 1, [&](int64_t cb, int64_t ce) {
-    for (int64_t c = cb; c < ce; ++c) {
-      uint32_t* at = cursor.data() + c * tiles;
-      const auto [i0, i1] = chunk_range(c);
-      for (uint32_t i = i0; i < i1; ++i) {
-        const TileRect& r = sorted_rects[i];
-        for (int ty = r.y0; ty < r.y1; ++ty) {
-          for (int tx = r.x0; tx < r.x1; ++tx) {
-            entries[at[static_cast<int64_t>(ty) * grid_x + tx]++] = i;
-          }
-        }
-      }
-    }
-  });
+  lists.PlaceAll(for_each, [&](uint32_t to, uint32_t i) { entries[to] = i; });
   sorted_rects.reset();
   const auto blend_start = Clock::now();
   if (stats) {
