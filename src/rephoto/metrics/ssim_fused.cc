@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <utility>
+#include <vector>
 
 #include "rephoto/metrics/kernels.h"
 #include "rephoto/metrics/simd.h"
@@ -244,53 +245,40 @@ template <typename VF>
 
 // SsimHorizontalTransposed8 (kernels.h): per plane, the 8 rows transposed into tin (blocks of
 // 8 values by Transpose8, the tail one value at a time), then the filter with one load per tap
-// and no shuffle; the same operations per value as HorizontalRange / HorizontalShuffled
-// (w[0] * centre, then acc += w[k] * (left + right) for k = 1..r, contracted alike).
+// and no shuffle. On transposed data the horizontal taps of value i are the vectors at i + 3k,
+// which is the vertical filter's layout with "rows" 3 values (24 floats) apart, so it is
+// VerticalQuantity itself: per channel phase, the outputs i + c + 3t (t < 4) share their
+// 2r + 4 loaded taps, and the arithmetic is that of every other filter pass (w[0] * centre,
+// then acc += w[k] * (left + right) for k = 1..r, contracted alike).
 template <int kRadius>
 [[gnu::always_inline]] inline void FilterTransposed(const float* tin, const float* weights, int r,
                                                     int n, float* out) {
   const int radius = kRadius > 0 ? kRadius : r;
-  V8f w[kRadius > 0 ? kRadius + 1 : 1];
+  // Taps of the value at offset `off` from tin[0 .. 24 * (2 radius + B)): rows[j] = tin + 24 j;
+  // its output at out + 24 (t + radius) + off, i.e. value off / 8 + 3 radius + 3 t.
+  constexpr int kRows = kRadius > 0 ? 2 * kRadius + 4 : 1;
+  const float* fixed_rows[kRows];
+  std::vector<const float*> runtime_rows(kRadius > 0 ? 0 : 2 * r + 1);
+  const float** rows = kRadius > 0 ? fixed_rows : runtime_rows.data();
+  for (int j = 0; j < (kRadius > 0 ? kRows : 2 * r + 1); ++j) rows[j] = tin + 24 * j;
+  float* outs[4];
+  for (int t = 0; t < 4; ++t) outs[t] = out + 24 * (t + radius);
+  V8f w[kRadius + 1];
   if constexpr (kRadius > 0) {
     for (int k = 0; k <= kRadius; ++k) w[k] = V8f{} + weights[kRadius + k];
   }
   int i = 3 * radius;
   if constexpr (kRadius > 0) {
-    // Blocks of 12 values: per channel phase, the outputs i + c + 3t (t < 4) share their taps,
-    // 2r + 4 loads for 4 outputs instead of 2r + 1 for each (as VerticalQuantity's rows).
-    constexpr int kTaps = 2 * kRadius + 4;
     for (; i + 12 <= n - 3 * kRadius; i += 12) {
       for (int c = 0; c < 3; ++c) {
-        const float* base = tin + static_cast<size_t>(i + c) * 8;
-        V8f v[kTaps];
-        for (int j = 0; j < kTaps; ++j) v[j] = REPHOTO_LOAD(V8f, base + 24 * (j - kRadius));
-        V8f acc[4];
-        for (int t = 0; t < 4; ++t) acc[t] = w[0] * v[t + kRadius];
-        for (int k = 1; k <= kRadius; ++k) {
-          for (int t = 0; t < 4; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
-        }
-        for (int t = 0; t < 4; ++t) {
-          REPHOTO_STORE(out + static_cast<size_t>(i + c + 3 * t) * 8, acc[t]);
-        }
+        VerticalQuantity<V8f, 4, kRadius>(rows, w, weights, r,
+                                          static_cast<size_t>(i + c - 3 * kRadius) * 8, outs);
       }
     }
   }
   for (; i < n - 3 * radius; ++i) {
-    const float* c = tin + static_cast<size_t>(i) * 8;
-    V8f acc;
-    if constexpr (kRadius > 0) {
-      acc = w[0] * REPHOTO_LOAD(V8f, c);
-      for (int k = 1; k <= kRadius; ++k) {
-        acc += w[k] * (REPHOTO_LOAD(V8f, c - 24 * k) + REPHOTO_LOAD(V8f, c + 24 * k));
-      }
-    } else {
-      acc = (V8f{} + weights[r]) * REPHOTO_LOAD(V8f, c);
-      for (int k = 1; k <= r; ++k) {
-        acc += (V8f{} + weights[r + k]) *
-               (REPHOTO_LOAD(V8f, c - 24 * k) + REPHOTO_LOAD(V8f, c + 24 * k));
-      }
-    }
-    REPHOTO_STORE(out + static_cast<size_t>(i) * 8, acc);
+    VerticalQuantity<V8f, 1, kRadius>(rows, w, weights, r,
+                                      static_cast<size_t>(i - 3 * radius) * 8, outs);
   }
 }
 
