@@ -74,9 +74,24 @@ REPHOTO_ISA_DISPATCH(void, ChannelMeans,
 REPHOTO_ISA_DISPATCH(size_t, CountRange, (const uint8_t* __restrict ok, int begin, int end),
                      (ok, begin, end))
 
-// The SSIM of each element from the four fused moments (x, y, x^2 + y^2, xy of the values minus
-// shift), for i in [3r, n - 3r). sigma_x^2 + sigma_y^2 = E[x^2 + y^2] - (mu_x^2 + mu_y^2), the
-// squares added first: for identical images this is exactly twice sigma_xy, so SSIM is exactly 1.
+// The SSIM of a value from its four fused moments (x, y, x^2 + y^2, xy of the values minus
+// shift, the shift added back to the means). sigma_x^2 + sigma_y^2 = E[x^2 + y^2] - (mu_x^2 +
+// mu_y^2), the squares added first: for identical images this is exactly twice sigma_xy, so
+// SSIM is exactly 1. T is float or V8f (8 values at once, the same operations per value).
+template <typename T>
+[[gnu::always_inline]] inline void FusedSsim(const T& mx, const T& my, const T& mss, const T& mxy,
+                                             float shift_p, float shift_q, float cov_norm,
+                                             T* ssim) {
+  const float c1 = 0.01f * 0.01f, c2 = 0.03f * 0.03f;
+  const T ux = mx + shift_p, uy = my + shift_q;
+  const T vsum = cov_norm * (mss - (mx * mx + my * my));
+  const T vxy = cov_norm * (mxy - mx * my);
+  const T a1 = 2 * ux * uy + c1, a2 = 2 * vxy + c2;
+  const T b1 = ux * ux + uy * uy + c1, b2 = vsum + c2;
+  *ssim = (a1 * a2) / (b1 * b2);
+}
+
+// FusedSsim of each element of the four moment planes, for i in [3r, n - 3r).
 [[gnu::always_inline]] inline void SsimFormulaFusedBody(const float* __restrict moments,
                                                         const float* __restrict shift_p,
                                                         const float* __restrict shift_q, int r,
@@ -86,14 +101,8 @@ REPHOTO_ISA_DISPATCH(size_t, CountRange, (const uint8_t* __restrict ok, int begi
   const float* __restrict my = moments + n;
   const float* __restrict mss = moments + 2 * n;
   const float* __restrict mxy = moments + 3 * n;
-  const float c1 = 0.01f * 0.01f, c2 = 0.03f * 0.03f;
   for (int i = 3 * r; i < n - 3 * r; ++i) {
-    const float ux = mx[i] + shift_p[i], uy = my[i] + shift_q[i];
-    const float vsum = cov_norm * (mss[i] - (mx[i] * mx[i] + my[i] * my[i]));
-    const float vxy = cov_norm * (mxy[i] - mx[i] * my[i]);
-    const float a1 = 2 * ux * uy + c1, a2 = 2 * vxy + c2;
-    const float b1 = ux * ux + uy * uy + c1, b2 = vsum + c2;
-    ssim[i] = (a1 * a2) / (b1 * b2);
+    FusedSsim(mx[i], my[i], mss[i], mxy[i], shift_p[i], shift_q[i], cov_norm, &ssim[i]);
   }
 }
 REPHOTO_ISA_DISPATCH(void, SsimFormulaFused,
@@ -102,7 +111,7 @@ REPHOTO_ISA_DISPATCH(void, SsimFormulaFused,
                       float* __restrict ssim),
                      (moments, shift_p, shift_q, r, n, cov_norm, ssim))
 
-// SsimFormulaFused and ChannelMeans for 8 rows at once on SsimHorizontalTransposed8's output
+// FusedSsim and ChannelMeans for 8 rows at once on SsimHorizontalTransposed8's output
 // (value i of plane q of row t at moments[(q * n + i) * 8 + t]): the SSIM of pixel x, for the
 // pixels [xa, xb) whose first value is at i = 3 (x - xa) + ia, is the mean of its 3 channels'
 // values; written transposed back into ssim[t][x] and dssim[t][x] = (1 - ssim) / 2. The same
@@ -117,20 +126,14 @@ REPHOTO_ISA_DISPATCH(void, SsimFormulaFused,
   const float* my = moments + plane;
   const float* mss = moments + 2 * plane;
   const float* mxy = moments + 3 * plane;
-  const float c1 = 0.01f * 0.01f, c2 = 0.03f * 0.03f;
   const int pixels = xb - xa;
   for (int x = 0; x < pixels; ++x) {
     V8f e[3];
     for (int c = 0; c < 3; ++c) {
       const int i = ia + 3 * x + c;
       const size_t at = static_cast<size_t>(i) * 8;
-      const V8f vx = REPHOTO_LOAD(V8f, mx + at), vy = REPHOTO_LOAD(V8f, my + at);
-      const V8f ux = vx + shift_p[i], uy = vy + shift_q[i];
-      const V8f vsum = cov_norm * (REPHOTO_LOAD(V8f, mss + at) - (vx * vx + vy * vy));
-      const V8f vxy = cov_norm * (REPHOTO_LOAD(V8f, mxy + at) - vx * vy);
-      const V8f a1 = 2 * ux * uy + c1, a2 = 2 * vxy + c2;
-      const V8f b1 = ux * ux + uy * uy + c1, b2 = vsum + c2;
-      e[c] = (a1 * a2) / (b1 * b2);
+      FusedSsim(REPHOTO_LOAD(V8f, mx + at), REPHOTO_LOAD(V8f, my + at), REPHOTO_LOAD(V8f, mss + at),
+                REPHOTO_LOAD(V8f, mxy + at), shift_p[i], shift_q[i], cov_norm, &e[c]);
     }
     const V8f v = (e[0] + e[1] + e[2]) / 3.0f;
     REPHOTO_STORE(pixel + static_cast<size_t>(x) * 8, v);
@@ -352,8 +355,8 @@ MeanSums SsimBandFused(const BandInputs& in, const SsimSetup& setup, const Error
       if (count == 8 && transposed) {
         SsimHorizontalTransposed8(out_rows, setup.weights.data(), r, m, tin, moments8);
         if (xa < xb) {
-          SsimFinishTransposed8(moments8, shift_p, shift_q, m, setup.cov_norm, 3 * xa - e0, xa,
-                                xb, pixels8, ssim_rows, dssim_rows);
+          SsimFinishTransposed8(moments8, shift_p, shift_q, m, setup.cov_norm, 3 * xa - e0, xa, xb,
+                                pixels8, ssim_rows, dssim_rows);
         }
         for (int t = 0; t < count; ++t) {
           const int64_t yt = y + t;
