@@ -75,11 +75,7 @@ TEST(PoseUpdateTest, FrameMoveIsAScaleAndNoRefresh) {
 // IntrinsicsChange: the largest parameter change relative to max(1, |before|); 1 when the
 // cameras are not comparable (closed form).
 TEST(PoseUpdateTest, IntrinsicsChangeIsTheLargestRelativeParameterChange) {
-  camera::Camera a;
-  a.model = camera::CameraModel::kPinhole;
-  a.width = 640;
-  a.height = 480;
-  a.params = {1000, 1000, 320, 240};
+  const camera::Camera a{camera::CameraModel::kPinhole, 640, 480, {1000, 1000, 320, 240}};
   EXPECT_EQ(IntrinsicsChange(a, a), 0.0);
   camera::Camera b = a;
   b.params = {1004, 1000, 320, 239};  // fx +0.4 %, cy -1/240
