@@ -181,6 +181,12 @@ BENCHMARK(BM_SetBytesInBandsOneThread)->Apply(BigSize);
   void BM_##name##BytesInBands(benchmark::State& state) { RunBytesInBands(state, {metric}); } \
   BENCHMARK(BM_##name##BytesInBands)->Apply(BigSize)
 REPHOTO_BYTES_BENCH(Census, Metric::kCensus);
+// 1-NCC and ZSSD share one pass (their window sums).
+void BM_NccZssdBytesInBandsOneThread(benchmark::State& state) {
+  rephoto::ThreadLimit limit(1);
+  RunBytesInBands(state, {Metric::kOneMinusNcc, Metric::kZssd});
+}
+BENCHMARK(BM_NccZssdBytesInBandsOneThread)->Apply(BigSize);
 REPHOTO_BYTES_BENCH(Dssim, Metric::kDssim);
 REPHOTO_BYTES_BENCH(Icid, Metric::kIcid);
 
@@ -242,9 +248,8 @@ void BM_Compat3dgsOneThread(benchmark::State& state) {
   rephoto::ThreadLimit limit(1);
   Pair& p = GetPair(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   for (auto _ : state) {
-    const auto result =
-        rephoto::metrics::ComputeCompatMetrics(rephoto::metrics::CompatPreset::k3dgs, p.photo,
-                                               p.rephoto);
+    const auto result = rephoto::metrics::ComputeCompatMetrics(
+        rephoto::metrics::CompatPreset::k3dgs, p.photo, p.rephoto);
     benchmark::DoNotOptimize(result.ssim);
   }
 }
@@ -256,8 +261,8 @@ BENCHMARK(BM_Compat3dgsOneThread)
 
 // Hardware floors of two kernels on the AVX2 path, for the ratio kernel / floor in one run
 // (docs/speed.md): the arithmetic the kernel cannot avoid at 12 MP, one thread, in registers
-// (no stores, no shuffles; census's neighbour loads from L1), 8-wide AVX2 instructions with enough independent chains
-// to hide their latency. What each kernel must at least execute per pixel:
+// (no stores, no shuffles; census's neighbour loads from L1), 8-wide AVX2 instructions with enough
+// independent chains to hide their latency. What each kernel must at least execute per pixel:
 // - DSSIM (fused, Gaussian 11 x 11): 4 quantities x 3 channels x 2 passes, each output of a
 //   pass one multiply for the centre tap and, for the 5 symmetric pairs, an add and an FMA:
 //   144 multiply(-add)s and 120 adds per pixel, i.e. per 8 pixels 144 8-wide FMAs and 120
@@ -319,8 +324,8 @@ __attribute__((target("avx2,fma"), noinline)) int CensusFloorAvx2(int64_t pixels
     c0 = _mm256_add_ps(c0, step);  // the next pixels' centres
     c1 = _mm256_add_ps(c1, step);
   }
-  __m256i s = _mm256_add_epi32(_mm256_add_epi32(count[0], count[1]),
-                               _mm256_add_epi32(count[2], count[3]));
+  __m256i s =
+      _mm256_add_epi32(_mm256_add_epi32(count[0], count[1]), _mm256_add_epi32(count[2], count[3]));
   int out[8];
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), s);
   return out[0];
@@ -337,7 +342,10 @@ void BM_DssimFmaFloorAvx2(benchmark::State& state) {
     benchmark::DoNotOptimize(DssimFmaFloorAvx2(pixels));
   }
 }
-BENCHMARK(BM_DssimFmaFloorAvx2)->UseRealTime()->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DssimFmaFloorAvx2)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 
 void BM_CensusFloorAvx2(benchmark::State& state) {
   if (!__builtin_cpu_supports("avx2")) {
@@ -350,7 +358,10 @@ void BM_CensusFloorAvx2(benchmark::State& state) {
     benchmark::DoNotOptimize(CensusFloorAvx2(pixels));
   }
 }
-BENCHMARK(BM_CensusFloorAvx2)->UseRealTime()->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CensusFloorAvx2)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 }  // namespace
 #endif
 

@@ -232,6 +232,212 @@ REPHOTO_ISA_DISPATCH(void, BoxErrors,
                       float* __restrict ncc, float* __restrict zssd),
                      (prefix, w, r, inv_count, flat, ncc, zssd))
 
+// ---------------------------------------------------------------------------------------------
+// The exact path of 1-NCC and ZSSD. When every value of a band's source rows is k / 255.f for an
+// integer k (8-bit inputs, and floats converted from them as io::ReadImage does), the window
+// sums are sums of the integers k, k^2 and k k': exact in 32-bit integers, and the deviations
+// n sum(k^2) - (sum k)^2 exact in double. The errors are then the correctly computed formula
+// of exact window statistics (one rounding each in dx dy, the square root, the division),
+// whereas the double path rounds while it sums; both agree within ~1e-12 before the error is
+// stored as a float. Integer sums are the same on every ISA whatever the compiler vectorises.
+
+// Windows up to 9 x 9 (the default; windows are odd): n^2 3 255^2 < 2^31 holds up to n = 104,
+// so every window sum and deviation below fits in int32.
+constexpr int kMaxExactWindow = 9;
+
+// The byte planes of an interleaved 8-bit row (3 or 4 channels: alpha dropped).
+[[gnu::always_inline]] inline void BytePlanesBody(const uint8_t* __restrict row, int channels,
+                                                  int w, uint8_t* __restrict c0,
+                                                  uint8_t* __restrict c1, uint8_t* __restrict c2) {
+  if (channels == 4) {
+    for (int x = 0; x < w; ++x) {
+      c0[x] = row[4 * x];
+      c1[x] = row[4 * x + 1];
+      c2[x] = row[4 * x + 2];
+    }
+    return;
+  }
+  for (int x = 0; x < w; ++x) {
+    c0[x] = row[3 * x];
+    c1[x] = row[3 * x + 1];
+    c2[x] = row[3 * x + 2];
+  }
+}
+REPHOTO_ISA_DISPATCH(void, BytePlanes,
+                     (const uint8_t* __restrict row, int channels, int w, uint8_t* __restrict c0,
+                      uint8_t* __restrict c1, uint8_t* __restrict c2),
+                     (row, channels, w, c0, c1, c2))
+
+// The byte planes k of an interleaved float RGB row whose every value is k / 255.f; false
+// (planes then undefined) when some value is not (NaN and values outside [0, 1] included).
+[[gnu::always_inline]] inline bool FloatBytePlanesBody(const float* __restrict rgb, int w,
+                                                       uint8_t* __restrict c0,
+                                                       uint8_t* __restrict c1,
+                                                       uint8_t* __restrict c2) {
+  int fails = 0;
+  uint8_t* __restrict planes[3] = {c0, c1, c2};
+  for (int c = 0; c < 3; ++c) {
+    uint8_t* __restrict plane = planes[c];
+    for (int x = 0; x < w; ++x) {
+      const float v = rgb[3 * x + c];
+      const bool in_range = v >= 0.f && v <= 1.f;  // false for NaN
+      const int k = static_cast<int>((in_range ? v : 0.f) * 255.f + 0.5f);
+      fails += !in_range || static_cast<float>(k) / 255.f != v;
+      plane[x] = static_cast<uint8_t>(k);
+    }
+  }
+  return fails == 0;
+}
+REPHOTO_ISA_DISPATCH(bool, FloatBytePlanes,
+                     (const float* __restrict rgb, int w, uint8_t* __restrict c0,
+                      uint8_t* __restrict c1, uint8_t* __restrict c2),
+                     (rgb, w, c0, c1, c2))
+
+// cols[q * w + x] += quantity q of the byte planes `entering` (photo 0-2, rephoto 3-5), and with
+// kSlide -= that of `leaving`: sums of x_c, y_c, then sum_c x_c^2, y_c^2, x_c y_c.
+template <bool kSlide>
+[[gnu::always_inline]] inline void ExactColumnsBody(const uint8_t* __restrict entering,
+                                                    const uint8_t* __restrict leaving, int w,
+                                                    int32_t* __restrict cols) {
+  for (int q = 0; q < 6; ++q) {
+    const uint8_t* __restrict a = entering + static_cast<size_t>(q) * w;
+    const uint8_t* __restrict la = leaving + static_cast<size_t>(q) * w;
+    int32_t* __restrict s = cols + static_cast<size_t>(q) * w;
+    for (int x = 0; x < w; ++x) {
+      int32_t v = s[x] + a[x];
+      if constexpr (kSlide) v -= la[x];
+      s[x] = v;
+    }
+  }
+  const uint8_t* __restrict a0 = entering;
+  const uint8_t* __restrict a1 = entering + w;
+  const uint8_t* __restrict a2 = entering + 2 * w;
+  const uint8_t* __restrict b0 = entering + 3 * w;
+  const uint8_t* __restrict b1 = entering + 4 * w;
+  const uint8_t* __restrict b2 = entering + 5 * w;
+  const uint8_t* __restrict la0 = leaving;
+  const uint8_t* __restrict la1 = leaving + w;
+  const uint8_t* __restrict la2 = leaving + 2 * w;
+  const uint8_t* __restrict lb0 = leaving + 3 * w;
+  const uint8_t* __restrict lb1 = leaving + 4 * w;
+  const uint8_t* __restrict lb2 = leaving + 5 * w;
+  int32_t* __restrict sxx = cols + 6 * static_cast<size_t>(w);
+  int32_t* __restrict syy = cols + 7 * static_cast<size_t>(w);
+  int32_t* __restrict sxy = cols + 8 * static_cast<size_t>(w);
+  for (int x = 0; x < w; ++x) {
+    const int32_t p0 = a0[x], p1 = a1[x], p2 = a2[x];
+    const int32_t q0 = b0[x], q1 = b1[x], q2 = b2[x];
+    int32_t xx = sxx[x] + (p0 * p0 + p1 * p1 + p2 * p2);
+    int32_t yy = syy[x] + (q0 * q0 + q1 * q1 + q2 * q2);
+    int32_t xy = sxy[x] + (p0 * q0 + p1 * q1 + p2 * q2);
+    if constexpr (kSlide) {
+      const int32_t lp0 = la0[x], lp1 = la1[x], lp2 = la2[x];
+      const int32_t lq0 = lb0[x], lq1 = lb1[x], lq2 = lb2[x];
+      xx -= lp0 * lp0 + lp1 * lp1 + lp2 * lp2;
+      yy -= lq0 * lq0 + lq1 * lq1 + lq2 * lq2;
+      xy -= lp0 * lq0 + lp1 * lq1 + lp2 * lq2;
+    }
+    sxx[x] = xx;
+    syy[x] = yy;
+    sxy[x] = xy;
+  }
+}
+[[gnu::always_inline]] inline void AccumulateExactColumnsBody(const uint8_t* __restrict planes,
+                                                              int w, int32_t* __restrict cols) {
+  ExactColumnsBody<false>(planes, planes, w, cols);
+}
+REPHOTO_ISA_DISPATCH(void, AccumulateExactColumns,
+                     (const uint8_t* __restrict planes, int w, int32_t* __restrict cols),
+                     (planes, w, cols))
+[[gnu::always_inline]] inline void SlideExactColumnsBody(const uint8_t* __restrict entering,
+                                                         const uint8_t* __restrict leaving, int w,
+                                                         int32_t* __restrict cols) {
+  ExactColumnsBody<true>(entering, leaving, w, cols);
+}
+REPHOTO_ISA_DISPATCH(void, SlideExactColumns,
+                     (const uint8_t* __restrict entering, const uint8_t* __restrict leaving, int w,
+                      int32_t* __restrict cols),
+                     (entering, leaving, w, cols))
+
+// The window's deviation sums of centres x in [r, w - r), in units of k: dx = n sum_c x_c^2 -
+// sum_c (sum x_c)^2 (n x the summed squared deviation from the per-channel means), dy the same
+// of the rephoto, dxy = n sum_c x_c y_c - sum_c (sum x_c)(sum y_c). The window sums are added
+// from the column sums directly (2r + 1 loads per quantity and 8 centres); every value is an
+// integer below 2^31 for windows up to kMaxExactWindow, so int32 arithmetic is exact on every
+// path however it is vectorised.
+template <int kR>  // the radius when known at compile time (the default window), else 0
+[[gnu::always_inline]] inline void ExactDeviationsRadius(const int32_t* __restrict cols, int w,
+                                                         int r, int32_t n, int32_t* __restrict dx,
+                                                         int32_t* __restrict dy,
+                                                         int32_t* __restrict dxy) {
+  if constexpr (kR > 0) r = kR;
+  const int32_t* __restrict c[kBoxQuantities];
+  for (int q = 0; q < kBoxQuantities; ++q) c[q] = cols + static_cast<size_t>(q) * w;
+  int x = r;
+  for (; x + 8 <= w - r; x += 8) {
+    V8i sum[kBoxQuantities];
+    for (int q = 0; q < kBoxQuantities; ++q) {
+      sum[q] = REPHOTO_LOAD(V8i, c[q] + x - r);
+      for (int k = 1; k <= 2 * r; ++k) sum[q] += REPHOTO_LOAD(V8i, c[q] + x - r + k);
+    }
+    const V8i vx = n * sum[6] - (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+    const V8i vy = n * sum[7] - (sum[3] * sum[3] + sum[4] * sum[4] + sum[5] * sum[5]);
+    const V8i vxy = n * sum[8] - (sum[0] * sum[3] + sum[1] * sum[4] + sum[2] * sum[5]);
+    REPHOTO_STORE(dx + x, vx);
+    REPHOTO_STORE(dy + x, vy);
+    REPHOTO_STORE(dxy + x, vxy);
+  }
+  for (; x < w - r; ++x) {
+    int32_t sum[kBoxQuantities];
+    for (int q = 0; q < kBoxQuantities; ++q) {
+      sum[q] = 0;
+      for (int k = 0; k <= 2 * r; ++k) sum[q] += c[q][x - r + k];
+    }
+    dx[x] = n * sum[6] - (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+    dy[x] = n * sum[7] - (sum[3] * sum[3] + sum[4] * sum[4] + sum[5] * sum[5]);
+    dxy[x] = n * sum[8] - (sum[0] * sum[3] + sum[1] * sum[4] + sum[2] * sum[5]);
+  }
+}
+[[gnu::always_inline]] inline void ExactDeviationsBody(const int32_t* __restrict cols, int w, int r,
+                                                       int32_t n, int32_t* __restrict dx,
+                                                       int32_t* __restrict dy,
+                                                       int32_t* __restrict dxy) {
+  if (r == 4) {
+    ExactDeviationsRadius<4>(cols, w, r, n, dx, dy, dxy);
+  } else {
+    ExactDeviationsRadius<0>(cols, w, r, n, dx, dy, dxy);
+  }
+}
+REPHOTO_ISA_DISPATCH(void, ExactDeviations,
+                     (const int32_t* __restrict cols, int w, int r, int32_t n,
+                      int32_t* __restrict dx, int32_t* __restrict dy, int32_t* __restrict dxy),
+                     (cols, w, r, n, dx, dy, dxy))
+
+// 1-NCC and ZSSD for centres x in [r, w - r) from the exact deviation sums (no validity test
+// yet). flat_scaled = the flat threshold in units of k (flat n 255^2); zssd_scale = 1 / (n^2
+// 255^2 3). In double: dx dy rounds once, then the square root and the division; z is exact.
+[[gnu::always_inline]] inline void ExactErrorsBody(const int32_t* __restrict dx_row,
+                                                   const int32_t* __restrict dy_row,
+                                                   const int32_t* __restrict dxy_row, int w, int r,
+                                                   double flat_scaled, double zssd_scale,
+                                                   float* __restrict ncc, float* __restrict zssd) {
+  for (int x = r; x < w - r; ++x) {
+    const double dx = dx_row[x], dy = dy_row[x], dxy = dxy_row[x];
+    const bool flat_x = dx <= flat_scaled, flat_y = dy <= flat_scaled;
+    double e = 1.0 - dxy / std::sqrt(dx * dy);
+    e = e < 0.0 ? 0.0 : (e > 2.0 ? 2.0 : e);
+    e = flat_x ? (flat_y ? 0.0 : 1.0) : (flat_y ? 1.0 : e);
+    ncc[x] = static_cast<float>(e);
+    const double z = dx + dy - 2.0 * dxy;
+    zssd[x] = static_cast<float>((z > 0.0 ? z : 0.0) * zssd_scale);
+  }
+}
+REPHOTO_ISA_DISPATCH(void, ExactErrors,
+                     (const int32_t* __restrict dx_row, const int32_t* __restrict dy_row,
+                      const int32_t* __restrict dxy_row, int w, int r, double flat_scaled,
+                      double zssd_scale, float* __restrict ncc, float* __restrict zssd),
+                     (dx_row, dy_row, dxy_row, w, r, flat_scaled, zssd_scale, ncc, zssd))
+
 double MaskRow(const float* values, const uint8_t* ok, int w, float* out) {
   return MaskRange(values, ok, 0, w, out);
 }
@@ -259,12 +465,16 @@ REPHOTO_ISA_DISPATCH(void, LumaPlanar,
 
 // 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
 // planes and converted to luma once, and kept in a ring of 2r+2 rows (the window plus the row
-// that leaves the column sums).
-MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* ncc,
-                    const ErrorRows* zssd, const ErrorRows* census, int64_t y0, int64_t y1) {
+// that leaves the column sums). With `exact`, 1-NCC and ZSSD take the exact path (above); it
+// returns false as soon as a source row holds a value that is not k / 255.f (the caller then
+// runs the band again without it).
+bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* ncc,
+                    const ErrorRows* zssd, const ErrorRows* census, int64_t y0, int64_t y1,
+                    bool exact, MeanSums* out_sums) {
   const int w = in.width, h = in.height, r = window / 2;
   const bool box = ncc != nullptr || zssd != nullptr;
-  MeanSums sums;
+  MeanSums& sums = *out_sums;
+  sums = MeanSums();
   const int64_t c0 = std::max<int64_t>(y0, r), c1 = std::min<int64_t>(y1, h - r);
   for (int64_t y = y0; y < y1; ++y) {
     if (y >= c0 && y < c1 && w >= window) continue;
@@ -272,8 +482,9 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
       if (out) FillNaN(out->row(static_cast<int>(y)), w);
     }
   }
-  if (c0 >= c1 || w < window) return sums;
-  // Ring slot: photo R, G, B, rephoto R, G, B, photo luma, rephoto luma (8 planes of w).
+  if (c0 >= c1 || w < window) return true;
+  // Ring slot: photo R, G, B, rephoto R, G, B, photo luma, rephoto luma (8 planes of w; on the
+  // exact path the six colour planes are bytes at the start of the slot).
   const int ring = 2 * r + 2;
   const size_t slot_size = static_cast<size_t>(8) * w;
   thread_local std::vector<float> float_buffer;
@@ -281,18 +492,47 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
   float* ncc_values = slots + ring * slot_size;
   float* zssd_values = ncc_values + w;
   thread_local std::vector<double> double_buffer;
-  double* cols =
-      box ? Scratch(double_buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1)) : nullptr;
-  double* prefix = box ? cols + kBoxQuantities * w : nullptr;
+  thread_local std::vector<int32_t> int_buffer;
+  const bool double_box = box && !exact;
+  double* cols = double_box
+                     ? Scratch(double_buffer, static_cast<size_t>(kBoxQuantities) * (2 * w + 1))
+                     : nullptr;
+  double* prefix = double_box ? cols + kBoxQuantities * w : nullptr;
+  // Column sums (kBoxQuantities rows of w), then the deviation rows dx, dy, dxy.
+  int32_t* exact_cols =
+      exact ? Scratch(int_buffer, static_cast<size_t>(kBoxQuantities + 3) * w) : nullptr;
+  int32_t* deviations = exact ? exact_cols + static_cast<size_t>(kBoxQuantities) * w : nullptr;
   auto slot = [&](int64_t j) { return slots + static_cast<size_t>(j % ring) * slot_size; };
+  auto bytes = [&](int64_t j) { return reinterpret_cast<uint8_t*>(slot(j)); };
+  // Loads source row j into its slot; false when the exact path cannot take it.
   auto load = [&](int64_t j) {
     float* s = slot(j);
-    const float* p = in.photo.row(static_cast<int>(j));
-    const float* q = in.rephoto.row(static_cast<int>(j));
+    const int yj = static_cast<int>(j);
+    const float* p = in.photo.row(yj);
+    const float* q = in.rephoto.row(yj);
     if (!box) {  // census alone: luma only
       LumaInterleaved(p, w, s + 6 * w);
       LumaInterleaved(q, w, s + 7 * w);
-      return;
+      return true;
+    }
+    if (exact) {
+      uint8_t* b = bytes(j);
+      bool ok = true;
+      if (const uint8_t* raw = in.photo.bytes_row(yj)) {
+        BytePlanes(raw, in.photo.channels(), w, b, b + w, b + 2 * w);
+      } else {
+        ok = FloatBytePlanes(p, w, b, b + w, b + 2 * w);
+      }
+      if (const uint8_t* raw = in.rephoto.bytes_row(yj)) {
+        BytePlanes(raw, in.rephoto.channels(), w, b + 3 * w, b + 4 * w, b + 5 * w);
+      } else {
+        ok = ok && FloatBytePlanes(q, w, b + 3 * w, b + 4 * w, b + 5 * w);
+      }
+      if (census) {
+        LumaInterleaved(p, w, s + 6 * w);
+        LumaInterleaved(q, w, s + 7 * w);
+      }
+      return ok;
     }
     Deinterleave(p, w, s, s + w, s + 2 * w);
     Deinterleave(q, w, s + 3 * w, s + 4 * w, s + 5 * w);
@@ -300,29 +540,41 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
       LumaPlanar(s, s + w, s + 2 * w, w, s + 6 * w);
       LumaPlanar(s + 3 * w, s + 4 * w, s + 5 * w, w, s + 7 * w);
     }
+    return true;
   };
-  if (box) std::fill(cols, cols + kBoxQuantities * w, 0.0);
+  if (double_box) std::fill(cols, cols + kBoxQuantities * w, 0.0);
+  if (exact) std::fill(exact_cols, exact_cols + kBoxQuantities * w, 0);
   for (int64_t j = c0 - r; j <= c0 + r; ++j) {
-    load(j);
-    if (box) AccumulateBoxColumns(slot(j), w, 1.0, cols);
+    if (!load(j)) return false;
+    if (double_box) AccumulateBoxColumns(slot(j), w, 1.0, cols);
+    if (exact) AccumulateExactColumns(bytes(j), w, exact_cols);
   }
   WindowValidityRows validity(in.valid, w, h, r);
   const double inv_count = 1.0 / (static_cast<double>(window) * window);
+  const double n = static_cast<double>(window) * window;
+  const double flat_scaled = flat * n * (255.0 * 255.0);
+  const double zssd_scale = 1.0 / (n * n * (255.0 * 255.0) * 3.0);
   const float inv_bits = 1.0f / static_cast<float>(window * window - 1);
   std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
   for (int64_t y = c0; y < c1; ++y) {
     const int yi = static_cast<int>(y);
     if (y > c0) {
-      load(y + r);
-      if (box) {
-        SlideBoxColumns(slot(y + r), slot(y - r - 1), w, cols);
-      }
+      if (!load(y + r)) return false;
+      if (double_box) SlideBoxColumns(slot(y + r), slot(y - r - 1), w, cols);
+      if (exact) SlideExactColumns(bytes(y + r), bytes(y - r - 1), w, exact_cols);
     }
     const uint8_t* ok = validity.Row(yi);
     const size_t evaluated = CountRow(ok, w, r);
     if (box) {
-      BoxPrefix(cols, w, prefix);
-      BoxErrors(prefix, w, r, inv_count, flat, ncc_values, zssd_values);
+      if (exact) {
+        ExactDeviations(exact_cols, w, r, window * window, deviations, deviations + w,
+                        deviations + 2 * w);
+        ExactErrors(deviations, deviations + w, deviations + 2 * w, w, r, flat_scaled, zssd_scale,
+                    ncc_values, zssd_values);
+      } else {
+        BoxPrefix(cols, w, prefix);
+        BoxErrors(prefix, w, r, inv_count, flat, ncc_values, zssd_values);
+      }
       if (ncc) sums.sum[0] += MaskRow(ncc_values, ok, w, ncc->row(yi));
       if (zssd) sums.sum[1] += MaskRow(zssd_values, ok, w, zssd->row(yi));
       sums.count[0] += evaluated;
@@ -350,6 +602,16 @@ MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* 
       sums.sum[2] += s;
       sums.count[2] += evaluated;
     }
+  }
+  return true;
+}
+
+MeanSums WindowBand(const Inputs& in, int window, double flat, const ErrorRows* ncc,
+                    const ErrorRows* zssd, const ErrorRows* census, int64_t y0, int64_t y1) {
+  MeanSums sums;
+  const bool try_exact = (ncc != nullptr || zssd != nullptr) && window <= kMaxExactWindow;
+  if (!try_exact || !WindowBandPass(in, window, flat, ncc, zssd, census, y0, y1, true, &sums)) {
+    WindowBandPass(in, window, flat, ncc, zssd, census, y0, y1, false, &sums);
   }
   return sums;
 }
@@ -383,8 +645,7 @@ typedef long long V4l __attribute__((vector_size(32)));
 [[gnu::always_inline]] inline size_t PixelRowBody(const float* __restrict p,
                                                   const float* __restrict q,
                                                   const uint8_t* __restrict ok, int w,
-                                                  float* __restrict cbcr,
-                                                  float* __restrict squared,
+                                                  float* __restrict cbcr, float* __restrict squared,
                                                   double* __restrict sums) {
   const V8f nan = V8f{} + kNaN;
   V4d cb_lo{}, cb_hi{}, sq_lo{}, sq_hi{};
@@ -418,8 +679,8 @@ typedef long long V4l __attribute__((vector_size(32)));
     sq_lo += (V4d)((V4l)e_lo & __builtin_convertvector(k_lo, V4l));
     sq_hi += (V4d)((V4l)e_hi & __builtin_convertvector(k_hi, V4l));
     const V4i nan4 = (V4i)(V4f{} + kNaN);
-    const V4i f_lo = (V4i)__builtin_convertvector(e_lo, V4f);
-    const V4i f_hi = (V4i)__builtin_convertvector(e_hi, V4f);
+    const V4i f_lo = (V4i) __builtin_convertvector(e_lo, V4f);
+    const V4i f_hi = (V4i) __builtin_convertvector(e_hi, V4f);
     REPHOTO_STORE(squared + x, (V4f)((f_lo & k_lo) | (nan4 & ~k_lo)));
     REPHOTO_STORE(squared + x + 4, (V4f)((f_hi & k_hi) | (nan4 & ~k_hi)));
   }

@@ -30,12 +30,18 @@
 // per-pixel squared error averaged over the three channels. iCID: see icid.h for the colour
 // space and which optional steps of Preiss et al. are (not) implemented.
 //
-// Implementation and accuracy. 1-ncc and zssd use window sums in double (column sums sliding
-// down the image, prefix sums along rows), so E[x^2] - E[x]^2 keeps ~12 significant digits;
+// Implementation and accuracy. 1-ncc and zssd of 8-bit values (8-bit inputs, and float inputs
+// whose every value in a band's rows is k / 255.f, as io::ReadImage makes them) with windows up
+// to 9 x 9 use exact window sums of the integers k (int32 column sums sliding down the image,
+// added along rows), so only the final formula rounds (in double); other inputs use window sums
+// in double (column sums, prefix sums along rows), so E[x^2] - E[x]^2 keeps ~12 significant
+// digits. Both give the same float error values but for last-bit roundings (~1e-12 apart before
+// the rounding to float), and an 8-bit image and its float conversion give identical results;
 // census compares float luma exactly; ssim/dssim filter in float (separable, values shifted by
 // -0.5 to reduce cancellation): per-pixel values agree with a double-precision reference to
 // ~2e-5 and the means with scikit-image to ~1e-6 (tests). Costs do not depend on the window
-// size except for the separable Gaussian (2 x window taps). Work is split over bands of 32 image
+// size except for the exact path's sums along rows (window adds) and the separable Gaussian (2 x
+// window taps). Work is split over bands of 32 image
 // rows (ParallelFor), each band going through all requested metrics while its rows are in
 // cache (8-bit inputs are converted to floats there, once per band); partial sums are added in
 // band order, so results do not depend on the thread count nor on whether the error images are

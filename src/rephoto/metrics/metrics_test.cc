@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <functional>
 #include <limits>
@@ -612,6 +614,126 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
                     ComputeMetrics(photo, rephoto, valid, icid));
   ExpectSameResults(ComputeInBands(photo8, rephoto_rgba, valid, icid),
                     ComputeMetrics(photo, rephoto, valid, icid));
+}
+
+// 1-NCC and ZSSD of 8-bit values from exact statistics: a reference written from the SPEC's
+// formulas over the integers k (sums in int64, exact), the formula in long double. The exact
+// path (windows up to 10, every value k / 255.f) rounds only the formula (dx dy, the square root,
+// the division, in double) and the result to float, so it gives float(reference) up to the rare
+// value within 1e-15 of a rounding boundary; the double path (window 11 and up) agrees within 1e-6.
+// Flat patches (constant blocks) exercise the flat rule.
+long double ExactNccOrZssd(const Image8& p, const Image8& q, int x, int y, int r, bool ncc) {
+  const int64_t n = (2 * r + 1) * (2 * r + 1);
+  int64_t sxx = 0, syy = 0, sxy = 0, sx[3] = {}, sy[3] = {};
+  for (int dy = -r; dy <= r; ++dy) {
+    for (int dx = -r; dx <= r; ++dx) {
+      for (int c = 0; c < 3; ++c) {
+        const int64_t a = p.at(x + dx, y + dy, c), b = q.at(x + dx, y + dy, c);
+        sx[c] += a;
+        sy[c] += b;
+        sxx += a * a;
+        syy += b * b;
+        sxy += a * b;
+      }
+    }
+  }
+  // n x the summed (co)deviations from the per-channel means, in units of k.
+  int64_t dx = n * sxx, dy = n * syy, dxy = n * sxy;
+  for (int c = 0; c < 3; ++c) {
+    dx -= sx[c] * sx[c];
+    dy -= sy[c] * sy[c];
+    dxy -= sx[c] * sy[c];
+  }
+  if (!ncc) return static_cast<long double>(dx + dy - 2 * dxy) / (n * n * 255.0L * 255.0L * 3);
+  // The flat rule in units of [0, 1]: summed squared deviation = dx / (n 255^2).
+  const long double flat = MetricOptions().ncc_flat_threshold;
+  const bool fx = dx / (n * 255.0L * 255.0L) <= flat, fy = dy / (n * 255.0L * 255.0L) <= flat;
+  if (fx || fy) return fx && fy ? 0.0L : 1.0L;
+  const long double e = 1.0L - dxy / std::sqrt(static_cast<long double>(dx) * dy);
+  return std::clamp(e, 0.0L, 2.0L);
+}
+
+TEST(Metrics, EightBitWindowsGiveTheirExactStatistics) {
+  auto rng = testing::MakeRng();
+  const int w = 83, h = 71;
+  Image8 photo8(w, h, 3), rephoto8(w, h, 3);
+  std::uniform_int_distribution<int> byte(0, 255), noise(-20, 20);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        // Constant 12 x 12 blocks on a diagonal (flat patches), noise elsewhere; the rendering
+        // correlated with the photo, flat where the photo is, and flat on its own elsewhere.
+        const bool flat = (x / 12 == y / 12) && x < 72;
+        const bool own_flat = (x / 12 == y / 12 + 2) && x < 72;
+        const int a = flat ? 40 + 30 * c : byte(rng);
+        const int b = flat || own_flat ? 200 - 20 * c : std::clamp(a + noise(rng), 0, 255);
+        photo8.at(x, y, c) = static_cast<uint8_t>(a);
+        rephoto8.at(x, y, c) = static_cast<uint8_t>(b);
+      }
+    }
+  }
+  Image photo(w, h, 3), rephoto(w, h, 3);
+  for (size_t i = 0; i < photo.size(); ++i) {
+    photo.data()[i] = photo8.data()[i] / 255.f;
+    rephoto.data()[i] = rephoto8.data()[i] / 255.f;
+  }
+  const Mask valid = RandomMask(rng, w, h, 0.998);
+  for (int window : {3, 5, 7, 9, 11}) {
+    SCOPED_TRACE(window);
+    MetricOptions options;
+    options.window = window;
+    const int r = window / 2;
+    const auto from_floats =
+        ComputeMetrics(photo, rephoto, valid, {Metric::kOneMinusNcc, Metric::kZssd}, options);
+    const auto from_bytes =
+        ComputeInBands(photo8, rephoto8, valid, {Metric::kOneMinusNcc, Metric::kZssd}, options);
+    ExpectSameResults(from_bytes, from_floats);
+    for (int m = 0; m < 2; ++m) {
+      size_t evaluated = 0, rounded_otherwise = 0, flat_patches = 0;
+      double worst = 0;
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const float got = from_floats[m].error.at(x, y, 0);
+          if (std::isnan(got)) continue;
+          ++evaluated;
+          const long double expected = ExactNccOrZssd(photo8, rephoto8, x, y, r, m == 0);
+          if (m == 0 && (expected == 0.0L || expected == 1.0L)) ++flat_patches;
+          worst = std::max(worst, static_cast<double>(std::abs(got - expected)));
+          rounded_otherwise += got != static_cast<float>(expected);
+        }
+      }
+      ASSERT_GT(evaluated, 2000u);
+      if (window <= 9) {
+        // float(reference) everywhere but perhaps one value in 10^4, and then by one ulp.
+        EXPECT_LE(rounded_otherwise, evaluated / 10000) << (m == 0 ? "1-ncc" : "zssd");
+        EXPECT_LE(worst, m == 0 ? 2.4e-7 : 1e-7) << (m == 0 ? "1-ncc" : "zssd");
+      } else {
+        EXPECT_LE(worst, 1e-6) << (m == 0 ? "1-ncc" : "zssd");
+      }
+      if (m == 0 && window <= 9) {
+        EXPECT_GT(flat_patches, 10u);
+      }
+    }
+  }
+}
+
+// A float image whose values are k / 255.f except in one band: that band's windows take the
+// double path (the others the exact one); each window still matches the naive loops.
+TEST(Metrics, FloatsThatAreNotBytesTakeTheDoublePath) {
+  auto rng = testing::MakeRng();
+  const int w = 45, h = 150;
+  Image photo = RandomImage(rng, w, h, true), rephoto = RandomImage(rng, w, h, true);
+  photo.at(7, 70, 1) = 0.123456f;  // not k / 255.f
+  for (int window : {3, 9}) {
+    MetricOptions options;
+    options.window = window;
+    const auto results =
+        ComputeMetrics(photo, rephoto, {}, {Metric::kOneMinusNcc, Metric::kZssd}, options);
+    ExpectMatches(results[0], NaiveWindowMetric(photo, rephoto, {}, window, NaiveNcc), 1e-5,
+                  "1-ncc");
+    ExpectMatches(results[1], NaiveWindowMetric(photo, rephoto, {}, window, NaiveZssd), 1e-6,
+                  "zssd");
+  }
 }
 
 // Every 8-bit value, as the band pass converts it, equals v / 255.f (io::ReadImage's value).
