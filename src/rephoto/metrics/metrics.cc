@@ -83,71 +83,73 @@ REPHOTO_ISA_DISPATCH(void, LumaInterleaved,
 // cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes); with
 // `leaving` (kSlide), the same then -1 * quantity q of the planar rows `leaving`: the window's
 // column sums move down one row in one pass over cols, with the operations (and so the values)
-// of adding then subtracting in two passes.
-template <bool kSlide>
-[[gnu::always_inline]] inline void BoxColumnsBody(const float* __restrict planes,
-                                                  const float* __restrict leaving, int w,
-                                                  double sign, double* __restrict cols) {
-  const float* __restrict a0 = planes;
-  const float* __restrict a1 = planes + w;
-  const float* __restrict a2 = planes + 2 * w;
-  const float* __restrict b0 = planes + 3 * w;
-  const float* __restrict b1 = planes + 4 * w;
-  const float* __restrict b2 = planes + 5 * w;
-  const float* __restrict la0 = leaving;
-  const float* __restrict la1 = leaving + w;
-  const float* __restrict la2 = leaving + 2 * w;
-  const float* __restrict lb0 = leaving + 3 * w;
-  const float* __restrict lb1 = leaving + 4 * w;
-  const float* __restrict lb2 = leaving + 5 * w;
-  double* __restrict sx0 = cols;
-  double* __restrict sx1 = cols + w;
-  double* __restrict sx2 = cols + 2 * w;
-  double* __restrict sy0 = cols + 3 * w;
-  double* __restrict sy1 = cols + 4 * w;
-  double* __restrict sy2 = cols + 5 * w;
-  double* __restrict sxx = cols + 6 * w;
-  double* __restrict syy = cols + 7 * w;
-  double* __restrict sxy = cols + 8 * w;
+// of adding then subtracting in two passes. In the types of the double path (float planes,
+// double sums) and of the exact path below (byte planes, int32 sums, sign 1: every operation
+// exact).
+template <typename In, typename Acc, bool kSlide>
+[[gnu::always_inline]] inline void BoxColumnsBody(const In* __restrict planes,
+                                                  const In* __restrict leaving, int w, Acc sign,
+                                                  Acc* __restrict cols) {
+  const In* __restrict a0 = planes;
+  const In* __restrict a1 = planes + w;
+  const In* __restrict a2 = planes + 2 * w;
+  const In* __restrict b0 = planes + 3 * w;
+  const In* __restrict b1 = planes + 4 * w;
+  const In* __restrict b2 = planes + 5 * w;
+  const In* __restrict la0 = leaving;
+  const In* __restrict la1 = leaving + w;
+  const In* __restrict la2 = leaving + 2 * w;
+  const In* __restrict lb0 = leaving + 3 * w;
+  const In* __restrict lb1 = leaving + 4 * w;
+  const In* __restrict lb2 = leaving + 5 * w;
+  Acc* __restrict sx0 = cols;
+  Acc* __restrict sx1 = cols + w;
+  Acc* __restrict sx2 = cols + 2 * w;
+  Acc* __restrict sy0 = cols + 3 * w;
+  Acc* __restrict sy1 = cols + 4 * w;
+  Acc* __restrict sy2 = cols + 5 * w;
+  Acc* __restrict sxx = cols + 6 * w;
+  Acc* __restrict syy = cols + 7 * w;
+  Acc* __restrict sxy = cols + 8 * w;
   // Three simple loops vectorise where one loop over fifteen streams does not.
   for (int x = 0; x < w; ++x) {
-    double s0 = sx0[x] + sign * static_cast<double>(a0[x]);
-    double s1 = sx1[x] + sign * static_cast<double>(a1[x]);
-    double s2 = sx2[x] + sign * static_cast<double>(a2[x]);
+    Acc s0 = sx0[x] + sign * static_cast<Acc>(a0[x]);
+    Acc s1 = sx1[x] + sign * static_cast<Acc>(a1[x]);
+    Acc s2 = sx2[x] + sign * static_cast<Acc>(a2[x]);
     if constexpr (kSlide) {
-      s0 += -1.0 * static_cast<double>(la0[x]);
-      s1 += -1.0 * static_cast<double>(la1[x]);
-      s2 += -1.0 * static_cast<double>(la2[x]);
+      s0 += Acc(-1) * static_cast<Acc>(la0[x]);
+      s1 += Acc(-1) * static_cast<Acc>(la1[x]);
+      s2 += Acc(-1) * static_cast<Acc>(la2[x]);
     }
     sx0[x] = s0;
     sx1[x] = s1;
     sx2[x] = s2;
   }
   for (int x = 0; x < w; ++x) {
-    double s0 = sy0[x] + sign * static_cast<double>(b0[x]);
-    double s1 = sy1[x] + sign * static_cast<double>(b1[x]);
-    double s2 = sy2[x] + sign * static_cast<double>(b2[x]);
+    Acc s0 = sy0[x] + sign * static_cast<Acc>(b0[x]);
+    Acc s1 = sy1[x] + sign * static_cast<Acc>(b1[x]);
+    Acc s2 = sy2[x] + sign * static_cast<Acc>(b2[x]);
     if constexpr (kSlide) {
-      s0 += -1.0 * static_cast<double>(lb0[x]);
-      s1 += -1.0 * static_cast<double>(lb1[x]);
-      s2 += -1.0 * static_cast<double>(lb2[x]);
+      s0 += Acc(-1) * static_cast<Acc>(lb0[x]);
+      s1 += Acc(-1) * static_cast<Acc>(lb1[x]);
+      s2 += Acc(-1) * static_cast<Acc>(lb2[x]);
     }
     sy0[x] = s0;
     sy1[x] = s1;
     sy2[x] = s2;
   }
   for (int x = 0; x < w; ++x) {
-    const double p0 = a0[x], p1 = a1[x], p2 = a2[x];
-    const double q0 = b0[x], q1 = b1[x], q2 = b2[x];
-    double xx = sxx[x] + sign * (p0 * p0 + p1 * p1 + p2 * p2);
-    double yy = syy[x] + sign * (q0 * q0 + q1 * q1 + q2 * q2);
-    double xy = sxy[x] + sign * (p0 * q0 + p1 * q1 + p2 * q2);
+    const Acc p0 = a0[x], p1 = a1[x], p2 = a2[x];
+    const Acc q0 = b0[x], q1 = b1[x], q2 = b2[x];
+    Acc xx = sxx[x] + sign * (p0 * p0 + p1 * p1 + p2 * p2);
+    Acc yy = syy[x] + sign * (q0 * q0 + q1 * q1 + q2 * q2);
+    Acc xy = sxy[x] + sign * (p0 * q0 + p1 * q1 + p2 * q2);
     if constexpr (kSlide) {
-      const double lp0 = la0[x], lp1 = la1[x], lp2 = la2[x];
-      const double lq0 = lb0[x], lq1 = lb1[x], lq2 = lb2[x];
-      xx += -1.0 * (lp0 * lp0 + lp1 * lp1 + lp2 * lp2);
-      yy += -1.0 * (lq0 * lq0 + lq1 * lq1 + lq2 * lq2);
-      xy += -1.0 * (lp0 * lq0 + lp1 * lq1 + lp2 * lq2);
+      const Acc lp0 = la0[x], lp1 = la1[x], lp2 = la2[x];
+      const Acc lq0 = lb0[x], lq1 = lb1[x], lq2 = lb2[x];
+      xx += Acc(-1) * (lp0 * lp0 + lp1 * lp1 + lp2 * lp2);
+      yy += Acc(-1) * (lq0 * lq0 + lq1 * lq1 + lq2 * lq2);
+      xy += Acc(-1) * (lp0 * lq0 + lp1 * lq1 + lp2 * lq2);
     }
     sxx[x] = xx;
     syy[x] = yy;
@@ -156,7 +158,7 @@ template <bool kSlide>
 }
 [[gnu::always_inline]] inline void AccumulateBoxColumnsBody(const float* __restrict planes, int w,
                                                             double sign, double* __restrict cols) {
-  BoxColumnsBody<false>(planes, planes, w, sign, cols);
+  BoxColumnsBody<float, double, false>(planes, planes, w, sign, cols);
 }
 REPHOTO_ISA_DISPATCH(void, AccumulateBoxColumns,
                      (const float* __restrict planes, int w, double sign, double* __restrict cols),
@@ -164,7 +166,7 @@ REPHOTO_ISA_DISPATCH(void, AccumulateBoxColumns,
 [[gnu::always_inline]] inline void SlideBoxColumnsBody(const float* __restrict entering,
                                                        const float* __restrict leaving, int w,
                                                        double* __restrict cols) {
-  BoxColumnsBody<true>(entering, leaving, w, 1.0, cols);
+  BoxColumnsBody<float, double, true>(entering, leaving, w, 1.0, cols);
 }
 REPHOTO_ISA_DISPATCH(void, SlideBoxColumns,
                      (const float* __restrict entering, const float* __restrict leaving, int w,
@@ -293,58 +295,10 @@ REPHOTO_ISA_DISPATCH(bool, FloatBytePlanes,
                       uint8_t* __restrict c1, uint8_t* __restrict c2),
                      (rgb, w, c0, c1, c2))
 
-// cols[q * w + x] += quantity q of the byte planes `entering` (photo 0-2, rephoto 3-5), and with
-// kSlide -= that of `leaving`: sums of x_c, y_c, then sum_c x_c^2, y_c^2, x_c y_c.
-template <bool kSlide>
-[[gnu::always_inline]] inline void ExactColumnsBody(const uint8_t* __restrict entering,
-                                                    const uint8_t* __restrict leaving, int w,
-                                                    int32_t* __restrict cols) {
-  for (int q = 0; q < 6; ++q) {
-    const uint8_t* __restrict a = entering + static_cast<size_t>(q) * w;
-    const uint8_t* __restrict la = leaving + static_cast<size_t>(q) * w;
-    int32_t* __restrict s = cols + static_cast<size_t>(q) * w;
-    for (int x = 0; x < w; ++x) {
-      int32_t v = s[x] + a[x];
-      if constexpr (kSlide) v -= la[x];
-      s[x] = v;
-    }
-  }
-  const uint8_t* __restrict a0 = entering;
-  const uint8_t* __restrict a1 = entering + w;
-  const uint8_t* __restrict a2 = entering + 2 * w;
-  const uint8_t* __restrict b0 = entering + 3 * w;
-  const uint8_t* __restrict b1 = entering + 4 * w;
-  const uint8_t* __restrict b2 = entering + 5 * w;
-  const uint8_t* __restrict la0 = leaving;
-  const uint8_t* __restrict la1 = leaving + w;
-  const uint8_t* __restrict la2 = leaving + 2 * w;
-  const uint8_t* __restrict lb0 = leaving + 3 * w;
-  const uint8_t* __restrict lb1 = leaving + 4 * w;
-  const uint8_t* __restrict lb2 = leaving + 5 * w;
-  int32_t* __restrict sxx = cols + 6 * static_cast<size_t>(w);
-  int32_t* __restrict syy = cols + 7 * static_cast<size_t>(w);
-  int32_t* __restrict sxy = cols + 8 * static_cast<size_t>(w);
-  for (int x = 0; x < w; ++x) {
-    const int32_t p0 = a0[x], p1 = a1[x], p2 = a2[x];
-    const int32_t q0 = b0[x], q1 = b1[x], q2 = b2[x];
-    int32_t xx = sxx[x] + (p0 * p0 + p1 * p1 + p2 * p2);
-    int32_t yy = syy[x] + (q0 * q0 + q1 * q1 + q2 * q2);
-    int32_t xy = sxy[x] + (p0 * q0 + p1 * q1 + p2 * q2);
-    if constexpr (kSlide) {
-      const int32_t lp0 = la0[x], lp1 = la1[x], lp2 = la2[x];
-      const int32_t lq0 = lb0[x], lq1 = lb1[x], lq2 = lb2[x];
-      xx -= lp0 * lp0 + lp1 * lp1 + lp2 * lp2;
-      yy -= lq0 * lq0 + lq1 * lq1 + lq2 * lq2;
-      xy -= lp0 * lq0 + lp1 * lq1 + lp2 * lq2;
-    }
-    sxx[x] = xx;
-    syy[x] = yy;
-    sxy[x] = xy;
-  }
-}
+// The exact path's column sums: BoxColumnsBody on byte planes into int32 (exact).
 [[gnu::always_inline]] inline void AccumulateExactColumnsBody(const uint8_t* __restrict planes,
                                                               int w, int32_t* __restrict cols) {
-  ExactColumnsBody<false>(planes, planes, w, cols);
+  BoxColumnsBody<uint8_t, int32_t, false>(planes, planes, w, 1, cols);
 }
 REPHOTO_ISA_DISPATCH(void, AccumulateExactColumns,
                      (const uint8_t* __restrict planes, int w, int32_t* __restrict cols),
@@ -352,7 +306,7 @@ REPHOTO_ISA_DISPATCH(void, AccumulateExactColumns,
 [[gnu::always_inline]] inline void SlideExactColumnsBody(const uint8_t* __restrict entering,
                                                          const uint8_t* __restrict leaving, int w,
                                                          int32_t* __restrict cols) {
-  ExactColumnsBody<true>(entering, leaving, w, cols);
+  BoxColumnsBody<uint8_t, int32_t, true>(entering, leaving, w, 1, cols);
 }
 REPHOTO_ISA_DISPATCH(void, SlideExactColumns,
                      (const uint8_t* __restrict entering, const uint8_t* __restrict leaving, int w,
