@@ -365,6 +365,11 @@ struct LiveSession::State {
     log_records = line_no;
     CompactLogIfLong();
     for (Photo& p : photos) {
+      if (p.status == "unregistered") {
+        const auto it = p.seconds.find("register");
+        unplaced.push_back({p.name, p.arrival, p.sha256, p.sharpness,
+                            it == p.seconds.end() ? 0.0 : it->second});
+      }
       if (p.status == "registered" && p.has_depth) {
         try {
           depth_cache[p.name] = std::make_shared<const Image>(
@@ -739,8 +744,13 @@ struct LiveSession::State {
     int64_t arrival;
     std::string sha;
     double sharpness;
+    double register_seconds = 0;  // spent in the engine when it arrived (features, matching)
   };
   std::vector<Deferred> deferred;  // photos the registration engine could not place yet
+  // Photos it could not place (status unregistered): COLMAP's image_registrator, run for every
+  // later photo, tries every unplaced image of its database again, so a photo that a later one
+  // connects to the others gets placed then. Looked up after every registration.
+  std::vector<Deferred> unplaced;
 
   // Poses refined by the registration engine (live_session.h, "Poses refined by the engine"):
   // the engine-placed photos whose pose or camera changed take the new ones; their depth maps
@@ -799,7 +809,10 @@ struct LiveSession::State {
     return any;
   }
 
-  // Photos the engine deferred: looked up again (in arrival order) after a registration.
+  // Photos the engine deferred, then those it could not place: looked up again (each list in
+  // arrival order) after a registration. An unplaced photo that is still not placed stays
+  // unregistered (no new record); one that is gets predicted from the photos registered by then
+  // and added, under its original arrival number.
   void RetryDeferred() {
     if (!options.registrar) return;
     std::vector<Deferred> again;
@@ -810,23 +823,41 @@ struct LiveSession::State {
         deferred.push_back(d);
         continue;
       }
-      try {
-        const Image photo = io::ReadImage(options.watch / d.name);
-        Process(d.name, d.arrival, d.sha, photo, d.sharpness, &r);
-      } catch (const Error& e) {
-        Photo p;
-        p.name = d.name;
-        p.arrival = d.arrival;
-        p.sha256 = d.sha;
-        p.status = "failed";
-        p.message = e.what();
-        Put(p);
+      ProcessRetried(d, r);
+    }
+    again.clear();
+    again.swap(unplaced);
+    for (const Deferred& d : again) {
+      const Registrar::Result r = options.registrar->Lookup(d.name);
+      if (r.status != Registrar::Result::kRegistered) {
+        unplaced.push_back(d);
+        continue;
       }
+      LogInfo(fmt::format("{}: placed by COLMAP after later photos", d.name));
+      ProcessRetried(d, r);
     }
   }
 
+  void ProcessRetried(const Deferred& d, const Registrar::Result& r) {
+    try {
+      const Image photo = io::ReadImage(options.watch / d.name);
+      Process(d.name, d.arrival, d.sha, photo, d.sharpness, &r, d.register_seconds);
+    } catch (const Error& e) {
+      Photo p;
+      p.name = d.name;
+      p.arrival = d.arrival;
+      p.sha256 = d.sha;
+      p.status = "failed";
+      p.message = e.what();
+      Put(p);
+    }
+  }
+
+  // `preset`: the engine's answer for a photo it deferred or could not place before, which took
+  // `earlier_seconds` in the engine then (counted in its register seconds).
   void Process(const std::string& name, int64_t arrival, const std::string& sha,
-               const Image& photo, double sharpness, const Registrar::Result* preset = nullptr) {
+               const Image& photo, double sharpness, const Registrar::Result* preset = nullptr,
+               double earlier_seconds = 0) {
     Photo p;
     p.name = name;
     p.sha256 = sha;
@@ -866,14 +897,15 @@ struct LiveSession::State {
         LogWarning(fmt::format("{}: refined poses not taken over: {}", name, e.what()));
       }
       if (r.status == Registrar::Result::kDeferred) {
-        deferred.push_back({name, arrival, sha, sharpness});
+        deferred.push_back({name, arrival, sha, sharpness, Seconds(t0) + earlier_seconds});
         return;
       }
       if (r.status != Registrar::Result::kRegistered) {
         p.status = "unregistered";
         p.message = r.message.empty() ? "the registration engine could not place it" : r.message;
-        p.seconds["register"] = Seconds(t0);
+        p.seconds["register"] = Seconds(t0) + earlier_seconds;
         Put(p);
+        unplaced.push_back({name, arrival, sha, sharpness, p.seconds["register"]});
         return;
       }
       p.camera = r.camera;
@@ -881,7 +913,7 @@ struct LiveSession::State {
       p.has_pose = true;
       p.pose_source = "colmap";
     }
-    p.seconds["register"] = Seconds(t0);
+    p.seconds["register"] = Seconds(t0) + earlier_seconds;
     // Prediction from the photos before it.
     const auto t1 = Clock::now();
     const camera::Camera pc = PredictCamera(p.camera);
@@ -921,8 +953,13 @@ struct LiveSession::State {
     p.status = "registered";
     {
       std::lock_guard<std::mutex> lock(mutex);
-      by_name[name] = photos.size();
-      photos.push_back(p);
+      // A photo placed after it was unregistered keeps its place in arrival order.
+      if (auto it = by_name.find(name); it != by_name.end()) {
+        photos[it->second] = p;
+      } else {
+        by_name[name] = photos.size();
+        photos.push_back(p);
+      }
     }
     std::vector<size_t> targets;
     for (size_t i : Registered())
@@ -961,7 +998,7 @@ struct LiveSession::State {
     me.seconds["depth"] = Seconds(t2) - model_s - suggest_s;
     me.seconds["model"] = model_s;
     me.seconds["suggest"] = suggest_s;
-    me.seconds["total"] = Seconds(t0);
+    me.seconds["total"] = Seconds(t0) + earlier_seconds;
     Put(me);
   }
 
@@ -1069,7 +1106,7 @@ struct LiveSession::State {
     const int64_t arrival = next_arrival++;
     try {
       Process(name, arrival, p.sha256, photo, p.sharpness);
-      if (options.registrar && !deferred.empty()) RetryDeferred();
+      if (options.registrar && (!deferred.empty() || !unplaced.empty())) RetryDeferred();
     } catch (const Error& e) {
       // Bad input of this photo: a status. (Failures to write the run folder propagate from Put.)
       p.arrival = arrival;

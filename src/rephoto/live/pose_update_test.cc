@@ -3,20 +3,21 @@
 // the whole frame (and turns one photo) between two photos takes the new poses over: the
 // records hold them, depth maps are scaled with the frame or estimated again, and the next
 // photo is predicted in the new frame.
+#include "rephoto/live/pose_update.h"
+
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <set>
 
 #include "rephoto/ibr/depth_map_io.h"
 #include "rephoto/live/demo_capture.h"
 #include "rephoto/live/live_session.h"
-#include "rephoto/live/pose_update.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::live {
@@ -37,8 +38,9 @@ camera::Pose Moved(const camera::Pose& p, double s, const Eigen::Matrix3d& Q,
 camera::Pose Turned(const camera::Pose& p, double degrees) {
   const Eigen::Vector3d c = p.Center();
   camera::Pose m;
-  m.rotation = Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() *
-               p.rotation;
+  m.rotation =
+      Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+      p.rotation;
   m.translation = -m.rotation * c;
   return m;
 }
@@ -47,15 +49,15 @@ std::vector<camera::Pose> Ring(int n) {
   std::vector<camera::Pose> poses;
   for (int k = 0; k < n; ++k) {
     const double a = k * 2 * M_PI / n;
-    poses.push_back(LookAt({3 * std::cos(a), 3 * std::sin(a), 1 + 0.2 * std::sin(3 * a)},
-                           {0, 0, 0.4}));
+    poses.push_back(
+        LookAt({3 * std::cos(a), 3 * std::sin(a), 1 + 0.2 * std::sin(3 * a)}, {0, 0, 0.4}));
   }
   return poses;
 }
 
-const Eigen::Matrix3d kQ =
-    (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
-        .toRotationMatrix();
+const Eigen::Matrix3d kQ = (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) *
+                            Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
+                               .toRotationMatrix();
 const Eigen::Vector3d kT(1, -2, 0.5);
 
 TEST(PoseUpdateTest, FrameMoveIsAScaleAndNoRefresh) {
@@ -214,7 +216,8 @@ TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
       EXPECT_EQ(p["status"], "registered") << name(k) << " " << p["message"];
       const camera::Pose want = engine.table[name(k)].cam_from_world;
       const Eigen::Vector4d q = want.Quaternion();
-      for (int i = 0; i < 3; ++i) EXPECT_NEAR(p["tvec"][i].get<double>(), want.translation[i], 1e-9);
+      for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(p["tvec"][i].get<double>(), want.translation[i], 1e-9);
       for (int i = 0; i < 4; ++i) EXPECT_NEAR(p["qvec"][i].get<double>(), q[i], 1e-9);
       EXPECT_TRUE(p["has_depth"].get<bool>()) << name(k);
       EXPECT_FALSE(p["depth_stale"].get<bool>()) << name(k);  // photo 2 estimated again
@@ -255,8 +258,8 @@ TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
     EXPECT_LT(last["error"].get<double>(), 0.6);
     // The live prediction at photo 6's pose with the scaled depth maps, kept for the comparison
     // after the restart below.
-    const std::optional<render::Rephoto> r = session.Predict(capture.camera(),
-                                                             engine.table[name(6)].cam_from_world);
+    const std::optional<render::Rephoto> r =
+        session.Predict(capture.camera(), engine.table[name(6)].cam_from_world);
     ASSERT_TRUE(r.has_value());
     before_restart = r->color;
   }
@@ -276,6 +279,82 @@ TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
     const camera::Pose want = engine.table[name(k)].cam_from_world;
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(p["tvec"][i].get<double>(), want.translation[i], 1e-9);
   }
+}
+
+// A photo the engine cannot place when it arrives is unregistered, and looked up again after
+// every later registration (COLMAP's image_registrator tries every unplaced image of its
+// database with each new photo): once the engine places it, it is predicted from the photos
+// registered by then and added under its first arrival number. A restart retries it too.
+TEST(PoseUpdateTest, SessionPlacesAPhotoTheEngineCouldNotPlaceAtFirst) {
+  const fs::path base = testing::MakeTempDir();
+  const fs::path watch = base / "watch", run = base / "run";
+  fs::create_directories(watch);
+  DemoCapture capture(240, 180);
+  const Eigen::Vector3d target(0, 0, 0.45);
+  TableRegistrar engine;
+  LiveOptions o;
+  o.watch = watch;
+  o.out = run;
+  o.predict_width = 240;
+  o.depth_width = 240;
+  o.candidates = 60;
+  o.suggestions = 1;
+  o.registrar = &engine;
+  std::vector<camera::Pose> truth;
+  for (int k = 0; k < 8; ++k) {
+    const double a = k * 0.3;
+    truth.push_back(LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5 - 0.1 * (k % 2)}, target));
+  }
+  auto name = [](int k) { return fmt::format("p{}.png", k); };
+  auto drop = [&](int k, bool placed) {
+    if (placed) engine.table[name(k)] = {name(k), capture.camera(), truth[k]};
+    capture.Drop(watch, fmt::format("p{}", k), truth[k], k);
+    fs::remove(watch / fmt::format("p{}.json", k));
+  };
+  auto find = [](const nlohmann::json& api, const std::string& n) {
+    for (const auto& p : api["photos"])
+      if (p["name"] == n) return p;
+    return nlohmann::json();
+  };
+  int64_t arrival = -1;
+  {
+    LiveSession session(o);
+    for (int k : {0, 1, 2, 3}) {
+      drop(k, true);
+      session.HandleReady(name(k));
+    }
+    drop(4, false);  // the engine cannot place it yet
+    session.HandleReady(name(4));
+    nlohmann::json p = find(session.Api(), name(4));
+    ASSERT_EQ(p["status"], "unregistered") << p.dump();
+    arrival = p["arrival"].get<int64_t>();
+    // A later photo connects it: the engine places both with the next registration.
+    engine.table[name(4)] = {name(4), capture.camera(), truth[4]};
+    drop(5, true);
+    session.HandleReady(name(5));
+    const nlohmann::json api = session.Api();
+    p = find(api, name(4));
+    EXPECT_EQ(p["status"], "registered") << p.dump();
+    EXPECT_EQ(p["arrival"].get<int64_t>(), arrival);
+    EXPECT_GT(p["completeness"].get<double>(), 0.3) << p.dump();
+    EXPECT_LT(p["error"].get<double>(), 0.6) << p.dump();
+    for (int i = 0; i < 3; ++i)
+      EXPECT_NEAR(p["tvec"][i].get<double>(), truth[4].translation[i], 1e-9);
+    EXPECT_EQ(find(api, name(5))["status"], "registered");
+    // Another photo the engine cannot place, then a stop.
+    drop(6, false);
+    session.HandleReady(name(6));
+    ASSERT_EQ(find(session.Api(), name(6))["status"], "unregistered");
+  }
+  // After a restart it is retried with the next registration as well.
+  engine.table[name(6)] = {name(6), capture.camera(), truth[6]};
+  LiveSession resumed(o);
+  drop(7, true);
+  resumed.HandleReady(name(7));
+  const nlohmann::json api = resumed.Api();
+  EXPECT_EQ(find(api, name(6))["status"], "registered") << find(api, name(6)).dump();
+  EXPECT_EQ(find(api, name(7))["status"], "registered");
+  EXPECT_EQ(api["photos"].size(), 8u);
 }
 
 }  // namespace
