@@ -80,16 +80,15 @@ REPHOTO_ISA_DISPATCH(void, Deinterleave,
 REPHOTO_ISA_DISPATCH(void, LumaInterleaved,
                      (const float* __restrict rgb, int w, float* __restrict luma), (rgb, w, luma))
 
-// cols[q * w + x] += sign * quantity q of the planar rows p (3 planes) and q (3 planes); with
-// `leaving` (kSlide), the same then -1 * quantity q of the planar rows `leaving`: the window's
+// cols[q * w + x] += quantity q of the planar rows p (3 planes) and q (3 planes); with
+// `leaving` (kSlide), the same then -= quantity q of the planar rows `leaving`: the window's
 // column sums move down one row in one pass over cols, with the operations (and so the values)
 // of adding then subtracting in two passes. In the types of the double path (float planes,
-// double sums) and of the exact path below (byte planes, int32 sums, sign 1: every operation
-// exact).
+// double sums) and of the exact path below (byte planes, int32 sums: every operation exact).
 template <typename In, typename Acc, bool kSlide>
-[[gnu::always_inline]] inline void BoxColumnsBody(const In* __restrict planes,
-                                                  const In* __restrict leaving, int w, Acc sign,
-                                                  Acc* __restrict cols) {
+[[gnu::always_inline]] inline void ColumnSums(const In* __restrict planes,
+                                              const In* __restrict leaving, int w,
+                                              Acc* __restrict cols) {
   const In* __restrict a0 = planes;
   const In* __restrict a1 = planes + w;
   const In* __restrict a2 = planes + 2 * w;
@@ -113,26 +112,26 @@ template <typename In, typename Acc, bool kSlide>
   Acc* __restrict sxy = cols + 8 * w;
   // Three simple loops vectorise where one loop over fifteen streams does not.
   for (int x = 0; x < w; ++x) {
-    Acc s0 = sx0[x] + sign * static_cast<Acc>(a0[x]);
-    Acc s1 = sx1[x] + sign * static_cast<Acc>(a1[x]);
-    Acc s2 = sx2[x] + sign * static_cast<Acc>(a2[x]);
+    Acc s0 = sx0[x] + static_cast<Acc>(a0[x]);
+    Acc s1 = sx1[x] + static_cast<Acc>(a1[x]);
+    Acc s2 = sx2[x] + static_cast<Acc>(a2[x]);
     if constexpr (kSlide) {
-      s0 += Acc(-1) * static_cast<Acc>(la0[x]);
-      s1 += Acc(-1) * static_cast<Acc>(la1[x]);
-      s2 += Acc(-1) * static_cast<Acc>(la2[x]);
+      s0 -= static_cast<Acc>(la0[x]);
+      s1 -= static_cast<Acc>(la1[x]);
+      s2 -= static_cast<Acc>(la2[x]);
     }
     sx0[x] = s0;
     sx1[x] = s1;
     sx2[x] = s2;
   }
   for (int x = 0; x < w; ++x) {
-    Acc s0 = sy0[x] + sign * static_cast<Acc>(b0[x]);
-    Acc s1 = sy1[x] + sign * static_cast<Acc>(b1[x]);
-    Acc s2 = sy2[x] + sign * static_cast<Acc>(b2[x]);
+    Acc s0 = sy0[x] + static_cast<Acc>(b0[x]);
+    Acc s1 = sy1[x] + static_cast<Acc>(b1[x]);
+    Acc s2 = sy2[x] + static_cast<Acc>(b2[x]);
     if constexpr (kSlide) {
-      s0 += Acc(-1) * static_cast<Acc>(lb0[x]);
-      s1 += Acc(-1) * static_cast<Acc>(lb1[x]);
-      s2 += Acc(-1) * static_cast<Acc>(lb2[x]);
+      s0 -= static_cast<Acc>(lb0[x]);
+      s1 -= static_cast<Acc>(lb1[x]);
+      s2 -= static_cast<Acc>(lb2[x]);
     }
     sy0[x] = s0;
     sy1[x] = s1;
@@ -141,36 +140,40 @@ template <typename In, typename Acc, bool kSlide>
   for (int x = 0; x < w; ++x) {
     const Acc p0 = a0[x], p1 = a1[x], p2 = a2[x];
     const Acc q0 = b0[x], q1 = b1[x], q2 = b2[x];
-    Acc xx = sxx[x] + sign * (p0 * p0 + p1 * p1 + p2 * p2);
-    Acc yy = syy[x] + sign * (q0 * q0 + q1 * q1 + q2 * q2);
-    Acc xy = sxy[x] + sign * (p0 * q0 + p1 * q1 + p2 * q2);
+    Acc xx = sxx[x] + (p0 * p0 + p1 * p1 + p2 * p2);
+    Acc yy = syy[x] + (q0 * q0 + q1 * q1 + q2 * q2);
+    Acc xy = sxy[x] + (p0 * q0 + p1 * q1 + p2 * q2);
     if constexpr (kSlide) {
       const Acc lp0 = la0[x], lp1 = la1[x], lp2 = la2[x];
       const Acc lq0 = lb0[x], lq1 = lb1[x], lq2 = lb2[x];
-      xx += Acc(-1) * (lp0 * lp0 + lp1 * lp1 + lp2 * lp2);
-      yy += Acc(-1) * (lq0 * lq0 + lq1 * lq1 + lq2 * lq2);
-      xy += Acc(-1) * (lp0 * lq0 + lp1 * lq1 + lp2 * lq2);
+      xx -= lp0 * lp0 + lp1 * lp1 + lp2 * lp2;
+      yy -= lq0 * lq0 + lq1 * lq1 + lq2 * lq2;
+      xy -= lp0 * lq0 + lp1 * lq1 + lp2 * lq2;
     }
     sxx[x] = xx;
     syy[x] = yy;
     sxy[x] = xy;
   }
 }
-[[gnu::always_inline]] inline void AccumulateBoxColumnsBody(const float* __restrict planes, int w,
-                                                            double sign, double* __restrict cols) {
-  BoxColumnsBody<float, double, false>(planes, planes, w, sign, cols);
+// Adds the planes `entering` to the column sums, and subtracts `leaving` unless it is null. One
+// overload per path (float planes into double sums, byte planes into int32 sums).
+template <typename In, typename Acc>
+[[gnu::always_inline]] inline void BoxColumnsBody(const In* __restrict entering,
+                                                  const In* __restrict leaving, int w,
+                                                  Acc* __restrict cols) {
+  if (leaving) {
+    ColumnSums<In, Acc, true>(entering, leaving, w, cols);
+  } else {
+    ColumnSums<In, Acc, false>(entering, entering, w, cols);
+  }
 }
-REPHOTO_ISA_DISPATCH(void, AccumulateBoxColumns,
-                     (const float* __restrict planes, int w, double sign, double* __restrict cols),
-                     (planes, w, sign, cols))
-[[gnu::always_inline]] inline void SlideBoxColumnsBody(const float* __restrict entering,
-                                                       const float* __restrict leaving, int w,
-                                                       double* __restrict cols) {
-  BoxColumnsBody<float, double, true>(entering, leaving, w, 1.0, cols);
-}
-REPHOTO_ISA_DISPATCH(void, SlideBoxColumns,
+REPHOTO_ISA_DISPATCH(void, BoxColumns,
                      (const float* __restrict entering, const float* __restrict leaving, int w,
                       double* __restrict cols),
+                     (entering, leaving, w, cols))
+REPHOTO_ISA_DISPATCH(void, BoxColumns,
+                     (const uint8_t* __restrict entering, const uint8_t* __restrict leaving, int w,
+                      int32_t* __restrict cols),
                      (entering, leaving, w, cols))
 
 // prefix[q * (w + 1) + x + 1] = prefix[q * (w + 1) + x] + cols[q * w + x]. Independent chains
@@ -203,6 +206,17 @@ void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) 
   BoxPrefixChains<4>(cols, w, 5, prefix);
 }
 
+// 1-NCC of a window from its (scaled) summed squared deviations dx, dy and co-deviation dxy,
+// with the flat rule at `flat` in the same units (both paths; the same operations).
+[[gnu::always_inline]] inline float NccFromDeviations(double dx, double dy, double dxy,
+                                                      double flat) {
+  const bool flat_x = dx <= flat, flat_y = dy <= flat;
+  double e = 1.0 - dxy / std::sqrt(dx * dy);
+  e = e < 0.0 ? 0.0 : (e > 2.0 ? 2.0 : e);
+  e = flat_x ? (flat_y ? 0.0 : 1.0) : (flat_y ? 1.0 : e);
+  return static_cast<float>(e);
+}
+
 // 1-NCC and ZSSD for centres x in [r, w - r) (no validity test yet).
 [[gnu::always_inline]] inline void BoxErrorsBody(const double* __restrict prefix, int w, int r,
                                                  double inv_count, double flat,
@@ -220,11 +234,7 @@ void BoxPrefix(const double* __restrict cols, int w, double* __restrict prefix) 
     const double dx = sxx - (sx0 * sx0 + sx1 * sx1 + sx2 * sx2) * inv_count;
     const double dy = syy - (sy0 * sy0 + sy1 * sy1 + sy2 * sy2) * inv_count;
     const double dxy = sxy - (sx0 * sy0 + sx1 * sy1 + sx2 * sy2) * inv_count;
-    const bool flat_x = dx <= flat, flat_y = dy <= flat;
-    double e = 1.0 - dxy / std::sqrt(dx * dy);
-    e = e < 0.0 ? 0.0 : (e > 2.0 ? 2.0 : e);
-    e = flat_x ? (flat_y ? 0.0 : 1.0) : (flat_y ? 1.0 : e);
-    ncc[x] = static_cast<float>(e);
+    ncc[x] = NccFromDeviations(dx, dy, dxy, flat);
     const double z = dx + dy - 2.0 * dxy;
     zssd[x] = static_cast<float>((z > 0.0 ? z : 0.0) * inv_count * (1.0 / 3.0));
   }
@@ -295,24 +305,6 @@ REPHOTO_ISA_DISPATCH(bool, FloatBytePlanes,
                       uint8_t* __restrict c1, uint8_t* __restrict c2),
                      (rgb, w, c0, c1, c2))
 
-// The exact path's column sums: BoxColumnsBody on byte planes into int32 (exact).
-[[gnu::always_inline]] inline void AccumulateExactColumnsBody(const uint8_t* __restrict planes,
-                                                              int w, int32_t* __restrict cols) {
-  BoxColumnsBody<uint8_t, int32_t, false>(planes, planes, w, 1, cols);
-}
-REPHOTO_ISA_DISPATCH(void, AccumulateExactColumns,
-                     (const uint8_t* __restrict planes, int w, int32_t* __restrict cols),
-                     (planes, w, cols))
-[[gnu::always_inline]] inline void SlideExactColumnsBody(const uint8_t* __restrict entering,
-                                                         const uint8_t* __restrict leaving, int w,
-                                                         int32_t* __restrict cols) {
-  BoxColumnsBody<uint8_t, int32_t, true>(entering, leaving, w, 1, cols);
-}
-REPHOTO_ISA_DISPATCH(void, SlideExactColumns,
-                     (const uint8_t* __restrict entering, const uint8_t* __restrict leaving, int w,
-                      int32_t* __restrict cols),
-                     (entering, leaving, w, cols))
-
 // The window's deviation sums of centres x in [r, w - r), in units of k: dx = n sum_c x_c^2 -
 // sum_c (sum x_c)^2 (n x the summed squared deviation from the per-channel means), dy the same
 // of the rephoto, dxy = n sum_c x_c y_c - sum_c (sum x_c)(sum y_c). The window sums are added
@@ -377,11 +369,7 @@ REPHOTO_ISA_DISPATCH(void, ExactDeviations,
                                                    float* __restrict ncc, float* __restrict zssd) {
   for (int x = r; x < w - r; ++x) {
     const double dx = dx_row[x], dy = dy_row[x], dxy = dxy_row[x];
-    const bool flat_x = dx <= flat_scaled, flat_y = dy <= flat_scaled;
-    double e = 1.0 - dxy / std::sqrt(dx * dy);
-    e = e < 0.0 ? 0.0 : (e > 2.0 ? 2.0 : e);
-    e = flat_x ? (flat_y ? 0.0 : 1.0) : (flat_y ? 1.0 : e);
-    ncc[x] = static_cast<float>(e);
+    ncc[x] = NccFromDeviations(dx, dy, dxy, flat_scaled);
     const double z = dx + dy - 2.0 * dxy;
     zssd[x] = static_cast<float>((z > 0.0 ? z : 0.0) * zssd_scale);
   }
@@ -500,8 +488,8 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
   if (exact) std::fill(exact_cols, exact_cols + kBoxQuantities * w, 0);
   for (int64_t j = c0 - r; j <= c0 + r; ++j) {
     if (!load(j)) return false;
-    if (double_box) AccumulateBoxColumns(slot(j), w, 1.0, cols);
-    if (exact) AccumulateExactColumns(bytes(j), w, exact_cols);
+    if (double_box) BoxColumns(slot(j), nullptr, w, cols);
+    if (exact) BoxColumns(bytes(j), nullptr, w, exact_cols);
   }
   WindowValidityRows validity(in.valid, w, h, r);
   const double inv_count = 1.0 / (static_cast<double>(window) * window);
@@ -514,8 +502,8 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
     const int yi = static_cast<int>(y);
     if (y > c0) {
       if (!load(y + r)) return false;
-      if (double_box) SlideBoxColumns(slot(y + r), slot(y - r - 1), w, cols);
-      if (exact) SlideExactColumns(bytes(y + r), bytes(y - r - 1), w, exact_cols);
+      if (double_box) BoxColumns(slot(y + r), slot(y - r - 1), w, cols);
+      if (exact) BoxColumns(bytes(y + r), bytes(y - r - 1), w, exact_cols);
     }
     const uint8_t* ok = validity.Row(yi);
     const size_t evaluated = CountRow(ok, w, r);
