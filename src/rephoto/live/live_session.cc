@@ -825,14 +825,22 @@ struct LiveSession::State {
       }
       ProcessRetried(d, r);
     }
+    if (unplaced.empty()) return;
+    // The engine's model read once for all of them (not one Lookup, i.e. one read, each).
+    std::map<std::string, Registrar::Placed> placed;
+    for (Registrar::Placed& q : options.registrar->AllPlaced()) placed[q.name] = std::move(q);
     again.clear();
     again.swap(unplaced);
     for (const Deferred& d : again) {
-      const Registrar::Result r = options.registrar->Lookup(d.name);
-      if (r.status != Registrar::Result::kRegistered) {
+      const auto it = placed.find(d.name);
+      if (it == placed.end()) {
         unplaced.push_back(d);
         continue;
       }
+      Registrar::Result r;
+      r.status = Registrar::Result::kRegistered;
+      r.camera = it->second.camera;
+      r.cam_from_world = it->second.cam_from_world;
       LogInfo(fmt::format("{}: placed by COLMAP after later photos", d.name));
       ProcessRetried(d, r);
     }
