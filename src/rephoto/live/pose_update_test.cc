@@ -156,36 +156,58 @@ class TableRegistrar : public Registrar {
   }
 };
 
-TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
-  const fs::path base = testing::MakeTempDir();
-  const fs::path watch = base / "watch", run = base / "run";
-  fs::create_directories(watch);
-  DemoCapture capture(240, 180);
-  const Eigen::Vector3d target(0, 0, 0.45);
-  TableRegistrar engine;
-  LiveOptions o;
-  o.watch = watch;
-  o.out = run;
-  o.predict_width = 240;
-  o.depth_width = 240;
-  o.candidates = 60;
-  o.suggestions = 1;
-  o.registrar = &engine;
-  std::vector<camera::Pose> truth;
-  for (int k = 0; k < 7; ++k) {
-    const double a = k * 0.3;
-    truth.push_back(LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5 - 0.1 * (k % 2)}, target));
+// A capture the engine places (TableRegistrar): photos p<k>.png of the demo scene on a ring,
+// dropped without a sidecar, and the session's options on a fresh run folder.
+struct EngineCapture {
+  explicit EngineCapture(int photos) {
+    const fs::path base = testing::MakeTempDir();
+    watch = base / "watch";
+    fs::create_directories(watch);
+    options.watch = watch;
+    options.out = base / "run";
+    options.predict_width = 240;
+    options.depth_width = 240;
+    options.candidates = 60;
+    options.suggestions = 1;
+    options.registrar = &engine;
+    const Eigen::Vector3d target(0, 0, 0.45);
+    for (int k = 0; k < photos; ++k) {
+      const double a = k * 0.3;
+      truth.push_back(LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5 - 0.1 * (k % 2)}, target));
+    }
   }
-  auto name = [](int k) { return fmt::format("p{}.png", k); };
-  auto drop = [&](int k) {
+  EngineCapture(const EngineCapture&) = delete;
+  static std::string Name(int k) { return fmt::format("p{}.png", k); }
+  // The engine places photo k at its true pose.
+  void Place(int k) { engine.table[Name(k)] = {Name(k), capture.camera(), truth[k]}; }
+  void Drop(int k) const {
     capture.Drop(watch, fmt::format("p{}", k), truth[k], k);
     fs::remove(watch / fmt::format("p{}.json", k));  // no sidecar: the engine places it
-  };
-  auto find = [](const nlohmann::json& api, const std::string& n) {
-    for (const auto& p : api["photos"])
-      if (p["name"] == n) return p;
-    return nlohmann::json();
-  };
+  }
+
+  fs::path watch;
+  DemoCapture capture{240, 180};
+  TableRegistrar engine;
+  LiveOptions options;
+  std::vector<camera::Pose> truth;
+};
+
+nlohmann::json FindPhoto(const nlohmann::json& api, const std::string& name) {
+  for (const auto& p : api["photos"])
+    if (p["name"] == name) return p;
+  return nlohmann::json();
+}
+
+TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
+  EngineCapture c(7);
+  const LiveOptions& o = c.options;
+  const fs::path& run = o.out;
+  const DemoCapture& capture = c.capture;
+  TableRegistrar& engine = c.engine;
+  const std::vector<camera::Pose>& truth = c.truth;
+  const auto name = &EngineCapture::Name;
+  auto drop = [&](int k) { c.Drop(k); };
+  const auto find = &FindPhoto;
   const double s = 2.0;
   std::map<std::string, Image> old_depth;
   Image before_restart;
@@ -286,36 +308,17 @@ TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
 // database with each new photo): once the engine places it, it is predicted from the photos
 // registered by then and added under its first arrival number. A restart retries it too.
 TEST(PoseUpdateTest, SessionPlacesAPhotoTheEngineCouldNotPlaceAtFirst) {
-  const fs::path base = testing::MakeTempDir();
-  const fs::path watch = base / "watch", run = base / "run";
-  fs::create_directories(watch);
-  DemoCapture capture(240, 180);
-  const Eigen::Vector3d target(0, 0, 0.45);
-  TableRegistrar engine;
-  LiveOptions o;
-  o.watch = watch;
-  o.out = run;
-  o.predict_width = 240;
-  o.depth_width = 240;
-  o.candidates = 60;
-  o.suggestions = 1;
-  o.registrar = &engine;
-  std::vector<camera::Pose> truth;
-  for (int k = 0; k < 8; ++k) {
-    const double a = k * 0.3;
-    truth.push_back(LookAt({3.2 * std::cos(a), 3.2 * std::sin(a), 1.5 - 0.1 * (k % 2)}, target));
-  }
-  auto name = [](int k) { return fmt::format("p{}.png", k); };
+  EngineCapture c(8);
+  const LiveOptions& o = c.options;
+  const DemoCapture& capture = c.capture;
+  TableRegistrar& engine = c.engine;
+  const std::vector<camera::Pose>& truth = c.truth;
+  const auto name = &EngineCapture::Name;
   auto drop = [&](int k, bool placed) {
-    if (placed) engine.table[name(k)] = {name(k), capture.camera(), truth[k]};
-    capture.Drop(watch, fmt::format("p{}", k), truth[k], k);
-    fs::remove(watch / fmt::format("p{}.json", k));
+    if (placed) c.Place(k);
+    c.Drop(k);
   };
-  auto find = [](const nlohmann::json& api, const std::string& n) {
-    for (const auto& p : api["photos"])
-      if (p["name"] == n) return p;
-    return nlohmann::json();
-  };
+  const auto find = &FindPhoto;
   int64_t arrival = -1;
   {
     LiveSession session(o);
