@@ -35,6 +35,7 @@ struct LiveArguments {
   bool colmap = false;
   int colmap_bootstrap = 0;
   int colmap_bundle_every = 0;
+  int colmap_min_inliers = 0;
   std::string colmap_binary = "colmap";
 };
 
@@ -58,6 +59,8 @@ CommandRunner SetupLive(CLI::App& app) {
   app.add_option("--colmap-bundle-every", args->colmap_bundle_every,
                  "Global COLMAP bundle adjustment every N registrations (0 = never; refined poses are taken over)")
       ->capture_default_str();
+  app.add_option("--colmap-min-inliers", args->colmap_min_inliers,
+                 "Absolute-pose inliers COLMAP needs to place a photo (0 = default 15; COLMAP's own default is 30)");
   app.add_option("--colmap-binary", args->colmap_binary, "The colmap program")->capture_default_str();
   return [args]() {
     live::LiveOptions options = args->options;
@@ -71,6 +74,7 @@ CommandRunner SetupLive(CLI::App& app) {
       co.colmap = args->colmap_binary;
       if (args->colmap_bootstrap > 0) co.bootstrap = args->colmap_bootstrap;
       co.bundle_every = args->colmap_bundle_every;
+      if (args->colmap_min_inliers > 0) co.min_inliers = args->colmap_min_inliers;
       registrar = live::MakeColmapRegistrar(co);
       options.registrar = registrar.get();
     }

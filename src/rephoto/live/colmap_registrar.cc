@@ -20,7 +20,9 @@ namespace {
 class ColmapRegistrar : public Registrar {
  public:
   explicit ColmapRegistrar(const ColmapRegistrarOptions& o) : o_(o) {
-    REPHOTO_CHECK_USAGE(o.bootstrap >= 2 && o.bundle_every >= 0 && o.timeout_seconds > 0,
+    REPHOTO_CHECK_USAGE(o.bootstrap >= 2 && o.bundle_every >= 0 && o.timeout_seconds > 0 &&
+                            o.min_inliers >= 4 && o.min_inlier_ratio >= 0 &&
+                            o.min_inlier_ratio <= 1 && o.init_min_inliers >= 4,
                         "--colmap: invalid registration settings");
     setenv("QT_QPA_PLATFORM", "offscreen", 1);
     // The workspace is made at the first photo (the run folder is opened, and locked, first).
@@ -62,8 +64,8 @@ class ColmapRegistrar : public Registrar {
       const fs::path tmp = o_.workspace / "mapper";
       fs::remove_all(tmp);
       fs::create_directories(tmp);
-      if (!Run({"mapper", "--database_path", Db(), "--image_path", Images(), "--output_path",
-                tmp.string(), "--Mapper.num_threads", "2"},
+      if (!Run(WithThresholds({"mapper", "--database_path", Db(), "--image_path", Images(),
+                               "--output_path", tmp.string(), "--Mapper.num_threads", "2"}),
                &error)) {
         r.status = Result::kDeferred;  // try again with more photos
         r.message = error;
@@ -79,8 +81,8 @@ class ColmapRegistrar : public Registrar {
     }
     if (Result placed = Lookup(name); placed.status == Result::kRegistered) return placed;
     std::string error;
-    if (!Run({"image_registrator", "--database_path", Db(), "--input_path", Model().string(),
-              "--output_path", Model().string()},
+    if (!Run(WithThresholds({"image_registrator", "--database_path", Db(), "--input_path",
+                             Model().string(), "--output_path", Model().string()}),
              &error)) {
       r.message = error;
       return r;
@@ -92,6 +94,7 @@ class ColmapRegistrar : public Registrar {
       Run({"bundle_adjuster", "--input_path", Model().string(), "--output_path", Model().string()},
           &error);
     }
+    RemapIfUnplaced();
     r = Lookup(name);
     if (r.status != Result::kRegistered) {
       r.status = Result::kFailed;
@@ -121,35 +124,96 @@ class ColmapRegistrar : public Registrar {
   // The model's cameras and images only (COLMAP writes it binary here): the points, the
   // largest file, are not needed to know where the photos are.
   std::vector<Placed> AllPlaced() override {
+    if (!HasModel()) return {};
+    return PlacedIn(Model());
+  }
+
+ private:
+  std::vector<Placed> PlacedIn(const fs::path& model) const {
     std::vector<Placed> out;
-    if (!HasModel()) return out;
     auto open = [](const fs::path& path) {
       std::ifstream in(path, std::ios::binary);
       REPHOTO_CHECK(in.good(), "{}: cannot open", path.string());
       return in;
     };
-    std::ifstream cameras_file = open(Model() / "cameras.bin");
+    std::ifstream cameras_file = open(model / "cameras.bin");
     const std::map<uint32_t, camera::Camera> cameras =
-        scene::ReadColmapCamerasBinary(cameras_file, (Model() / "cameras.bin").string());
-    std::ifstream images_file = open(Model() / "images.bin");
+        scene::ReadColmapCamerasBinary(cameras_file, (model / "cameras.bin").string());
+    std::ifstream images_file = open(model / "images.bin");
     for (const scene::ColmapImage& im :
-         scene::ReadColmapImagesBinary(images_file, (Model() / "images.bin").string())) {
+         scene::ReadColmapImagesBinary(images_file, (model / "images.bin").string())) {
       const auto camera = cameras.find(im.camera_id);
       REPHOTO_CHECK(camera != cameras.end(), "{}: image {} refers to camera {}, which is missing",
-                    (Model() / "images.bin").string(), im.name, im.camera_id);
-      out.push_back({im.name, camera->second,
-                     camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1],
-                                                  im.quaternion[2], im.quaternion[3],
-                                                  im.translation)});
+                    (model / "images.bin").string(), im.name, im.camera_id);
+      out.push_back(
+          {im.name, camera->second,
+           camera::Pose::FromQuaternion(im.quaternion[0], im.quaternion[1], im.quaternion[2],
+                                        im.quaternion[3], im.translation)});
     }
     return out;
   }
 
- private:
   std::string Db() const { return (o_.workspace / "database.db").string(); }
   std::string Images() const { return (o_.workspace / "images").string(); }
   fs::path Model() const { return o_.workspace / "sparse" / "0"; }
   bool HasModel() const { return fs::exists(Model() / "images.bin"); }
+
+  // The re-map (colmap_registrar.h): when a photo of the workspace is still not in the model,
+  // `mapper` from scratch on the whole database; its largest model replaces sparse/0 when it
+  // holds more photos. A re-map that places no more waits twice as many new photos as the
+  // last one before the next.
+  void RemapIfUnplaced() {
+    if (added_ < remap_at_) return;
+    const size_t before = AllPlaced().size();
+    if (before >= static_cast<size_t>(added_)) return;
+    std::string error;
+    const fs::path tmp = o_.workspace / "remap";
+    fs::remove_all(tmp);
+    fs::create_directories(tmp);
+    size_t best = 0;
+    fs::path best_model;
+    if (Run(WithThresholds({"mapper", "--database_path", Db(), "--image_path", Images(),
+                            "--output_path", tmp.string(), "--Mapper.num_threads", "2"}),
+            &error)) {
+      std::error_code ec;
+      for (fs::directory_iterator it(tmp, ec), end; !ec && it != end; it.increment(ec)) {
+        if (!fs::exists(it->path() / "images.bin")) continue;
+        const size_t count = PlacedIn(it->path()).size();
+        if (count > best) best = count, best_model = it->path();
+      }
+    }
+    if (best > before) {
+      LogInfo(fmt::format("COLMAP: the whole database mapped again places {} photos (was {})", best,
+                          before));
+      ReplaceModel(best_model);
+      remap_wait_ = 1;
+    } else {
+      remap_wait_ *= 2;
+    }
+    remap_at_ = added_ + remap_wait_;
+    fs::remove_all(tmp);
+  }
+
+  // sparse/0 := `model` (a folder of cameras.bin, images.bin, points3D.bin): the new folder is
+  // renamed in after the old one is moved aside, so sparse/0 is always one whole model or
+  // absent (then the next photo maps from scratch).
+  void ReplaceModel(const fs::path& model) {
+    const fs::path old = o_.workspace / "sparse" / "old";
+    fs::remove_all(old);
+    if (fs::exists(Model())) fs::rename(Model(), old);
+    fs::rename(model, Model());
+    fs::remove_all(old);
+  }
+
+  // The registration thresholds (colmap_registrar.h) appended to a mapper or
+  // image_registrator call.
+  std::vector<std::string> WithThresholds(std::vector<std::string> args) const {
+    args.insert(args.end(),
+                {"--Mapper.abs_pose_min_num_inliers", std::to_string(o_.min_inliers),
+                 "--Mapper.abs_pose_min_inlier_ratio", fmt::format("{}", o_.min_inlier_ratio),
+                 "--Mapper.init_min_num_inliers", std::to_string(o_.init_min_inliers)});
+    return args;
+  }
 
   bool Run(std::vector<std::string> args, std::string* error) {
     std::vector<std::string> argv = {"timeout", "-k", "10", fmt::format("{}", o_.timeout_seconds),
@@ -157,8 +221,8 @@ class ColmapRegistrar : public Registrar {
     argv.insert(argv.end(), args.begin(), args.end());
     const cluster::ProgramOutput out = cluster::RunProgram(argv);
     if (!out.ok()) {
-      *error = fmt::format("colmap {} failed (exit {}): {}", args[0], out.exit_code,
-                           out.FirstLine());
+      *error =
+          fmt::format("colmap {} failed (exit {}): {}", args[0], out.exit_code, out.FirstLine());
       LogWarning(*error);
       return false;
     }
@@ -168,6 +232,8 @@ class ColmapRegistrar : public Registrar {
   ColmapRegistrarOptions o_;
   int added_ = 0;
   int registrations_ = 0;
+  int remap_at_ = 0;    // photos added before the next re-map may run
+  int remap_wait_ = 1;  // photos between re-maps (doubles while they place nothing new)
 };
 
 }  // namespace

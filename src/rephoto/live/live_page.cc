@@ -77,7 +77,8 @@ function render(s) {
   document.getElementById("summary").innerHTML = "";
   const sum = document.getElementById("summary");
   sum.appendChild(el("span", {class: "figure", id: "registered-count"}, reg.length + " photos registered"));
-  sum.appendChild(document.createTextNode(", " + others + " set aside, " + s.waiting + " waiting for a pose. Model: " +
+  sum.appendChild(document.createTextNode(", " + others + " set aside, " + s.waiting + " waiting for a pose" +
+    (s.waiting_reason ? " (" + s.waiting_reason + ")" : "") + ". Model: " +
     pct(m.observed_fraction) + " of its surface observed, " + pct(m.well_covered_fraction) +
     " well covered (seen by 2+ photos with projected 1-NCC <= " + (m.well_covered_threshold ?? "–") + ")."));
   drawCurve(s.photos);

@@ -751,6 +751,7 @@ struct LiveSession::State {
   // later photo, tries every unplaced image of its database again, so a photo that a later one
   // connects to the others gets placed then. Looked up after every registration.
   std::vector<Deferred> unplaced;
+  std::string deferred_reason;  // why `deferred` wait (the engine's last message), for the API
 
   // Poses refined by the registration engine (live_session.h, "Poses refined by the engine"):
   // the engine-placed photos whose pose or camera changed take the new ones; their depth maps
@@ -906,6 +907,14 @@ struct LiveSession::State {
       }
       if (r.status == Registrar::Result::kDeferred) {
         deferred.push_back({name, arrival, sha, sharpness, Seconds(t0) + earlier_seconds});
+        // Why they wait (the page shows it): the engine's last word, e.g. COLMAP's failed
+        // initial reconstruction, else the photos it waits for.
+        deferred_reason =
+            r.message.empty()
+                ? fmt::format("the registration engine waits for more photos ({} so far)",
+                              deferred.size())
+                : fmt::format("{} photos wait for the registration engine: {}", deferred.size(),
+                              r.message);
         return;
       }
       if (r.status != Registrar::Result::kRegistered) {
@@ -1153,6 +1162,7 @@ struct LiveSession::State {
            {"watch", options.watch.string()},
            {"photos", list},
            {"waiting", waiting.size() + deferred.size()},
+           {"waiting_reason", deferred.empty() ? std::string() : deferred_reason},
            {"latest", latest},
            {"suggestions", suggestions},
            {"model", model},

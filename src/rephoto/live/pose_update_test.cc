@@ -132,12 +132,23 @@ class TableRegistrar : public Registrar {
  public:
   std::map<std::string, Placed> table;
   std::set<std::string> added;
+  std::string defer;  // non-empty: no model yet, every photo deferred with this message
   Result Register(const fs::path& photo) override {
     added.insert(photo.filename().string());
+    if (!defer.empty()) {
+      Result r;
+      r.status = Result::kDeferred;
+      r.message = defer;
+      return r;
+    }
     return Lookup(photo.filename().string());
   }
   Result Lookup(const std::string& name) override {
     Result r;
+    if (!defer.empty()) {
+      r.status = Result::kDeferred;
+      return r;
+    }
     const auto it = table.find(name);
     if (it == table.end() || !added.count(name)) {
       r.message = "unknown";
@@ -307,6 +318,35 @@ TEST(PoseUpdateTest, SessionTakesOverAFrameMovedByBundleAdjustment) {
 // every later registration (COLMAP's image_registrator tries every unplaced image of its
 // database with each new photo): once the engine places it, it is predicted from the photos
 // registered by then and added under its first arrival number. A restart retries it too.
+TEST(PoseUpdateTest, PhotosWaitingForTheEngineSayWhy) {
+  // An engine that cannot build its first model yet (COLMAP's failed bootstrap `mapper`): the
+  // photos wait, and the API (and so the page) says why; once it places them they are listed.
+  EngineCapture c(3);
+  TableRegistrar& engine = c.engine;
+  const auto name = &EngineCapture::Name;
+  LiveSession session(c.options);
+  engine.defer = "colmap mapper failed (exit 1): ERROR: failed to create sparse model";
+  for (int k : {0, 1}) {
+    c.Place(k);
+    c.Drop(k);
+    session.HandleReady(name(k));
+  }
+  nlohmann::json api = session.Api();
+  EXPECT_EQ(api["waiting"], 2);
+  EXPECT_EQ(api["photos"].size(), 0u);
+  EXPECT_EQ(api["waiting_reason"],
+            "2 photos wait for the registration engine: " + engine.defer);
+  engine.defer.clear();
+  c.Place(2);
+  c.Drop(2);
+  session.HandleReady(name(2));
+  api = session.Api();
+  EXPECT_EQ(api["waiting"], 0);
+  EXPECT_EQ(api["waiting_reason"], "");
+  EXPECT_EQ(api["photos"].size(), 3u);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(FindPhoto(api, name(k))["status"], "registered") << k;
+}
+
 TEST(PoseUpdateTest, SessionPlacesAPhotoTheEngineCouldNotPlaceAtFirst) {
   EngineCapture c(8);
   const LiveOptions& o = c.options;
