@@ -1,10 +1,12 @@
 #include "rephoto/live/colmap_registrar.h"
 
 #include <fmt/format.h>
+#include <sqlite3.h>
 
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <set>
 
 #include "rephoto/cluster/subprocess.h"
 #include "rephoto/core/error.h"
@@ -164,8 +166,10 @@ class ColmapRegistrar : public Registrar {
   // last one before the next.
   void RemapIfUnplaced() {
     if (added_ < remap_at_) return;
-    const size_t before = AllPlaced().size();
-    if (before >= static_cast<size_t>(added_)) return;
+    std::set<std::string> placed;
+    for (const Placed& p : AllPlaced()) placed.insert(p.name);
+    const size_t before = placed.size();
+    if (before >= static_cast<size_t>(added_) || !UnplacedMatchPlaced(placed)) return;
     std::string error;
     const fs::path tmp = o_.workspace / "remap";
     fs::remove_all(tmp);
@@ -192,6 +196,41 @@ class ColmapRegistrar : public Registrar {
     }
     remap_at_ = added_ + remap_wait_;
     fs::remove_all(tmp);
+  }
+
+  // Whether a photo outside `placed` has a verified two-view geometry with at least
+  // min_inliers inliers with a photo in `placed` (COLMAP's database, read-only; pair_id =
+  // 2147483647 image_id1 + image_id2). A photo of another scene has none: no re-map for it.
+  bool UnplacedMatchPlaced(const std::set<std::string>& placed) const {
+    sqlite3* db = nullptr;
+    const auto close = [&db] { sqlite3_close(db); };
+    if (sqlite3_open_v2(Db().c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+      LogWarning(fmt::format("{}: cannot open: {}", Db(), db ? sqlite3_errmsg(db) : "no memory"));
+      close();
+      return false;
+    }
+    sqlite3_stmt* query = nullptr;
+    const char* sql =
+        "SELECT a.name, b.name FROM two_view_geometries g "
+        "JOIN images a ON a.image_id = g.pair_id / 2147483647 "
+        "JOIN images b ON b.image_id = g.pair_id % 2147483647 WHERE g.rows >= ?";
+    bool found = false;
+    if (sqlite3_prepare_v2(db, sql, -1, &query, nullptr) == SQLITE_OK &&
+        sqlite3_bind_int(query, 1, o_.min_inliers) == SQLITE_OK) {
+      while (!found && sqlite3_step(query) == SQLITE_ROW) {
+        const auto text = [&](int column) {
+          const unsigned char* t = sqlite3_column_text(query, column);
+          return t ? std::string(reinterpret_cast<const char*>(t)) : std::string();
+        };
+        const bool a = placed.count(text(0)) > 0, b = placed.count(text(1)) > 0;
+        found = a != b;
+      }
+    } else {
+      LogWarning(fmt::format("{}: cannot read the matches: {}", Db(), sqlite3_errmsg(db)));
+    }
+    sqlite3_finalize(query);
+    close();
+    return found;
   }
 
   // sparse/0 := `model` (a folder of cameras.bin, images.bin, points3D.bin): the new folder is

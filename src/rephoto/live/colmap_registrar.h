@@ -24,8 +24,10 @@
 //      incremental model holds only the 3D points its photos triangulated as they came: on a
 //      sparse ring, the photo that closes the ring sees too few of them (templeSparseRing in
 //      ring order: 14 and 5 points where 15 are needed, 14 of 16 placed), while the batch
-//      mapper on the same database places all 16 (about 2 s). A re-map that places no more
-//      (a photo of another scene) doubles the number of new photos before the next one, so
+//      mapper on the same database places all 16 (about 2 s). It runs only when an
+//      unplaced photo has a verified two-view geometry (15 inliers) with a placed one (read
+//      from COLMAP's database): a photo of another scene never triggers one. A re-map that places
+//      no more doubles the number of new photos before the next one, so
 //      the re-maps' cost stays bounded by a few batch mappings over the capture.
 // Registration thresholds: a photo is placed with at least 15 absolute-pose inliers making 10 %
 // of its 2D-3D correspondences (COLMAP's defaults: 30 and 25 %), and the initial pair needs 50
@@ -34,7 +36,7 @@
 // 16 photos 22.5 degrees apart, 150-800 SIFT features each) its own batch `mapper` placed 13 of
 // 16 and the live registration 12. With these thresholds the batch mapper places all 16, and
 // their camera centres agree with the dataset's calibration within 1.5 % of the ring's radius
-// after a similarity (the closest photos pass with 16-25 inliers). A photo of another scene
+// after a similarity. A photo of another scene
 // still gets no pose: its matches fail the two-view geometric verification (15 inliers) before
 // any pose is tried (live_colmap_test). Pose accuracy is unchanged for photos with many
 // inliers (the thresholds only decide whether a pose is accepted).
