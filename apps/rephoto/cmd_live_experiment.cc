@@ -1,4 +1,4 @@
-// rephoto live-experiment --out DIR [--width W --height H --steps N --seeds S] [--no-ring]
+// rephoto live-experiment --out DIR [--width W --height H --steps N --seeds S] [--depth-width W] [--no-ring]
 // The closed-loop experiment of `rephoto live` on the demo scene (src/rephoto/live/closed_loop.h):
 // suggested next views against random ones and against continuing the ring. Writes
 // DIR/closed_loop.csv, DIR/closed_loop.svg and the sequences' watch/run folders (each run folder
@@ -24,6 +24,9 @@ CommandRunner SetupLiveExperiment(CLI::App& app) {
   app.add_option("--out", *out, "Output folder")->required();
   app.add_option("--width", o->width, "Photo width")->capture_default_str();
   app.add_option("--height", o->height, "Photo height")->capture_default_str();
+  app.add_option("--depth-width", o->depth_width,
+                 "Plane-sweep width of the live sessions (0 = the photo width up to 320, as rephoto live)")
+      ->capture_default_str();
   app.add_option("--steps", o->steps, "Photos added after the 4 start photos")->capture_default_str();
   app.add_option("--seeds", o->random_seeds, "Random sequences (median per step; 0 = none)")->capture_default_str();
   app.add_flag("!--no-ring", o->ring, "Skip the sequence continuing the ring");

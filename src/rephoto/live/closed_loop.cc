@@ -74,7 +74,7 @@ Sequence RunSequence(const std::string& name, const ClosedLoopOptions& options,
   lo.watch = watch;
   lo.out = run;
   lo.predict_width = options.width;
-  lo.depth_width = std::min(options.width, 320);
+  lo.depth_width = options.depth_width > 0 ? options.depth_width : std::min(options.width, 320);
   lo.candidates = options.suggest_candidates;
   lo.plan = options.plan;
   LiveSession session(lo);

@@ -41,6 +41,7 @@ struct ClosedLoopOptions {
   int width = 480;
   int height = 360;
   int steps = 8;
+  int depth_width = 0;          // the live session's --depth-width (0: min(width, 320))
   int random_seeds = 5;         // 0 = no random sequences
   bool ring = true;             // run the ring sequence
   int candidates = 200;
