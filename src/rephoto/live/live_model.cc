@@ -588,6 +588,23 @@ std::vector<PlannedView> PlanNextViews(const render::RenderModel& surface, const
         surface_score.push_back(s);
         best_unseen = std::max(best_unseen, u);
       }
+      if (options.partner_first && partner > 0 && !band.empty()) {
+        const std::vector<uint8_t> has = partnered(taken);
+        std::vector<size_t> near_band;
+        std::vector<double> near_score;
+        for (size_t i = 0; i < band.size(); ++i) {
+          bool near = false;
+          for (size_t a = 0; a < taken.size() && !near; ++a)
+            near = !has[a] && angle(taken[a], dirs[band[i]]) <= partner;
+          if (!near) continue;
+          near_band.push_back(band[i]);
+          near_score.push_back(surface_score[i]);
+        }
+        if (!near_band.empty()) {
+          band.swap(near_band);
+          surface_score.swap(near_score);
+        }
+      }
       if (band.empty()) continue;
       const bool exhausted = options.unseen_exhausted_fraction > 0 &&
                              best_unseen < options.unseen_exhausted_fraction * total_area;

@@ -168,6 +168,9 @@ struct PlanOptions {
   // partner is taken. 0 = never (surface only). docs/live.md has the measurements.
   double unseen_exhausted_fraction = 0.12;
   double stereo_partner_degrees = 25;
+  // While a photo (or an earlier pick) has no other within stereo_partner_degrees, the next
+  // pick is among the candidates within that angle of such a photo (scored as above).
+  bool partner_first = false;
 };
 
 struct PlannedView {
