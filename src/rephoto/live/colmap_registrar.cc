@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -174,28 +175,38 @@ class ColmapRegistrar : public Registrar {
     const fs::path tmp = o_.workspace / "remap";
     fs::remove_all(tmp);
     fs::create_directories(tmp);
+    // A model replaces sparse/0 only when it keeps every photo placed so far (the session
+    // moves their poses into its frame; a photo it dropped would keep a pose of the old frame)
+    // and places more.
     size_t best = 0;
     fs::path best_model;
-    if (Run(WithThresholds({"mapper", "--database_path", Db(), "--image_path", Images(),
-                            "--output_path", tmp.string(), "--Mapper.num_threads", "2"}),
-            &error)) {
-      std::error_code ec;
-      for (fs::directory_iterator it(tmp, ec), end; !ec && it != end; it.increment(ec)) {
-        if (!fs::exists(it->path() / "images.bin")) continue;
-        const size_t count = PlacedIn(it->path()).size();
-        if (count > best) best = count, best_model = it->path();
+    try {
+      if (Run(WithThresholds({"mapper", "--database_path", Db(), "--image_path", Images(),
+                              "--output_path", tmp.string(), "--Mapper.num_threads", "2"}),
+              &error)) {
+        std::error_code ec;
+        for (fs::directory_iterator it(tmp, ec), end; !ec && it != end; it.increment(ec)) {
+          if (!fs::exists(it->path() / "images.bin")) continue;
+          std::set<std::string> names;
+          for (const Placed& p : PlacedIn(it->path())) names.insert(p.name);
+          if (names.size() > best &&
+              std::includes(names.begin(), names.end(), placed.begin(), placed.end()))
+            best = names.size(), best_model = it->path();
+        }
       }
+      if (best > before) {
+        LogInfo(fmt::format("COLMAP: the whole database mapped again places {} photos (was {})",
+                            best, before));
+        ReplaceModel(best_model);
+      }
+    } catch (const std::exception& e) {  // the model as it was; the photo stays unplaced
+      LogWarning(fmt::format("COLMAP: mapping the whole database again failed: {}", e.what()));
+      best = 0;
     }
-    if (best > before) {
-      LogInfo(fmt::format("COLMAP: the whole database mapped again places {} photos (was {})", best,
-                          before));
-      ReplaceModel(best_model);
-      remap_wait_ = 1;
-    } else {
-      remap_wait_ *= 2;
-    }
+    remap_wait_ = best > before ? 1 : 2 * remap_wait_;
     remap_at_ = added_ + remap_wait_;
-    fs::remove_all(tmp);
+    std::error_code ec;
+    fs::remove_all(tmp, ec);
   }
 
   // Whether a photo outside `placed` has a verified two-view geometry with at least

@@ -19,12 +19,12 @@
 //      the model then holds it, else kFailed ("COLMAP could not register it");
 //   5. re-map: when a photo of the workspace is still not in the model after 4, `mapper` runs
 //      from scratch on the whole database (all features and matches at once, with global
-//      bundle adjustment and re-triangulation), and its largest model replaces sparse/0 when
-//      it places more photos (the session then takes over the moved poses, AllPlaced). The
-//      incremental model holds only the 3D points its photos triangulated as they came: on a
-//      sparse ring, the photo that closes the ring sees too few of them (templeSparseRing in
-//      ring order: 14 and 5 points where 15 are needed, 14 of 16 placed), while the batch
-//      mapper on the same database places all 16 (about 2 s). It runs only when an
+//      bundle adjustment and re-triangulation), and its largest model that keeps every placed
+//      photo replaces sparse/0 when it places more (the session then takes over the moved poses,
+//      AllPlaced). The incremental model holds only the 3D points its photos triangulated as they
+//      came: on a sparse ring, the photo that closes the ring sees too few of them
+//      (templeSparseRing in ring order: 14 and 5 points where 15 are needed, 14 of 16 placed),
+//      while the batch mapper on the same database places all 16 (about 2 s). It runs only when an
 //      unplaced photo has a verified two-view geometry (15 inliers) with a placed one (read
 //      from COLMAP's database): a photo of another scene never triggers one. A re-map that places
 //      no more doubles the number of new photos before the next one, so
