@@ -7,6 +7,7 @@
 #include <limits>
 #include <mutex>
 #include <numbers>
+#include <optional>
 #include <utility>
 
 #include "rephoto/core/error.h"
@@ -183,7 +184,7 @@ struct ImageBasedRenderer::State {
     for (const auto& rays : rays_cache) {
       if (rays->Matches(camera)) return rays;
     }
-    auto rays = std::make_shared<const render::CameraRays>(camera);
+    auto rays = render::SharedCameraRays(camera);
     rays_cache.push_back(rays);
     if (rays_cache.size() > 4) rays_cache.erase(rays_cache.begin());
     return rays;
@@ -280,6 +281,51 @@ void ImageBasedRenderer::State::LoadPhotos(std::vector<TrainingView> training) {
   if (progress) progress->Finish();
 }
 
+namespace {
+
+// The normalized rays (x/z, y/z, 1) of the proxy grid's pixels (column min(gx * step, width -
+// 1), the same for rows) of a depth map of `camera` (none where it cannot unproject), from a
+// process-wide cache of the last few: every renderer made for a photo of one camera (the live
+// session makes one per prediction) shares them instead of undistorting each grid point again.
+// Thread-safe.
+using GridRayTable = std::vector<std::optional<Eigen::Vector3f>>;
+std::shared_ptr<const GridRayTable> GridRays(const camera::Camera& camera, int step, int grid_w,
+                                             int grid_h) {
+  struct Entry {
+    camera::Camera camera;
+    int step;
+    std::shared_ptr<const GridRayTable> rays;
+  };
+  static std::mutex mutex;
+  static std::vector<Entry> cache;  // most recent last
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it) {
+      if (it->step == step && it->camera == camera) {
+        Entry found = *it;
+        cache.erase(it);
+        cache.push_back(found);
+        return found.rays;
+      }
+    }
+  }
+  auto rays = std::make_shared<GridRayTable>(static_cast<size_t>(grid_w) * grid_h);
+  for (int gy = 0; gy < grid_h; ++gy) {
+    const int py = std::min(gy * step, camera.height - 1);
+    for (int gx = 0; gx < grid_w; ++gx) {
+      const int px = std::min(gx * step, camera.width - 1);
+      const auto ray = camera.CamFromImg(Eigen::Vector2d(px + 0.5, py + 0.5));
+      if (ray) (*rays)[static_cast<size_t>(gy) * grid_w + gx] = (*ray / ray->z()).cast<float>();
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() >= 4) cache.erase(cache.begin());
+  cache.push_back({camera, step, rays});
+  return rays;
+}
+
+}  // namespace
+
 void ImageBasedRenderer::State::BuildProxyGrids() {
   ParallelFor(0, static_cast<int64_t>(views.size()), 1, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
@@ -294,15 +340,18 @@ void ImageBasedRenderer::State::BuildProxyGrids() {
       v.grid_depth.assign(v.grid_world.size(), kNaN);
       const camera::Camera depth_camera = v.camera.Scaled(dw, dh);
       const Eigen::Matrix3f world_from_cam = v.rotation.transpose();
+      const std::shared_ptr<const GridRayTable> rays =
+          GridRays(depth_camera, step, v.grid_w, v.grid_h);
       for (int gy = 0; gy < v.grid_h; ++gy) {
         const int py = std::min(gy * step, dh - 1);
         for (int gx = 0; gx < v.grid_w; ++gx) {
           const int px = std::min(gx * step, dw - 1);
           const float d = v.depth.at(px, py);
           if (!std::isfinite(d)) continue;
-          const auto ray = depth_camera.CamFromImg(Eigen::Vector2d(px + 0.5, py + 0.5));
+          const std::optional<Eigen::Vector3f>& ray =
+              (*rays)[static_cast<size_t>(gy) * v.grid_w + gx];
           if (!ray) continue;
-          const Eigen::Vector3f cam = (*ray / ray->z()).cast<float>() * d;
+          const Eigen::Vector3f cam = *ray * d;
           const size_t g = static_cast<size_t>(gy) * v.grid_w + gx;
           v.grid_world[g] = world_from_cam * (cam - v.translation);
           v.grid_depth[g] = d;

@@ -256,16 +256,40 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
   std::vector<Eigen::Vector3d> points, all_points;  // consistent ones; all
   std::vector<int> source;
   std::vector<Eigen::Vector3d> seen_from;  // camera centre of each point
+  // CamFromImg at the grid's pixel centres, once per distinct camera and depth size (the photos
+  // of one COLMAP camera share it; with distortion each call is a Newton solve): the same values
+  // as calling it per pixel.
+  struct GridRays {
+    camera::Camera camera;
+    int width, height;
+    std::vector<std::optional<Eigen::Vector3d>> rays;  // row by row over the stride grid
+  };
+  std::vector<GridRays> tables;
+  const int s0 = options.stride / 2;
+  auto grid_rays = [&](const camera::Camera& cam, int w, int h) -> const GridRays& {
+    for (const GridRays& t : tables)
+      if (t.width == w && t.height == h && t.camera == cam) return t;
+    GridRays t{cam, w, h, {}};
+    for (int y = s0; y < h; y += options.stride)
+      for (int x = s0; x < w; x += options.stride)
+        t.rays.push_back(cam.CamFromImg({x + 0.5, y + 0.5}));
+    tables.push_back(std::move(t));
+    return tables.back();
+  };
   for (size_t k = 0; k < depths.size(); ++k) {
     const EnvelopeInput& in = depths[k];
     const Image& d = *in.depth;
     const Eigen::Matrix3d world_from_cam = in.cam_from_world.rotation.transpose();
     const Eigen::Vector3d origin = in.cam_from_world.Center();
-    for (int y = options.stride / 2; y < d.height(); y += options.stride) {
-      for (int x = options.stride / 2; x < d.width(); x += options.stride) {
+    const GridRays& table = grid_rays(in.camera, d.width(), d.height());
+    const int nx = d.width() > s0 ? (d.width() - s0 + options.stride - 1) / options.stride : 0;
+    for (int y = s0; y < d.height(); y += options.stride) {
+      for (int x = s0; x < d.width(); x += options.stride) {
         const float z = d.at(x, y);
         if (!(z > 0) || !std::isfinite(z)) continue;
-        const std::optional<Eigen::Vector3d> ray = in.camera.CamFromImg({x + 0.5, y + 0.5});
+        const std::optional<Eigen::Vector3d>& ray =
+            table.rays[static_cast<size_t>((y - s0) / options.stride) * nx +
+                       (x - s0) / options.stride];
         if (!ray) continue;
         const Eigen::Vector3d cam = *ray / ray->z() * z;
         const Eigen::Vector3d world = origin + world_from_cam * cam;

@@ -1,6 +1,7 @@
 #include "rephoto/render/camera_rays.h"
 
 #include <limits>
+#include <mutex>
 
 #include "rephoto/core/parallel.h"
 
@@ -44,6 +45,29 @@ CameraRays::CameraRays(const camera::Camera& camera) : camera_(camera) {
 bool CameraRays::Matches(const camera::Camera& camera) const {
   return camera.model == camera_.model && camera.width == camera_.width &&
          camera.height == camera_.height && camera.params == camera_.params;
+}
+
+std::shared_ptr<const CameraRays> SharedCameraRays(const camera::Camera& camera) {
+  static std::mutex mutex;
+  static std::vector<std::shared_ptr<const CameraRays>> cache;  // most recent last
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (auto it = cache.begin(); it != cache.end(); ++it) {
+      if ((*it)->Matches(camera)) {
+        std::shared_ptr<const CameraRays> found = *it;
+        cache.erase(it);
+        cache.push_back(found);
+        return found;
+      }
+    }
+  }
+  // Built outside the lock: another thread may build the same table meanwhile (harmless).
+  auto rays = std::make_shared<const CameraRays>(camera);
+  std::lock_guard<std::mutex> lock(mutex);
+  constexpr size_t kCacheSize = 4;
+  if (cache.size() >= kCacheSize) cache.erase(cache.begin());
+  cache.push_back(rays);
+  return rays;
 }
 
 }  // namespace rephoto::render

@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "rephoto/camera/camera.h"
@@ -84,5 +85,12 @@ class CameraRays {
   size_t stride_ = 0;                     // width + 1
   std::vector<Eigen::Vector2f> lattice_;  // (width + 1) x (height + 1), NaN = invalid
 };
+
+// The table of `camera` from a process-wide cache of the last few intrinsics used (the same
+// table CameraRays(camera) builds): objects made per photo or per update (the live session's
+// envelope model, an image-based renderer per prediction) share the tables of one camera
+// instead of undistorting every pixel again. Tables of distorted 2 MP cameras are ~16 MB, so 4
+// are kept. Thread-safe; throws as CameraRays does.
+std::shared_ptr<const CameraRays> SharedCameraRays(const camera::Camera& camera);
 
 }  // namespace rephoto::render

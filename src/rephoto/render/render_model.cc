@@ -392,7 +392,7 @@ std::shared_ptr<const CameraRays> RenderModel::RaysFor(const camera::Camera& cam
     }
   }
   // Built outside the lock: another thread may build the same table meanwhile (harmless).
-  auto rays = std::make_shared<const CameraRays>(camera);
+  auto rays = SharedCameraRays(camera);
   std::lock_guard<std::mutex> lock(rays_mutex_);
   constexpr size_t kCacheSize = 4;
   if (rays_cache_.size() >= kCacheSize) rays_cache_.erase(rays_cache_.begin());
