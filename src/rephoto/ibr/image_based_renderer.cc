@@ -13,6 +13,7 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
+#include "rephoto/core/recent_cache.h"
 #include "rephoto/ibr/depth_map_io.h"
 #include "rephoto/ibr/image_ops.h"
 #include "rephoto/io/image_io.h"
@@ -174,20 +175,11 @@ struct ImageBasedRenderer::State {
   std::vector<ViewData> views;
   std::unique_ptr<render::RenderModel> proxy;  // VDT
   double typical_depth = 1;  // median over the training views of their median depth
-  mutable std::mutex rays_mutex;
-  mutable std::vector<std::shared_ptr<const render::CameraRays>> rays_cache;
   mutable std::mutex scratch_mutex;
   mutable std::unique_ptr<Scratch> scratch;
 
   std::shared_ptr<const render::CameraRays> RaysFor(const camera::Camera& camera) const {
-    std::lock_guard<std::mutex> lock(rays_mutex);
-    for (const auto& rays : rays_cache) {
-      if (rays->Matches(camera)) return rays;
-    }
-    auto rays = render::SharedCameraRays(camera);
-    rays_cache.push_back(rays);
-    if (rays_cache.size() > 4) rays_cache.erase(rays_cache.begin());
-    return rays;
+    return render::SharedCameraRays(camera);
   }
 
   void LoadPhotos(std::vector<TrainingView> training);
@@ -291,37 +283,19 @@ namespace {
 using GridRayTable = std::vector<std::optional<Eigen::Vector3f>>;
 std::shared_ptr<const GridRayTable> GridRays(const camera::Camera& camera, int step, int grid_w,
                                              int grid_h) {
-  struct Entry {
-    camera::Camera camera;
-    int step;
-    std::shared_ptr<const GridRayTable> rays;
-  };
-  static std::mutex mutex;
-  static std::vector<Entry> cache;  // most recent last
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    for (auto it = cache.begin(); it != cache.end(); ++it) {
-      if (it->step == step && it->camera == camera) {
-        Entry found = *it;
-        cache.erase(it);
-        cache.push_back(found);
-        return found.rays;
+  static RecentCache<std::pair<camera::Camera, int>, GridRayTable> cache(4);
+  return cache.Get({camera, step}, [&] {
+    GridRayTable rays(static_cast<size_t>(grid_w) * grid_h);
+    for (int gy = 0; gy < grid_h; ++gy) {
+      const int py = std::min(gy * step, camera.height - 1);
+      for (int gx = 0; gx < grid_w; ++gx) {
+        const int px = std::min(gx * step, camera.width - 1);
+        const auto ray = camera.CamFromImg(Eigen::Vector2d(px + 0.5, py + 0.5));
+        if (ray) rays[static_cast<size_t>(gy) * grid_w + gx] = (*ray / ray->z()).cast<float>();
       }
     }
-  }
-  auto rays = std::make_shared<GridRayTable>(static_cast<size_t>(grid_w) * grid_h);
-  for (int gy = 0; gy < grid_h; ++gy) {
-    const int py = std::min(gy * step, camera.height - 1);
-    for (int gx = 0; gx < grid_w; ++gx) {
-      const int px = std::min(gx * step, camera.width - 1);
-      const auto ray = camera.CamFromImg(Eigen::Vector2d(px + 0.5, py + 0.5));
-      if (ray) (*rays)[static_cast<size_t>(gy) * grid_w + gx] = (*ray / ray->z()).cast<float>();
-    }
-  }
-  std::lock_guard<std::mutex> lock(mutex);
-  if (cache.size() >= 4) cache.erase(cache.begin());
-  cache.push_back({camera, step, rays});
-  return rays;
+    return rays;
+  });
 }
 
 }  // namespace

@@ -1,9 +1,9 @@
 #include "rephoto/render/camera_rays.h"
 
 #include <limits>
-#include <mutex>
 
 #include "rephoto/core/parallel.h"
+#include "rephoto/core/recent_cache.h"
 
 namespace rephoto::render {
 
@@ -48,26 +48,8 @@ bool CameraRays::Matches(const camera::Camera& camera) const {
 }
 
 std::shared_ptr<const CameraRays> SharedCameraRays(const camera::Camera& camera) {
-  static std::mutex mutex;
-  static std::vector<std::shared_ptr<const CameraRays>> cache;  // most recent last
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    for (auto it = cache.begin(); it != cache.end(); ++it) {
-      if ((*it)->Matches(camera)) {
-        std::shared_ptr<const CameraRays> found = *it;
-        cache.erase(it);
-        cache.push_back(found);
-        return found;
-      }
-    }
-  }
-  // Built outside the lock: another thread may build the same table meanwhile (harmless).
-  auto rays = std::make_shared<const CameraRays>(camera);
-  std::lock_guard<std::mutex> lock(mutex);
-  constexpr size_t kCacheSize = 4;
-  if (cache.size() >= kCacheSize) cache.erase(cache.begin());
-  cache.push_back(rays);
-  return rays;
+  static RecentCache<camera::Camera, CameraRays> cache(4);
+  return cache.Get(camera, [&] { return CameraRays(camera); });
 }
 
 }  // namespace rephoto::render

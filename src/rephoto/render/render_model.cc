@@ -380,24 +380,7 @@ void RenderModel::SetVertexScalar(mesh::VertexScalar scalar) {
 }
 
 std::shared_ptr<const CameraRays> RenderModel::RaysFor(const camera::Camera& camera) const {
-  {
-    std::lock_guard<std::mutex> lock(rays_mutex_);
-    for (auto it = rays_cache_.begin(); it != rays_cache_.end(); ++it) {
-      if ((*it)->Matches(camera)) {
-        auto found = *it;
-        rays_cache_.erase(it);
-        rays_cache_.push_back(found);
-        return found;
-      }
-    }
-  }
-  // Built outside the lock: another thread may build the same table meanwhile (harmless).
-  auto rays = SharedCameraRays(camera);
-  std::lock_guard<std::mutex> lock(rays_mutex_);
-  constexpr size_t kCacheSize = 4;
-  if (rays_cache_.size() >= kCacheSize) rays_cache_.erase(rays_cache_.begin());
-  rays_cache_.push_back(rays);
-  return rays;
+  return SharedCameraRays(camera);
 }
 
 }  // namespace rephoto::render

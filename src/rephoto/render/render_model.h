@@ -87,8 +87,8 @@ class RenderModel {
   void SetVertexColors(std::vector<Eigen::Vector3f> colors);
   void SetVertexScalar(mesh::VertexScalar scalar);
 
-  // The ray table for these intrinsics, from a small cache (the last few intrinsics used):
-  // views sharing a camera reuse it. Thread-safe.
+  // The ray table for these intrinsics (SharedCameraRays: the process-wide cache of the last few
+  // intrinsics used, so views and models sharing a camera reuse it). Thread-safe.
   std::shared_ptr<const CameraRays> RaysFor(const camera::Camera& camera) const;
 
   struct PointGeometry;  // data of the disc user geometry's callbacks (render_model.cc)
@@ -104,8 +104,6 @@ class RenderModel {
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   double build_seconds_ = 0;
-  mutable std::mutex rays_mutex_;
-  mutable std::vector<std::shared_ptr<const CameraRays>> rays_cache_;  // most recent last
 };
 
 }  // namespace rephoto::render
