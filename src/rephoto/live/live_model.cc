@@ -282,14 +282,12 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
     const Eigen::Matrix3d world_from_cam = in.cam_from_world.rotation.transpose();
     const Eigen::Vector3d origin = in.cam_from_world.Center();
     const GridRays& table = grid_rays(in.camera, d.width(), d.height());
-    const int nx = d.width() > s0 ? (d.width() - s0 + options.stride - 1) / options.stride : 0;
+    size_t next = 0;  // the table's entry of (x, y): the same loops made it
     for (int y = s0; y < d.height(); y += options.stride) {
       for (int x = s0; x < d.width(); x += options.stride) {
+        const std::optional<Eigen::Vector3d>& ray = table.rays[next++];
         const float z = d.at(x, y);
         if (!(z > 0) || !std::isfinite(z)) continue;
-        const std::optional<Eigen::Vector3d>& ray =
-            table.rays[static_cast<size_t>((y - s0) / options.stride) * nx +
-                       (x - s0) / options.stride];
         if (!ray) continue;
         const Eigen::Vector3d cam = *ray / ray->z() * z;
         const Eigen::Vector3d world = origin + world_from_cam * cam;
