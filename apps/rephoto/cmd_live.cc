@@ -9,6 +9,7 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <memory>
@@ -36,6 +37,7 @@ struct LiveArguments {
   int colmap_bootstrap = 0;
   int colmap_bundle_every = 0;
   int colmap_min_inliers = 0;
+  std::string colmap_camera;
   std::string colmap_binary = "colmap";
 };
 
@@ -61,6 +63,9 @@ CommandRunner SetupLive(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--colmap-min-inliers", args->colmap_min_inliers,
                  "Absolute-pose inliers COLMAP needs to place a photo (0 = default 15; COLMAP's own default is 30)");
+  app.add_option("--colmap-camera", args->colmap_camera,
+                 "Known intrinsics, kept fixed: \"MODEL p1,p2,...\" in COLMAP's names and order "
+                 "(e.g. \"PINHOLE 3310.4,3325.5,317.2,201.1\"; default: COLMAP guesses and refines them)");
   app.add_option("--colmap-binary", args->colmap_binary, "The colmap program")->capture_default_str();
   return [args]() {
     live::LiveOptions options = args->options;
@@ -75,6 +80,7 @@ CommandRunner SetupLive(CLI::App& app) {
       if (args->colmap_bootstrap > 0) co.bootstrap = args->colmap_bootstrap;
       co.bundle_every = args->colmap_bundle_every;
       if (args->colmap_min_inliers > 0) co.min_inliers = args->colmap_min_inliers;
+      if (!args->colmap_camera.empty()) live::ParseColmapCamera(args->colmap_camera, &co);
       registrar = live::MakeColmapRegistrar(co);
       options.registrar = registrar.get();
     }
@@ -101,6 +107,13 @@ CommandRunner SetupLive(CLI::App& app) {
       stop = true;
     });
     auto last_work = std::chrono::steady_clock::now();
+    // After kIdleSeconds without a new file the engine may work for the photos it has not
+    // placed (LiveSession::Idle), once per pause; an idle exit waits for that.
+    constexpr double kIdleSeconds = 2;
+    bool idle_done = false;
+    const auto idle_for = [&] {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - last_work).count();
+    };
     int code = static_cast<int>(ExitCode::kOk);
     try {
       while (!stop) {
@@ -109,11 +122,15 @@ CommandRunner SetupLive(CLI::App& app) {
           if (stop) break;
           session.HandleReady(name);
           last_work = std::chrono::steady_clock::now();
+          idle_done = false;
         }
         if (session.Tick()) last_work = std::chrono::steady_clock::now();
-        if (args->exit_when_idle > 0 && session.waiting() == 0 &&
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - last_work).count() >=
-                args->exit_when_idle)
+        if (!stop && !idle_done && idle_for() >= std::min(kIdleSeconds, args->exit_when_idle > 0 ? args->exit_when_idle : kIdleSeconds)) {
+          idle_done = true;
+          if (session.Idle()) last_work = std::chrono::steady_clock::now();
+        }
+        if (args->exit_when_idle > 0 && idle_done && session.waiting() == 0 &&
+            idle_for() >= args->exit_when_idle)
           break;
       }
     } catch (...) {

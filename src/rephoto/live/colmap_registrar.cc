@@ -4,11 +4,13 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <set>
 
+#include "rephoto/camera/camera.h"
 #include "rephoto/cluster/subprocess.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
@@ -47,12 +49,19 @@ class ColmapRegistrar : public Registrar {
       const fs::path list = o_.workspace / "new_image.txt";
       WriteTextFileAtomically(list, name + "\n");
       std::string error;
-      if (!Run({"feature_extractor", "--database_path", Db(), "--image_path", Images(),
-                "--image_list_path", list.string(), "--ImageReader.single_camera", "1",
-                "--ImageReader.camera_model", "SIMPLE_RADIAL", "--SiftExtraction.use_gpu", "0",
-                "--SiftExtraction.max_image_size", std::to_string(o_.max_image_size)},
-               &error) ||
-          !Run({"exhaustive_matcher", "--database_path", Db(), "--SiftMatching.use_gpu", "0"},
+      std::vector<std::string> extract = {
+          "feature_extractor", "--database_path", Db(), "--image_path", Images(),
+          "--image_list_path", list.string(), "--ImageReader.single_camera", "1",
+          "--ImageReader.camera_model", o_.camera_model, "--SiftExtraction.use_gpu", "0",
+          "--SiftExtraction.max_image_size", std::to_string(o_.max_image_size)};
+      if (!o_.camera_params.empty())
+        extract.insert(extract.end(), {"--ImageReader.camera_params", CameraParams()});
+      if (!Run(extract, &error)) {
+        r.message = error;
+        return r;
+      }
+      ShareCamera(name);
+      if (!Run({"exhaustive_matcher", "--database_path", Db(), "--SiftMatching.use_gpu", "0"},
                &error)) {
         r.message = error;
         return r;
@@ -94,8 +103,13 @@ class ColmapRegistrar : public Registrar {
          Model().string(), "--output_path", Model().string()},
         &error);
     if (o_.bundle_every > 0 && ++registrations_ % o_.bundle_every == 0) {
-      Run({"bundle_adjuster", "--input_path", Model().string(), "--output_path", Model().string()},
-          &error);
+      std::vector<std::string> adjust = {"bundle_adjuster", "--input_path", Model().string(),
+                                         "--output_path", Model().string()};
+      if (!o_.camera_params.empty())
+        adjust.insert(adjust.end(), {"--BundleAdjustment.refine_focal_length", "0",
+                                     "--BundleAdjustment.refine_principal_point", "0",
+                                     "--BundleAdjustment.refine_extra_params", "0"});
+      Run(adjust, &error);
     }
     RemapIfUnplaced();
     r = Lookup(name);
@@ -166,11 +180,24 @@ class ColmapRegistrar : public Registrar {
   // holds more photos. A re-map that places no more waits twice as many new photos as the
   // last one before the next.
   void RemapIfUnplaced() {
-    if (added_ < remap_at_) return;
+    if (added_ >= remap_at_) Remap();
+  }
+
+  // The capture paused: the re-map runs whatever the wait after a re-map that placed nothing
+  // (that wait bounds the cost per photo while photos arrive; a pause costs no photo anything),
+  // once per set of photos.
+  bool Idle() override {
+    if (!HasModel() || idle_tried_at_ == added_) return false;
+    idle_tried_at_ = added_;
+    return Remap();
+  }
+
+  // Returns true when sparse/0 was replaced by a model placing more photos.
+  bool Remap() {
     std::set<std::string> placed;
     for (const Placed& p : AllPlaced()) placed.insert(p.name);
     const size_t before = placed.size();
-    if (before >= static_cast<size_t>(added_) || !UnplacedMatchPlaced(placed)) return;
+    if (before >= static_cast<size_t>(added_) || !UnplacedMatchPlaced(placed)) return false;
     std::string error;
     const fs::path tmp = o_.workspace / "remap";
     fs::remove_all(tmp);
@@ -207,6 +234,7 @@ class ColmapRegistrar : public Registrar {
     remap_at_ = added_ + remap_wait_;
     std::error_code ec;
     fs::remove_all(tmp, ec);
+    return best > before;
   }
 
   // Whether a photo outside `placed` has a verified two-view geometry with at least
@@ -244,6 +272,50 @@ class ColmapRegistrar : public Registrar {
     return found;
   }
 
+  // "One camera" (colmap_registrar.h): the camera COLMAP just made for `name` is replaced by
+  // the earliest camera with the same model, size and parameters, if there is one. COLMAP's
+  // database, written while no COLMAP process runs (the registrar runs them one at a time); a
+  // failure leaves the photo its own camera (a warning).
+  void ShareCamera(const std::string& name) const {
+    sqlite3* db = nullptr;
+    if (sqlite3_open_v2(Db().c_str(), &db, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
+      LogWarning(fmt::format("{}: cannot open: {}", Db(), db ? sqlite3_errmsg(db) : "no memory"));
+      sqlite3_close(db);
+      return;
+    }
+    sqlite3_busy_timeout(db, 5000);
+    const char* sql =
+        "UPDATE images SET camera_id = (SELECT MIN(o.camera_id) FROM cameras o, cameras c "
+        "  WHERE c.camera_id = images.camera_id AND o.model = c.model AND o.width = c.width "
+        "  AND o.height = c.height AND o.params = c.params) WHERE name = ?1;"
+        "DELETE FROM cameras WHERE camera_id NOT IN (SELECT camera_id FROM images);";
+    bool ok = sqlite3_exec(db, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) == SQLITE_OK;
+    const char* next = sql;
+    while (ok && *next) {
+      sqlite3_stmt* statement = nullptr;
+      ok = sqlite3_prepare_v2(db, next, -1, &statement, &next) == SQLITE_OK;
+      if (ok && statement) {
+        ok = (sqlite3_bind_parameter_count(statement) == 0 ||
+              sqlite3_bind_text(statement, 1, name.c_str(), -1, SQLITE_TRANSIENT) == SQLITE_OK) &&
+             sqlite3_step(statement) == SQLITE_DONE;
+      }
+      sqlite3_finalize(statement);
+    }
+    if (ok) ok = sqlite3_exec(db, "COMMIT", nullptr, nullptr, nullptr) == SQLITE_OK;
+    if (!ok) {
+      LogWarning(fmt::format("{}: cannot give {} the camera of earlier photos: {}", Db(), name,
+                             sqlite3_errmsg(db)));
+      sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
+    }
+    sqlite3_close(db);
+  }
+
+  std::string CameraParams() const {
+    std::string out;
+    for (double v : o_.camera_params) out += fmt::format("{}{}", out.empty() ? "" : ",", v);
+    return out;
+  }
+
   // sparse/0 := `model` (a folder of cameras.bin, images.bin, points3D.bin): the new folder is
   // renamed in after the old one is moved aside, so sparse/0 is always one whole model or
   // absent (then the next photo maps from scratch).
@@ -262,6 +334,11 @@ class ColmapRegistrar : public Registrar {
                 {"--Mapper.abs_pose_min_num_inliers", std::to_string(o_.min_inliers),
                  "--Mapper.abs_pose_min_inlier_ratio", fmt::format("{}", o_.min_inlier_ratio),
                  "--Mapper.init_min_num_inliers", std::to_string(o_.init_min_inliers)});
+    if (args[0] == "mapper") args.insert(args.end(), {"--Mapper.min_model_size", "3"});
+    if (!o_.camera_params.empty())
+      args.insert(args.end(), {"--Mapper.ba_refine_focal_length", "0",
+                               "--Mapper.ba_refine_principal_point", "0",
+                               "--Mapper.ba_refine_extra_params", "0"});
     return args;
   }
 
@@ -284,9 +361,50 @@ class ColmapRegistrar : public Registrar {
   int registrations_ = 0;
   int remap_at_ = 0;    // photos added before the next re-map may run
   int remap_wait_ = 1;  // photos between re-maps (doubles while they place nothing new)
+  int idle_tried_at_ = -1;  // photos added when Idle last re-mapped
 };
 
 }  // namespace
+
+void ParseColmapCamera(std::string_view text, ColmapRegistrarOptions* options) {
+  std::vector<std::string> fields;
+  std::string field;
+  for (char c : std::string(text) + " ") {
+    if (c == ',' || c == ' ' || c == '\t') {
+      if (!field.empty()) fields.push_back(field);
+      field.clear();
+    } else {
+      field += c;
+    }
+  }
+  REPHOTO_CHECK_USAGE(!fields.empty(), "--colmap-camera: empty (expected \"MODEL p1,p2,...\")");
+  const std::optional<camera::CameraModel> model = camera::ParseCameraModel(fields[0]);
+  REPHOTO_CHECK_USAGE(model.has_value(), "--colmap-camera: unknown camera model '{}' (COLMAP's names: PINHOLE, SIMPLE_RADIAL, OPENCV, ...)", fields[0]);
+  const int count = camera::CameraModelParamCount(*model);
+  REPHOTO_CHECK_USAGE(static_cast<int>(fields.size()) - 1 == count,
+                      "--colmap-camera: {} takes {} parameters, got {}", fields[0], count,
+                      fields.size() - 1);
+  std::vector<double> params;
+  for (size_t i = 1; i < fields.size(); ++i) {
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(fields[i], &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    REPHOTO_CHECK_USAGE(used == fields[i].size() && std::isfinite(v),
+                        "--colmap-camera: parameter {} '{}' is not a finite number", i, fields[i]);
+    params.push_back(v);
+  }
+  camera::Camera camera;
+  camera.model = *model;
+  camera.params = params;
+  REPHOTO_CHECK_USAGE(camera.FocalLengthX() > 0 && camera.FocalLengthY() > 0,
+                      "--colmap-camera: the focal length must be positive");
+  options->camera_model = fields[0];
+  options->camera_params = std::move(params);
+}
 
 std::unique_ptr<Registrar> MakeColmapRegistrar(const ColmapRegistrarOptions& options) {
   return std::make_unique<ColmapRegistrar>(options);

@@ -4,8 +4,8 @@
 //
 // Workspace W (inside the run folder, so resume keeps it):
 //   W/images/<name>   hard links (or copies) of the photos added so far
-//   W/database.db     COLMAP's database: one camera shared by all photos (single_camera,
-//                     SIMPLE_RADIAL, focal length from the image size as COLMAP guesses it)
+//   W/database.db     COLMAP's database: one camera shared by all photos of one size and
+//                     focal prior (see "One camera" below)
 //   W/sparse/0        the model (binary)
 // Register(photo):
 //   1. feature_extractor on the new image only (--image_list_path), into the database;
@@ -28,7 +28,11 @@
 //      unplaced photo has a verified two-view geometry (15 inliers) with a placed one (read
 //      from COLMAP's database): a photo of another scene never triggers one. A re-map that places
 //      no more doubles the number of new photos before the next one, so
-//      the re-maps' cost stays bounded by a few batch mappings over the capture.
+//      the re-maps' cost stays bounded by a few batch mappings over the capture. When the
+//      capture pauses (Registrar::Idle) the re-map runs regardless of that wait, once per set
+//      of photos: the last photos of a capture are otherwise left to the wait (templeSparseRing
+//      shuffled, seed 1: 14 of 16 placed at the end, the batch mapper on the same database
+//      places 16).
 // Registration thresholds: a photo is placed with at least 15 absolute-pose inliers making 10 %
 // of its 2D-3D correspondences (COLMAP's defaults: 30 and 25 %), and the initial pair needs 50
 // two-view inliers (COLMAP: 100). COLMAP's defaults are tuned for batch reconstruction of
@@ -40,6 +44,26 @@
 // still gets no pose: its matches fail the two-view geometric verification (15 inliers) before
 // any pose is tried (live_colmap_test). Pose accuracy is unchanged for photos with many
 // inliers (the thresholds only decide whether a pose is accepted).
+// One camera: photos of the same size, camera model and initial intrinsics share one COLMAP
+// camera, so bundle adjustment refines one focal length and distortion from all their
+// observations. feature_extractor runs once per photo, and COLMAP's single_camera holds
+// within one call only: each photo got its own camera whose focal length every adjustment
+// refined on its own (the runs before 2026-11-28, fourth stop). After the extraction, the new
+// photo's camera row is replaced in the database by the earliest camera with the same model,
+// width, height and parameters (as COLMAP itself read the photo, so EXIF orientation or a
+// decoder's view cannot differ). A photo of another size or another EXIF focal length keeps
+// its own camera.
+// Known intrinsics (`--colmap-camera "MODEL p1,p2,..."`, COLMAP's model names and parameter
+// order): every photo's camera starts from them, and no bundle adjustment changes them
+// (Mapper.ba_refine_* and BundleAdjustment.refine_* off). For a calibrated camera, and for
+// lenses far from COLMAP's guess (1.2 x the larger side): Middlebury's dinoSparseRing has a
+// focal length of 3310 pixels on 640 x 480 photos (about 4.3 x the guess); with the guess
+// COLMAP's batch mapper builds no model of more than 3 photos, with the calibration it places
+// every photo (docs/live.md). The parameters refer to photos of the calibrated size; COLMAP
+// applies them to every photo.
+// Small models are kept (Mapper.min_model_size 3; COLMAP's default keeps a model only with
+// min(10, 0.8 x photos) photos when it finds several): a capture whose photos form separate
+// groups is registered in its largest group rather than not at all.
 // Poses are read from W/sparse/0 (scene/colmap.h) in COLMAP's world frame. AllPlaced returns
 // every photo of that model with its current pose: image_registrator's local bundle adjustment
 // and a global bundle_adjuster refine the poses of photos placed earlier, and the session takes
@@ -53,6 +77,8 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "rephoto/live/live_session.h"
 
@@ -69,7 +95,16 @@ struct ColmapRegistrarOptions {
   int min_inliers = 15;           // Mapper.abs_pose_min_num_inliers (COLMAP: 30)
   double min_inlier_ratio = 0.1;  // Mapper.abs_pose_min_inlier_ratio (COLMAP: 0.25)
   int init_min_inliers = 50;      // Mapper.init_min_num_inliers (COLMAP: 100)
+  // Known intrinsics (above): empty = COLMAP guesses and refines them.
+  std::string camera_model = "SIMPLE_RADIAL";
+  std::vector<double> camera_params;
 };
+
+// Parses --colmap-camera: "MODEL p1,p2,..." (parameters separated by commas and/or spaces),
+// e.g. "PINHOLE 3310.4,3325.5,316.73,200.55". Throws UsageError naming what is wrong (unknown
+// model, wrong parameter count for the model, a value that is not a finite number, a focal
+// length that is not positive).
+void ParseColmapCamera(std::string_view text, ColmapRegistrarOptions* options);
 
 std::unique_ptr<Registrar> MakeColmapRegistrar(const ColmapRegistrarOptions& options);
 

@@ -1224,6 +1224,21 @@ bool LiveSession::Tick() {
   return changed;
 }
 
+bool LiveSession::Idle() {
+  State& s = *state_;
+  if (!s.options.registrar || (s.deferred.empty() && s.unplaced.empty())) return false;
+  try {
+    if (!s.options.registrar->Idle()) return false;
+    if (s.TakeRefinedPoses()) s.BuildModel();
+  } catch (const Error& e) {
+    LogWarning(fmt::format("registration engine, while idle: {}", e.what()));
+    return false;
+  }
+  s.RetryDeferred();
+  s.Publish();
+  return true;
+}
+
 size_t LiveSession::waiting() const { return state_->waiting.size(); }
 
 nlohmann::json LiveSession::Api() const {

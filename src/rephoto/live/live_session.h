@@ -116,6 +116,11 @@ class Registrar {
     camera::Pose cam_from_world;
   };
   virtual std::vector<Placed> AllPlaced() { return {}; }
+  // Called while no photo arrives (LiveSession::Idle: the photographer paused) and photos wait
+  // for a pose: an engine may do work here that it spreads out or skips per photo (COLMAP: the
+  // re-map of the whole database, which waits for more photos after one that placed nothing).
+  // Returns true when it may have placed or moved photos. Default: nothing to do.
+  virtual bool Idle() { return false; }
 };
 
 // The image-based rendering settings of the predictions and suggestion rephotos.
@@ -157,6 +162,10 @@ class LiveSession {
   void HandleReady(const std::string& name);
   // Photos whose sidecar wait ran out become no_pose. Returns true when something changed.
   bool Tick();
+  // No photo arrived for a while: lets the registration engine work for the photos it has not
+  // placed (Registrar::Idle), then places those it has placed now, as after a registration.
+  // Returns true when something changed. Never throws for an engine's failure (a warning).
+  bool Idle();
   // Photos waiting for their sidecar.
   size_t waiting() const;
 

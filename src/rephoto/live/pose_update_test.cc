@@ -133,6 +133,14 @@ class TableRegistrar : public Registrar {
   std::map<std::string, Placed> table;
   std::set<std::string> added;
   std::string defer;  // non-empty: no model yet, every photo deferred with this message
+  std::map<std::string, Placed> on_idle;  // placed when the session is idle
+  int idle_calls = 0;
+  bool Idle() override {
+    ++idle_calls;
+    const bool any = !on_idle.empty();
+    table.merge(on_idle);
+    return any;
+  }
   Result Register(const fs::path& photo) override {
     added.insert(photo.filename().string());
     if (!defer.empty()) {
@@ -398,6 +406,41 @@ TEST(PoseUpdateTest, SessionPlacesAPhotoTheEngineCouldNotPlaceAtFirst) {
   EXPECT_EQ(find(api, name(6))["status"], "registered") << find(api, name(6)).dump();
   EXPECT_EQ(find(api, name(7))["status"], "registered");
   EXPECT_EQ(api["photos"].size(), 8u);
+}
+
+TEST(PoseUpdateTest, AnIdleEnginePlacesWhatItCouldNotPlaceWhilePhotosArrived) {
+  // COLMAP's re-map waits for more photos after one that placed nothing; when the capture
+  // pauses it runs anyway (colmap_registrar.h). The session asks the engine only when photos
+  // wait for a pose, and places what the engine placed then as after a registration.
+  EngineCapture c(5);
+  TableRegistrar& engine = c.engine;
+  const auto name = &EngineCapture::Name;
+  LiveSession session(c.options);
+  for (int k : {0, 1, 2, 3}) {
+    c.Place(k);
+    c.Drop(k);
+    session.HandleReady(name(k));
+  }
+  EXPECT_FALSE(session.Idle());
+  EXPECT_EQ(engine.idle_calls, 0);  // nothing waits: the engine is not asked
+  c.Drop(4);
+  session.HandleReady(name(4));
+  nlohmann::json p = FindPhoto(session.Api(), name(4));
+  ASSERT_EQ(p["status"], "unregistered") << p.dump();
+  const int64_t arrival = p["arrival"].get<int64_t>();
+  EXPECT_FALSE(session.Idle());  // the engine placed nothing
+  EXPECT_EQ(engine.idle_calls, 1);
+  engine.on_idle[name(4)] = {name(4), c.capture.camera(), c.truth[4]};
+  EXPECT_TRUE(session.Idle());
+  p = FindPhoto(session.Api(), name(4));
+  EXPECT_EQ(p["status"], "registered") << p.dump();
+  EXPECT_EQ(p["arrival"].get<int64_t>(), arrival);
+  EXPECT_GT(p["completeness"].get<double>(), 0.3) << p.dump();
+  EXPECT_LT(p["error"].get<double>(), 0.6) << p.dump();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(p["tvec"][i].get<double>(), c.truth[4].translation[i], 1e-9);
+  EXPECT_EQ(session.Api()["photos"].size(), 5u);
+  EXPECT_FALSE(session.Idle());  // nothing waits any more
+  EXPECT_EQ(engine.idle_calls, 2);
 }
 
 }  // namespace
