@@ -38,6 +38,7 @@ struct LiveArguments {
   int colmap_bundle_every = 0;
   int colmap_min_inliers = 0;
   std::string colmap_camera;
+  int colmap_exhaustive_up_to = -1;
   std::string colmap_binary = "colmap";
 };
 
@@ -66,6 +67,8 @@ CommandRunner SetupLive(CLI::App& app) {
   app.add_option("--colmap-camera", args->colmap_camera,
                  "Known intrinsics, kept fixed: \"MODEL p1,p2,...\" in COLMAP's names and order "
                  "(e.g. \"PINHOLE 3310.4,3325.5,317.2,201.1\"; default: COLMAP guesses and refines them)");
+  app.add_option("--colmap-exhaustive-up-to", args->colmap_exhaustive_up_to,
+                 "Match a new photo with every earlier one while there are at most N, then with chosen ones (default 30)");
   app.add_option("--colmap-binary", args->colmap_binary, "The colmap program")->capture_default_str();
   return [args]() {
     live::LiveOptions options = args->options;
@@ -81,6 +84,7 @@ CommandRunner SetupLive(CLI::App& app) {
       co.bundle_every = args->colmap_bundle_every;
       if (args->colmap_min_inliers > 0) co.min_inliers = args->colmap_min_inliers;
       if (!args->colmap_camera.empty()) live::ParseColmapCamera(args->colmap_camera, &co);
+      if (args->colmap_exhaustive_up_to >= 0) co.match_all_up_to = args->colmap_exhaustive_up_to;
       registrar = live::MakeColmapRegistrar(co);
       options.registrar = registrar.get();
     }

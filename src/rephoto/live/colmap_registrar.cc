@@ -39,6 +39,8 @@ class ColmapRegistrar : public Registrar {
 
   Result Register(const fs::path& photo) override {
     const std::string name = photo.filename().string();
+    bool matched_all = true;  // every pair of the new photo is matched (else MatchNew's choice)
+    std::string error;
     const fs::path image = o_.workspace / "images" / name;
     Result r;
     fs::create_directories(o_.workspace / "images");
@@ -48,7 +50,6 @@ class ColmapRegistrar : public Registrar {
       ++added_;
       const fs::path list = o_.workspace / "new_image.txt";
       WriteTextFileAtomically(list, name + "\n");
-      std::string error;
       std::vector<std::string> extract = {
           "feature_extractor", "--database_path", Db(), "--image_path", Images(),
           "--image_list_path", list.string(), "--ImageReader.single_camera", "1",
@@ -61,18 +62,20 @@ class ColmapRegistrar : public Registrar {
         return r;
       }
       ShareCamera(name);
-      if (!Run({"exhaustive_matcher", "--database_path", Db(), "--SiftMatching.use_gpu", "0"},
-               &error)) {
+      if (!MatchNew(name, &matched_all, &error)) {
         r.message = error;
         return r;
       }
+    }
+    if (!HasModel() && !matched_all && !MatchAll(&matched_all, &error)) {
+      r.message = error;
+      return r;
     }
     if (!HasModel()) {
       if (added_ < o_.bootstrap) {
         r.status = Result::kDeferred;
         return r;
       }
-      std::string error;
       const fs::path tmp = o_.workspace / "mapper";
       fs::remove_all(tmp);
       fs::create_directories(tmp);
@@ -92,12 +95,27 @@ class ColmapRegistrar : public Registrar {
       return Lookup(name);
     }
     if (Result placed = Lookup(name); placed.status == Result::kRegistered) return placed;
-    std::string error;
-    if (!Run(WithThresholds({"image_registrator", "--database_path", Db(), "--input_path",
-                             Model().string(), "--output_path", Model().string()}),
-             &error)) {
+    const auto registrator = [&] {
+      return Run(WithThresholds({"image_registrator", "--database_path", Db(), "--input_path",
+                                 Model().string(), "--output_path", Model().string()}),
+                 &error);
+    };
+    if (!registrator()) {
       r.message = error;
       return r;
+    }
+    if (!matched_all) {
+      if (Lookup(name).status != Result::kRegistered) {
+        // Not placed with the chosen pairs: all of them, and again.
+        LogInfo(fmt::format("COLMAP: {} not placed from the chosen pairs; matching every pair",
+                            name));
+        if (!MatchAll(&matched_all, &error) || !registrator()) {
+          r.message = error;
+          return r;
+        }
+      } else {
+        MatchAround(name);
+      }
     }
     Run({"point_triangulator", "--database_path", Db(), "--image_path", Images(), "--input_path",
          Model().string(), "--output_path", Model().string()},
@@ -270,6 +288,106 @@ class ColmapRegistrar : public Registrar {
     sqlite3_finalize(query);
     close();
     return found;
+  }
+
+  // Matching (colmap_registrar.h, "Matching"). Matches the new photo `name` with every photo
+  // before it while there are at most match_all_up_to of them (exhaustive_matcher; *all =
+  // true); after that with the photos chosen below only (matches_importer; *all = false).
+  bool MatchNew(const std::string& name, bool* all, std::string* error) {
+    const std::vector<std::string> order = ImagesInOrder();
+    *all = static_cast<int>(order.size()) <= o_.match_all_up_to + 1;
+    if (*all) return MatchAll(all, error);
+    std::vector<std::string> chosen;
+    const auto choose = [&](const std::string& other) {
+      if (other != name && std::find(chosen.begin(), chosen.end(), other) == chosen.end())
+        chosen.push_back(other);
+    };
+    // The photos that came just before it (a photographer walking round sees what they saw).
+    for (size_t i = order.size(); i-- > 0 && chosen.size() < static_cast<size_t>(o_.match_recent);)
+      choose(order[i]);
+    // The placed photos nearest to the last placed one (where the photographer was last placed).
+    const std::vector<Placed> placed = AllPlaced();
+    const Placed* last = nullptr;
+    for (auto it = order.rbegin(); it != order.rend() && !last; ++it)
+      for (const Placed& p : placed)
+        if (p.name == *it && *it != name) last = &p;
+    if (last)
+      for (const std::string& other : Nearest(placed, last->cam_from_world, name, o_.match_recent))
+        choose(other);
+    return MatchPairs(name, chosen, error);
+  }
+
+  // After the new photo was placed from the chosen pairs: its pairs with the placed photos that
+  // look at the same part of the scene (viewing directions within 60 degrees, nearest centres
+  // first), so that point_triangulator makes its tracks from more than the chosen few.
+  void MatchAround(const std::string& name) {
+    const std::vector<Placed> placed = AllPlaced();
+    for (const Placed& p : placed) {
+      if (p.name != name) continue;
+      std::string error;
+      MatchPairs(name, Nearest(placed, p.cam_from_world, name, o_.match_around), &error);
+      return;
+    }
+  }
+
+  bool MatchAll(bool* all, std::string* error) {
+    *all = Run({"exhaustive_matcher", "--database_path", Db(), "--SiftMatching.use_gpu", "0"},
+               error);
+    return *all;
+  }
+
+  bool MatchPairs(const std::string& name, const std::vector<std::string>& others,
+                  std::string* error) {
+    if (others.empty()) return true;
+    std::string list;
+    for (const std::string& other : others) list += name + " " + other + "\n";
+    const fs::path pairs = o_.workspace / "pairs.txt";
+    WriteTextFileAtomically(pairs, list);
+    return Run({"matches_importer", "--database_path", Db(), "--match_list_path", pairs.string(),
+                "--match_type", "pairs", "--SiftMatching.use_gpu", "0"},
+               error);
+  }
+
+  // Up to `count` placed photos (not `except`) whose viewing direction is within 60 degrees of
+  // `pose`'s, nearest camera centre first.
+  static std::vector<std::string> Nearest(const std::vector<Placed>& placed,
+                                          const camera::Pose& pose, const std::string& except,
+                                          int count) {
+    std::vector<std::pair<double, std::string>> ranked;
+    for (const Placed& p : placed) {
+      if (p.name == except ||
+          p.cam_from_world.ViewDirection().dot(pose.ViewDirection()) < std::cos(M_PI / 3))
+        continue;
+      ranked.emplace_back((p.cam_from_world.Center() - pose.Center()).norm(), p.name);
+    }
+    std::sort(ranked.begin(), ranked.end());
+    std::vector<std::string> out;
+    for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < count; ++i)
+      out.push_back(ranked[i].second);
+    return out;
+  }
+
+  // The photos of COLMAP's database in the order they were added (image_id). Empty when the
+  // database cannot be read (a warning): then every pair is matched.
+  std::vector<std::string> ImagesInOrder() const {
+    std::vector<std::string> out;
+    sqlite3* db = nullptr;
+    sqlite3_stmt* query = nullptr;
+    if (sqlite3_open_v2(Db().c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK &&
+        sqlite3_prepare_v2(db, "SELECT name FROM images ORDER BY image_id", -1, &query,
+                           nullptr) == SQLITE_OK) {
+      while (sqlite3_step(query) == SQLITE_ROW) {
+        const unsigned char* t = sqlite3_column_text(query, 0);
+        if (t) out.emplace_back(reinterpret_cast<const char*>(t));
+      }
+    } else {
+      LogWarning(fmt::format("{}: cannot read the photos: {}", Db(),
+                             db ? sqlite3_errmsg(db) : "no memory"));
+      out.clear();
+    }
+    sqlite3_finalize(query);
+    sqlite3_close(db);
+    return out;
   }
 
   // "One camera" (colmap_registrar.h): the camera COLMAP just made for `name` is replaced by
