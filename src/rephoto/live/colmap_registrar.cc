@@ -295,7 +295,9 @@ class ColmapRegistrar : public Registrar {
   // true); after that with the photos chosen below only (matches_importer; *all = false).
   bool MatchNew(const std::string& name, bool* all, std::string* error) {
     const std::vector<std::string> order = ImagesInOrder();
-    *all = static_cast<int>(order.size()) <= o_.match_all_up_to + 1;
+    // COLMAP's pair list separates the two names by a space: a name with one takes every pair.
+    *all = static_cast<int>(order.size()) <= o_.match_all_up_to + 1 ||
+           name.find(' ') != std::string::npos;
     if (*all) return MatchAll(all, error);
     std::vector<std::string> chosen;
     const auto choose = [&](const std::string& other) {
@@ -321,6 +323,7 @@ class ColmapRegistrar : public Registrar {
   // look at the same part of the scene (viewing directions within 60 degrees, nearest centres
   // first), so that point_triangulator makes its tracks from more than the chosen few.
   void MatchAround(const std::string& name) {
+    if (name.find(' ') != std::string::npos) return;  // matched with every photo (MatchNew)
     const std::vector<Placed> placed = AllPlaced();
     for (const Placed& p : placed) {
       if (p.name != name) continue;
@@ -340,7 +343,9 @@ class ColmapRegistrar : public Registrar {
                   std::string* error) {
     if (others.empty()) return true;
     std::string list;
-    for (const std::string& other : others) list += name + " " + other + "\n";
+    for (const std::string& other : others)  // (a name with a space cannot be listed)
+      if (other.find(' ') == std::string::npos) list += name + " " + other + "\n";
+    if (list.empty()) return true;
     const fs::path pairs = o_.workspace / "pairs.txt";
     WriteTextFileAtomically(pairs, list);
     return Run({"matches_importer", "--database_path", Db(), "--match_list_path", pairs.string(),

@@ -53,7 +53,9 @@
 // degrees, nearest centres first); when image_registrator places it from those, the
 // match_around (12) placed photos nearest to its pose, so point_triangulator has its tracks;
 // when it does not, every remaining pair (exhaustive_matcher) and image_registrator again.
-// The bootstrap mapper, when no model exists, always has every pair.
+// The bootstrap mapper, when no model exists, always has every pair. COLMAP's pair list
+// separates the names by a space, so a photo whose name has one is matched with every photo
+// when it arrives and left out of later photos' chosen pairs.
 // One camera: photos of the same size, camera model and initial intrinsics share one COLMAP
 // camera, so bundle adjustment refines one focal length and distortion from all their
 // observations. feature_extractor runs once per photo, and COLMAP's single_camera holds
