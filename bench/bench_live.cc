@@ -8,17 +8,22 @@
 // poll (1 s) shows. The split (register / predict / depth / model / suggest seconds) is
 // reported as counters from the photo's record.
 //
+// BM_LiveColmapPhotoWith50In: the same with COLMAP registration instead of sidecars.
+//
 // Run: build/bench/rephoto_bench_live --benchmark_repetitions=1
+//      (--benchmark_filter=BM_LivePhotoWith50In for the sidecar case alone)
 // Threads: the library's pool (all cores; 2 on the target machine).
 #include <benchmark/benchmark.h>
 
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 
 #include "bench_cpu.h"
+#include "rephoto/live/colmap_registrar.h"
 #include "rephoto/live/demo_capture.h"
 #include "rephoto/live/live_session.h"
 
@@ -66,6 +71,64 @@ void BM_LivePhotoWith50In(benchmark::State& state) {
   fs::remove_all(base);
 }
 BENCHMARK(BM_LivePhotoWith50In)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
+
+// The same with COLMAP registration (`rephoto live --colmap`, colmap_registrar.h with its
+// defaults): the photos land without a sidecar, COLMAP places them (features, matching: every
+// pair up to 30 photos, then chosen pairs; image_registrator, point_triangulator). Setup (50
+// photos in) takes minutes. Counters: the split of the last timed photo, and `registered`, the
+// fraction of the timed photos COLMAP placed (a photo it could not place still updates the
+// page, with its status). Needs Debian's colmap.
+void BM_LiveColmapPhotoWith50In(benchmark::State& state) {
+  if (std::system("command -v colmap >/dev/null") != 0) {
+    state.SkipWithError("colmap is not installed (scripts/install-deps.sh)");
+    return;
+  }
+  const fs::path base =
+      fs::temp_directory_path() / ("rephoto_bench_live_colmap_" + std::to_string(getpid()));
+  fs::remove_all(base);
+  const fs::path watch = base / "watch", run = base / "run";
+  fs::create_directories(watch);
+  live::DemoCapture capture(1152, 864);
+  live::ColmapRegistrarOptions co;
+  co.workspace = run / "colmap";
+  const std::unique_ptr<live::Registrar> registrar = live::MakeColmapRegistrar(co);
+  live::LiveOptions o;
+  o.watch = watch;
+  o.out = run;
+  o.registrar = registrar.get();
+  live::LiveSession session(o);
+  const auto drop = [&](int k) {
+    const std::string stem = "p" + std::to_string(k);
+    capture.Drop(watch, stem, SpiralPose(k), k);
+    fs::remove(watch / (stem + ".json"));  // COLMAP places it
+    return stem + ".png";
+  };
+  int k = 0;
+  for (; k < 50; ++k) session.HandleReady(drop(k));
+  nlohmann::json last;
+  double registered = 0;
+  int timed = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const std::string name = drop(k++);
+    state.ResumeTiming();
+    session.HandleReady(name);
+    state.PauseTiming();
+    last = session.Api()["photos"].back();
+    registered += last["status"] == "registered" ? 1 : 0;
+    ++timed;
+    state.ResumeTiming();
+  }
+  for (const char* key : {"register", "predict", "depth", "model", "suggest", "total"})
+    state.counters[key] = last["seconds"].value(key, 0.0);
+  state.counters["registered"] = timed ? registered / timed : 0;
+  int placed = 0;
+  const nlohmann::json api = session.Api();
+  for (const auto& p : api["photos"]) placed += p["status"] == "registered" ? 1 : 0;
+  state.counters["placed_of_all"] = placed;
+  fs::remove_all(base);
+}
+BENCHMARK(BM_LiveColmapPhotoWith50In)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
 
 }  // namespace
 
