@@ -363,6 +363,52 @@ TEST(LiveColmapTest, KnownIntrinsicsPlaceWhatTheGuessCannot) {
   EXPECT_LT(residuals.back(), 0.15);
 }
 
+TEST(LiveColmapTest, PhotosOfOneSizeShareOneCamera) {
+  // COLMAP's single_camera holds within one feature_extractor call, and the registrar makes
+  // one call per photo (colmap_registrar.h, "One camera"): three fern photos (504 x 378) share
+  // one camera row of COLMAP's database, a temple photo (640 x 480) has its own. Read from the
+  // database with SQLite, independently of the registrar.
+  REPHOTO_REQUIRE_DATA("llff_fern/images_8");
+  REPHOTO_REQUIRE_DATA("middlebury_temple_dino/templeSparseRing");
+  ASSERT_EQ(std::system("command -v colmap >/dev/null"), 0) << "install colmap (scripts/install-deps.sh)";
+  ColmapRegistrarOptions co;
+  co.workspace = testing::MakeTempDir() / "colmap";
+  co.bootstrap = 100;  // features and matches only
+  const std::unique_ptr<Registrar> registrar = MakeColmapRegistrar(co);
+  const fs::path fern = testing::SharedDataDir() / "llff_fern" / "images_8";
+  for (const char* n : {"image000.png", "image005.png"}) registrar->Register(fern / n);
+  registrar->Register(testing::SharedDataDir() / "middlebury_temple_dino" / "templeSparseRing" /
+                      "templeSR0001.png");
+  registrar->Register(fern / "image010.png");
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open_v2((co.workspace / "database.db").c_str(), &db, SQLITE_OPEN_READONLY,
+                            nullptr),
+            SQLITE_OK);
+  sqlite3_stmt* query = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db,
+                               "SELECT i.name, c.camera_id, c.width, c.height FROM images i "
+                               "JOIN cameras c ON c.camera_id = i.camera_id ORDER BY i.image_id",
+                               -1, &query, nullptr),
+            SQLITE_OK);
+  std::map<std::string, std::pair<int, int>> camera_of;  // name -> (camera id, width)
+  while (sqlite3_step(query) == SQLITE_ROW)
+    camera_of[reinterpret_cast<const char*>(sqlite3_column_text(query, 0))] = {
+        sqlite3_column_int(query, 1), sqlite3_column_int(query, 2)};
+  sqlite3_finalize(query);
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM cameras", -1, &query, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(query), SQLITE_ROW);
+  const int cameras = sqlite3_column_int(query, 0);
+  sqlite3_finalize(query);
+  sqlite3_close(db);
+  ASSERT_EQ(camera_of.size(), 4u);
+  EXPECT_EQ(cameras, 2);
+  EXPECT_EQ(camera_of["image000.png"].first, camera_of["image005.png"].first);
+  EXPECT_EQ(camera_of["image000.png"].first, camera_of["image010.png"].first);
+  EXPECT_NE(camera_of["templeSR0001.png"].first, camera_of["image000.png"].first);
+  EXPECT_EQ(camera_of["image000.png"].second, 504);
+  EXPECT_EQ(camera_of["templeSR0001.png"].second, 640);
+}
+
 TEST(LiveColmapTest, KnownIntrinsicsAreCheckedWhenRead) {
   ColmapRegistrarOptions co;
   ParseColmapCamera("SIMPLE_RADIAL 800, 320 240,-0.01", &co);
