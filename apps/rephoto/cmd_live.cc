@@ -114,6 +114,8 @@ CommandRunner SetupLive(CLI::App& app) {
     // After kIdleSeconds without a new file the engine may work for the photos it has not
     // placed (LiveSession::Idle), once per pause; an idle exit waits for that.
     constexpr double kIdleSeconds = 2;
+    const double idle_after =
+        args->exit_when_idle > 0 ? std::min(kIdleSeconds, args->exit_when_idle) : kIdleSeconds;
     bool idle_done = false;
     const auto idle_for = [&] {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - last_work).count();
@@ -129,7 +131,7 @@ CommandRunner SetupLive(CLI::App& app) {
           idle_done = false;
         }
         if (session.Tick()) last_work = std::chrono::steady_clock::now();
-        if (!stop && !idle_done && idle_for() >= std::min(kIdleSeconds, args->exit_when_idle > 0 ? args->exit_when_idle : kIdleSeconds)) {
+        if (!stop && !idle_done && idle_for() >= idle_after) {
           idle_done = true;
           if (session.Idle()) last_work = std::chrono::steady_clock::now();
         }

@@ -1,7 +1,6 @@
 #include "rephoto/live/colmap_registrar.h"
 
 #include <fmt/format.h>
-#include <sqlite3.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +14,9 @@
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
 #include "rephoto/core/progress.h"
+#include "rephoto/core/sqlite.h"
 #include "rephoto/scene/colmap.h"
+#include "rephoto/scene/reader_util.h"
 
 namespace rephoto::live {
 namespace fs = std::filesystem;
@@ -259,36 +260,21 @@ class ColmapRegistrar : public Registrar {
   // min_inliers inliers with a photo in `placed` (COLMAP's database, read-only; pair_id =
   // 2147483647 image_id1 + image_id2). A photo of another scene has none: no re-map for it.
   bool UnplacedMatchPlaced(const std::set<std::string>& placed) const {
-    sqlite3* db = nullptr;
-    const auto close = [&db] { sqlite3_close(db); };
-    if (sqlite3_open_v2(Db().c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-      LogWarning(fmt::format("{}: cannot open: {}", Db(), db ? sqlite3_errmsg(db) : "no memory"));
-      close();
-      return false;
+    try {
+      const SqliteConnection db(Db(), SQLITE_OPEN_READONLY);
+      SqliteStatement query(db,
+                            "SELECT a.name, b.name FROM two_view_geometries g "
+                            "JOIN images a ON a.image_id = g.pair_id / 2147483647 "
+                            "JOIN images b ON b.image_id = g.pair_id % 2147483647 WHERE g.rows >= ?");
+      query.Bind(int64_t{o_.min_inliers});
+      while (query.Step())
+        if ((placed.count(query.Text(0)) > 0) != (placed.count(query.Text(1)) > 0)) return true;
+    } catch (const Error& e) {
+      LogWarning(fmt::format("cannot read the matches: {}", e.what()));
     }
-    sqlite3_stmt* query = nullptr;
-    const char* sql =
-        "SELECT a.name, b.name FROM two_view_geometries g "
-        "JOIN images a ON a.image_id = g.pair_id / 2147483647 "
-        "JOIN images b ON b.image_id = g.pair_id % 2147483647 WHERE g.rows >= ?";
-    bool found = false;
-    if (sqlite3_prepare_v2(db, sql, -1, &query, nullptr) == SQLITE_OK &&
-        sqlite3_bind_int(query, 1, o_.min_inliers) == SQLITE_OK) {
-      while (!found && sqlite3_step(query) == SQLITE_ROW) {
-        const auto text = [&](int column) {
-          const unsigned char* t = sqlite3_column_text(query, column);
-          return t ? std::string(reinterpret_cast<const char*>(t)) : std::string();
-        };
-        const bool a = placed.count(text(0)) > 0, b = placed.count(text(1)) > 0;
-        found = a != b;
-      }
-    } else {
-      LogWarning(fmt::format("{}: cannot read the matches: {}", Db(), sqlite3_errmsg(db)));
-    }
-    sqlite3_finalize(query);
-    close();
-    return found;
+    return false;
   }
+
 
   // Matching (colmap_registrar.h, "Matching"). Matches the new photo `name` with every photo
   // before it while there are at most match_all_up_to of them (exhaustive_matcher; *all =
@@ -323,7 +309,6 @@ class ColmapRegistrar : public Registrar {
   // look at the same part of the scene (viewing directions within 60 degrees, nearest centres
   // first), so that point_triangulator makes its tracks from more than the chosen few.
   void MatchAround(const std::string& name) {
-    if (name.find(' ') != std::string::npos) return;  // matched with every photo (MatchNew)
     const std::vector<Placed> placed = AllPlaced();
     for (const Placed& p : placed) {
       if (p.name != name) continue;
@@ -376,62 +361,44 @@ class ColmapRegistrar : public Registrar {
   // database cannot be read (a warning): then every pair is matched.
   std::vector<std::string> ImagesInOrder() const {
     std::vector<std::string> out;
-    sqlite3* db = nullptr;
-    sqlite3_stmt* query = nullptr;
-    if (sqlite3_open_v2(Db().c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK &&
-        sqlite3_prepare_v2(db, "SELECT name FROM images ORDER BY image_id", -1, &query,
-                           nullptr) == SQLITE_OK) {
-      while (sqlite3_step(query) == SQLITE_ROW) {
-        const unsigned char* t = sqlite3_column_text(query, 0);
-        if (t) out.emplace_back(reinterpret_cast<const char*>(t));
-      }
-    } else {
-      LogWarning(fmt::format("{}: cannot read the photos: {}", Db(),
-                             db ? sqlite3_errmsg(db) : "no memory"));
+    try {
+      const SqliteConnection db(Db(), SQLITE_OPEN_READONLY);
+      SqliteStatement query(db, "SELECT name FROM images ORDER BY image_id");
+      while (query.Step()) out.push_back(query.Text(0));
+    } catch (const Error& e) {
+      LogWarning(fmt::format("cannot read the photos: {}", e.what()));
       out.clear();
     }
-    sqlite3_finalize(query);
-    sqlite3_close(db);
     return out;
   }
+
 
   // "One camera" (colmap_registrar.h): the camera COLMAP just made for `name` is replaced by
   // the earliest camera with the same model, size and parameters, if there is one. COLMAP's
   // database, written while no COLMAP process runs (the registrar runs them one at a time); a
   // failure leaves the photo its own camera (a warning).
   void ShareCamera(const std::string& name) const {
-    sqlite3* db = nullptr;
-    if (sqlite3_open_v2(Db().c_str(), &db, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
-      LogWarning(fmt::format("{}: cannot open: {}", Db(), db ? sqlite3_errmsg(db) : "no memory"));
-      sqlite3_close(db);
-      return;
-    }
-    sqlite3_busy_timeout(db, 5000);
-    const char* sql =
-        "UPDATE images SET camera_id = (SELECT MIN(o.camera_id) FROM cameras o, cameras c "
-        "  WHERE c.camera_id = images.camera_id AND o.model = c.model AND o.width = c.width "
-        "  AND o.height = c.height AND o.params = c.params) WHERE name = ?1;"
-        "DELETE FROM cameras WHERE camera_id NOT IN (SELECT camera_id FROM images);";
-    bool ok = sqlite3_exec(db, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) == SQLITE_OK;
-    const char* next = sql;
-    while (ok && *next) {
-      sqlite3_stmt* statement = nullptr;
-      ok = sqlite3_prepare_v2(db, next, -1, &statement, &next) == SQLITE_OK;
-      if (ok && statement) {
-        ok = (sqlite3_bind_parameter_count(statement) == 0 ||
-              sqlite3_bind_text(statement, 1, name.c_str(), -1, SQLITE_TRANSIENT) == SQLITE_OK) &&
-             sqlite3_step(statement) == SQLITE_DONE;
+    try {
+      SqliteConnection db(Db(), SQLITE_OPEN_READWRITE);
+      db.Execute("BEGIN IMMEDIATE");
+      try {
+        SqliteStatement share(
+            db,
+            "UPDATE images SET camera_id = (SELECT MIN(o.camera_id) FROM cameras o, cameras c "
+            "  WHERE c.camera_id = images.camera_id AND o.model = c.model AND o.width = c.width "
+            "  AND o.height = c.height AND o.params = c.params) WHERE name = ?");
+        share.Bind(name).Step();
+        db.Execute("DELETE FROM cameras WHERE camera_id NOT IN (SELECT camera_id FROM images)");
+        db.Execute("COMMIT");
+      } catch (const Error&) {
+        sqlite3_exec(db.get(), "ROLLBACK", nullptr, nullptr, nullptr);
+        throw;
       }
-      sqlite3_finalize(statement);
+    } catch (const Error& e) {
+      LogWarning(fmt::format("cannot give {} the camera of earlier photos: {}", name, e.what()));
     }
-    if (ok) ok = sqlite3_exec(db, "COMMIT", nullptr, nullptr, nullptr) == SQLITE_OK;
-    if (!ok) {
-      LogWarning(fmt::format("{}: cannot give {} the camera of earlier photos: {}", Db(), name,
-                             sqlite3_errmsg(db)));
-      sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
-    }
-    sqlite3_close(db);
   }
+
 
   std::string CameraParams() const {
     std::string out;
@@ -490,16 +457,10 @@ class ColmapRegistrar : public Registrar {
 }  // namespace
 
 void ParseColmapCamera(std::string_view text, ColmapRegistrarOptions* options) {
+  std::string spaced(text);
+  std::replace(spaced.begin(), spaced.end(), ',', ' ');
   std::vector<std::string> fields;
-  std::string field;
-  for (char c : std::string(text) + " ") {
-    if (c == ',' || c == ' ' || c == '\t') {
-      if (!field.empty()) fields.push_back(field);
-      field.clear();
-    } else {
-      field += c;
-    }
-  }
+  for (std::string_view token : scene::SplitTokens(spaced)) fields.emplace_back(token);
   REPHOTO_CHECK_USAGE(!fields.empty(), "--colmap-camera: empty (expected \"MODEL p1,p2,...\")");
   const std::optional<camera::CameraModel> model = camera::ParseCameraModel(fields[0]);
   REPHOTO_CHECK_USAGE(model.has_value(), "--colmap-camera: unknown camera model '{}' (COLMAP's names: PINHOLE, SIMPLE_RADIAL, OPENCV, ...)", fields[0]);

@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
-#include <sqlite3.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -19,6 +18,7 @@
 #include "rephoto/camera/camera.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
+#include "rephoto/core/sqlite.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/live/colmap_registrar.h"
 #include "rephoto/live/demo_capture.h"
@@ -284,16 +284,10 @@ TEST(LiveColmapTest, ChosenPairsPlaceACaptureWithoutMatchingEveryPair) {
   const std::vector<Registrar::Placed> placed = registrar->AllPlaced();
   EXPECT_EQ(placed.size(), 20u);
   // The pairs COLMAP matched (its database).
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open_v2((co.workspace / "database.db").c_str(), &db, SQLITE_OPEN_READONLY,
-                            nullptr),
-            SQLITE_OK);
-  sqlite3_stmt* query = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM matches", -1, &query, nullptr), SQLITE_OK);
-  ASSERT_EQ(sqlite3_step(query), SQLITE_ROW);
-  const int pairs = sqlite3_column_int(query, 0);
-  sqlite3_finalize(query);
-  sqlite3_close(db);
+  const SqliteConnection db(co.workspace / "database.db", SQLITE_OPEN_READONLY);
+  SqliteStatement count(db, "SELECT COUNT(*) FROM matches");
+  ASSERT_TRUE(count.Step());
+  const int pairs = static_cast<int>(count.Int(0));
   std::printf("%d of 190 pairs matched\n", pairs);
   EXPECT_LT(pairs, 150);
   const scene::ColmapModel ref = scene::ReadColmapModel(
@@ -380,26 +374,16 @@ TEST(LiveColmapTest, PhotosOfOneSizeShareOneCamera) {
   registrar->Register(testing::SharedDataDir() / "middlebury_temple_dino" / "templeSparseRing" /
                       "templeSR0001.png");
   registrar->Register(fern / "image010.png");
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open_v2((co.workspace / "database.db").c_str(), &db, SQLITE_OPEN_READONLY,
-                            nullptr),
-            SQLITE_OK);
-  sqlite3_stmt* query = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db,
-                               "SELECT i.name, c.camera_id, c.width, c.height FROM images i "
-                               "JOIN cameras c ON c.camera_id = i.camera_id ORDER BY i.image_id",
-                               -1, &query, nullptr),
-            SQLITE_OK);
+  const SqliteConnection db(co.workspace / "database.db", SQLITE_OPEN_READONLY);
+  SqliteStatement rows(db,
+                       "SELECT i.name, c.camera_id, c.width, c.height FROM images i "
+                       "JOIN cameras c ON c.camera_id = i.camera_id ORDER BY i.image_id");
   std::map<std::string, std::pair<int, int>> camera_of;  // name -> (camera id, width)
-  while (sqlite3_step(query) == SQLITE_ROW)
-    camera_of[reinterpret_cast<const char*>(sqlite3_column_text(query, 0))] = {
-        sqlite3_column_int(query, 1), sqlite3_column_int(query, 2)};
-  sqlite3_finalize(query);
-  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM cameras", -1, &query, nullptr), SQLITE_OK);
-  ASSERT_EQ(sqlite3_step(query), SQLITE_ROW);
-  const int cameras = sqlite3_column_int(query, 0);
-  sqlite3_finalize(query);
-  sqlite3_close(db);
+  while (rows.Step())
+    camera_of[rows.Text(0)] = {static_cast<int>(rows.Int(1)), static_cast<int>(rows.Int(2))};
+  SqliteStatement count(db, "SELECT COUNT(*) FROM cameras");
+  ASSERT_TRUE(count.Step());
+  const int cameras = static_cast<int>(count.Int(0));
   ASSERT_EQ(camera_of.size(), 4u);
   EXPECT_EQ(cameras, 2);
   EXPECT_EQ(camera_of["image000.png"].first, camera_of["image005.png"].first);

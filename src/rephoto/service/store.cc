@@ -9,6 +9,7 @@
 #include <chrono>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/sqlite.h"
 
 namespace rephoto::service {
 namespace {
@@ -114,58 +115,10 @@ double NowSeconds() {
   return duration<double>(system_clock::now().time_since_epoch()).count();
 }
 
-// A prepared statement with positional text/int/real/blob binding; finalised on destruction.
-struct Store::Statement {
-  Statement(Store* store, const std::string& sql) : store(store) {
-    if (sqlite3_prepare_v2(store->db_, sql.c_str(), -1, &stmt, nullptr) != SQLITE_OK) {
-      store->Fail("cannot prepare a statement");
-    }
-  }
-  ~Statement() { sqlite3_finalize(stmt); }
-  Statement& Bind(const std::string& text) {
-    sqlite3_bind_text(stmt, ++index, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
-    return *this;
-  }
-  Statement& Bind(int64_t value) {
-    sqlite3_bind_int64(stmt, ++index, value);
-    return *this;
-  }
-  Statement& Bind(double value) {
-    sqlite3_bind_double(stmt, ++index, value);
-    return *this;
-  }
-  Statement& Bind(const std::vector<unsigned char>& blob) {
-    sqlite3_bind_blob(stmt, ++index, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
-    return *this;
-  }
-  Statement& BindNull() {
-    sqlite3_bind_null(stmt, ++index);
-    return *this;
-  }
-  // True while there is a row.
-  bool Step() {
-    const int rc = sqlite3_step(stmt);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    store->Fail("query failed");
-  }
-  std::string Text(int column) const {
-    const auto* text = sqlite3_column_text(stmt, column);
-    return text ? std::string(reinterpret_cast<const char*>(text),
-                              static_cast<size_t>(sqlite3_column_bytes(stmt, column)))
-                : std::string();
-  }
-  int64_t Int(int column) const { return sqlite3_column_int64(stmt, column); }
-  double Real(int column) const { return sqlite3_column_double(stmt, column); }
-  std::vector<unsigned char> Blob(int column) const {
-    const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(stmt, column));
-    return std::vector<unsigned char>(data, data + sqlite3_column_bytes(stmt, column));
-  }
-  bool IsNull(int column) const { return sqlite3_column_type(stmt, column) == SQLITE_NULL; }
-
-  Store* store;
-  sqlite3_stmt* stmt = nullptr;
-  int index = 0;
+// A prepared statement (core/sqlite.h) whose errors name the store's database.
+struct Store::Statement : SqliteStatement {
+  Statement(Store* store, const std::string& sql)
+      : SqliteStatement(store->db_, sql, store->db_path_.string()) {}
 };
 
 Store::Store(const std::filesystem::path& root) : root_(root), db_path_(root / "benchmark.sqlite") {
@@ -193,18 +146,7 @@ Store::Store(const std::filesystem::path& root) : root_(root), db_path_(root / "
 
 Store::~Store() { sqlite3_close(db_); }
 
-void Store::Fail(const std::string& what) const {
-  ThrowError("{}: {} ({})", db_path_.string(), what, sqlite3_errmsg(db_));
-}
-
-void Store::Execute(const std::string& sql) {
-  char* message = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
-    const std::string text = message ? message : "unknown error";
-    sqlite3_free(message);
-    ThrowError("{}: {} (while running: {})", db_path_.string(), text, sql.substr(0, 60));
-  }
-}
+void Store::Execute(const std::string& sql) { SqliteExecute(db_, sql, db_path_.string()); }
 
 int Store::SchemaVersion() {
   std::lock_guard lock(mutex_);

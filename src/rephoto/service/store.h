@@ -134,7 +134,6 @@ class Store {
   void Migrate();
   std::vector<SubmissionRecord> QuerySubmissions(const std::string& where,
                                                  const std::vector<std::string>& args);
-  [[noreturn]] void Fail(const std::string& what) const;
 
   std::filesystem::path root_;
   std::filesystem::path db_path_;
