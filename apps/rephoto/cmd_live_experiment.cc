@@ -46,8 +46,9 @@ CommandRunner SetupLiveExperiment(CLI::App& app) {
   app.add_option("--stereo-partner", o->plan.stereo_partner_degrees,
                  "Planner, view-space coverage: a photo counts once another lies within this many degrees (0 = always)")
       ->capture_default_str();
-  app.add_flag("--partner-first", o->plan.partner_first,
-               "Planner: while a photo has no stereo partner, the next suggestion is one");
+  app.add_flag("--partner-first,!--no-partner-first", o->plan.partner_first,
+               "Planner: while a photo has no stereo partner, the next suggestion is one (default; "
+               "--no-partner-first turns it off)");
   return [o, out]() {
     live::ClosedLoopOptions options = *o;
     options.work = *out;
