@@ -38,9 +38,9 @@
 // plane holding the most consistent depth points (RANSAC over at most 20 000 of them, 256
 // hypotheses from a fixed seed, inlier distance 0.5 % of the cameras' median distance from c,
 // then the least-squares plane of the inliers, whose inliers are taken again until they no
-// longer change: plane-sweep points of a floor seen at grazing angles err more the farther they
-// are, and one refit of RANSAC's band kept 0.2-0.5 degree of tilt on the demo, the fixed point
-// 0.01-0.1) is the support plane when it holds at least
+// longer change; plane-sweep points of a floor seen at grazing angles err more the farther they
+// are, and one refit of RANSAC's band kept 0.2-0.5 degree of tilt on the demo where the fixed
+// point keeps 0.01-0.1 degree) is the support plane when it holds at least
 // `support_min_fraction` of them, its normal lies within 45 degrees of `up`, and every camera and
 // c are on its upper side. It is kept as a mesh of the cells of a 96 x 96 grid over the extent
 // of all depth points within the inlier distance that hold at least 2 of them (closed by one
