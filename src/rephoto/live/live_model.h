@@ -169,7 +169,7 @@ struct PlanOptions {
   // it is rendered from, and a photo without a close partner gets poor plane-sweep depth (the
   // proxy keeps only multi-view consistent depth), so an isolated photo covers nothing until a
   // partner is taken. 0 = never (surface only). docs/live.md has the measurements.
-  double unseen_exhausted_fraction = 0.12;
+  double unseen_exhausted_fraction = 0.15;  // 0.12 until 2026-11-28 (docs/live.md, closed loop)
   double stereo_partner_degrees = 25;
   // While a photo (or an earlier pick) has no other within stereo_partner_degrees, the next
   // pick is among the candidates within that angle of such a photo (scored as above): a lone
