@@ -59,7 +59,10 @@ def main():
             return state()
 
         registered = lambda s: [n for n, st in s["rows"] if st == "registered"]
-        s = wait_for(lambda s: len(registered(s)) == 3 and all(i["ok"] for i in s["images"]), 30)
+        # The plot's section is shown by its load event, which can run after the image reports
+        # complete: wait for it too.
+        s = wait_for(lambda s: len(registered(s)) == 3 and all(i["ok"] for i in s["images"])
+                     and s["loop"]["shown"], 30)
         check(len(registered(s)) == 3, f"before: expected 3 registered photos, got {s['rows']}")
         check(["notes.txt", "not_an_image"] in s["rows"], f"non-image status missing: {s['rows']}")
         check(s["dots"] == 3, f"before: curve has {s['dots']} completeness points, not 3")
