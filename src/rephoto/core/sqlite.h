@@ -1,4 +1,4 @@
-// Thin RAII wrappers over SQLite's C API, shared by the benchmark's store (service/store.cc) and
+// Thin RAII wrappers over SQLite's C API (connection, transaction, statement), shared by the benchmark's store (service/store.cc) and
 // the reading and writing of COLMAP's database (live/colmap_registrar.cc). Header-only: only a
 // library that includes it links SQLite (SQLite::SQLite3 in its CMake DEPS).
 //
@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rephoto/core/error.h"
@@ -56,6 +57,33 @@ class SqliteConnection {
  private:
   std::string where_;
   sqlite3* db_ = nullptr;
+};
+
+// A write transaction: BEGIN IMMEDIATE on construction (the write lock first, so two writers
+// cannot both read and then write); Commit() ends it. Destroyed without a successful Commit()
+// (an exception, an early return) it rolls back. Statements declared after it are finalised
+// before that rollback.
+class SqliteTransaction {
+ public:
+  SqliteTransaction(sqlite3* db, std::string where) : db_(db), where_(std::move(where)) {
+    SqliteExecute(db_, "BEGIN IMMEDIATE", where_);
+  }
+  explicit SqliteTransaction(const SqliteConnection& db) : SqliteTransaction(db.get(), db.where()) {}
+  ~SqliteTransaction() {
+    if (!committed_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  SqliteTransaction(const SqliteTransaction&) = delete;
+  SqliteTransaction& operator=(const SqliteTransaction&) = delete;
+
+  void Commit() {
+    SqliteExecute(db_, "COMMIT", where_);
+    committed_ = true;
+  }
+
+ private:
+  sqlite3* db_;
+  std::string where_;
+  bool committed_ = false;
 };
 
 // A prepared statement with positional text/int/real/blob binding; finalised on destruction.

@@ -106,7 +106,10 @@ class ColmapRegistrar : public Registrar {
       return r;
     }
     if (!matched_all) {
-      if (Lookup(name).status != Result::kRegistered) {
+      const std::vector<Placed> placed = AllPlaced();
+      const auto self = std::find_if(placed.begin(), placed.end(),
+                                     [&](const Placed& p) { return p.name == name; });
+      if (self == placed.end()) {
         // Not placed with the chosen pairs: all of them, and again.
         LogInfo(fmt::format("COLMAP: {} not placed from the chosen pairs; matching every pair",
                             name));
@@ -115,7 +118,11 @@ class ColmapRegistrar : public Registrar {
           return r;
         }
       } else {
-        MatchAround(name);
+        // Its pairs with the placed photos that look at the same part of the scene (viewing
+        // directions within 60 degrees, nearest centres first), so that point_triangulator
+        // makes its tracks from more than the chosen few.
+        std::string ignored;
+        MatchPairs(name, Nearest(placed, self->cam_from_world, name, o_.match_around), &ignored);
       }
     }
     Run({"point_triangulator", "--database_path", Db(), "--image_path", Images(), "--input_path",
@@ -275,7 +282,6 @@ class ColmapRegistrar : public Registrar {
     return false;
   }
 
-
   // Matching (colmap_registrar.h, "Matching"). Matches the new photo `name` with every photo
   // before it while there are at most match_all_up_to of them (exhaustive_matcher; *all =
   // true); after that with the photos chosen below only (matches_importer; *all = false).
@@ -303,19 +309,6 @@ class ColmapRegistrar : public Registrar {
       for (const std::string& other : Nearest(placed, last->cam_from_world, name, o_.match_recent))
         choose(other);
     return MatchPairs(name, chosen, error);
-  }
-
-  // After the new photo was placed from the chosen pairs: its pairs with the placed photos that
-  // look at the same part of the scene (viewing directions within 60 degrees, nearest centres
-  // first), so that point_triangulator makes its tracks from more than the chosen few.
-  void MatchAround(const std::string& name) {
-    const std::vector<Placed> placed = AllPlaced();
-    for (const Placed& p : placed) {
-      if (p.name != name) continue;
-      std::string error;
-      MatchPairs(name, Nearest(placed, p.cam_from_world, name, o_.match_around), &error);
-      return;
-    }
   }
 
   bool MatchAll(bool* all, std::string* error) {
@@ -372,7 +365,6 @@ class ColmapRegistrar : public Registrar {
     return out;
   }
 
-
   // "One camera" (colmap_registrar.h): the camera COLMAP just made for `name` is replaced by
   // the earliest camera with the same model, size and parameters, if there is one. COLMAP's
   // database, written while no COLMAP process runs (the registrar runs them one at a time); a
@@ -380,25 +372,19 @@ class ColmapRegistrar : public Registrar {
   void ShareCamera(const std::string& name) const {
     try {
       SqliteConnection db(Db(), SQLITE_OPEN_READWRITE);
-      db.Execute("BEGIN IMMEDIATE");
-      try {
-        SqliteStatement share(
-            db,
-            "UPDATE images SET camera_id = (SELECT MIN(o.camera_id) FROM cameras o, cameras c "
-            "  WHERE c.camera_id = images.camera_id AND o.model = c.model AND o.width = c.width "
-            "  AND o.height = c.height AND o.params = c.params) WHERE name = ?");
-        share.Bind(name).Step();
-        db.Execute("DELETE FROM cameras WHERE camera_id NOT IN (SELECT camera_id FROM images)");
-        db.Execute("COMMIT");
-      } catch (const Error&) {
-        sqlite3_exec(db.get(), "ROLLBACK", nullptr, nullptr, nullptr);
-        throw;
-      }
+      SqliteTransaction transaction(db);
+      SqliteStatement share(
+          db,
+          "UPDATE images SET camera_id = (SELECT MIN(o.camera_id) FROM cameras o, cameras c "
+          "  WHERE c.camera_id = images.camera_id AND o.model = c.model AND o.width = c.width "
+          "  AND o.height = c.height AND o.params = c.params) WHERE name = ?");
+      share.Bind(name).Step();
+      db.Execute("DELETE FROM cameras WHERE camera_id NOT IN (SELECT camera_id FROM images)");
+      transaction.Commit();
     } catch (const Error& e) {
       LogWarning(fmt::format("cannot give {} the camera of earlier photos: {}", name, e.what()));
     }
   }
-
 
   std::string CameraParams() const {
     std::string out;

@@ -117,36 +117,23 @@ double NowSeconds() {
 
 // A prepared statement (core/sqlite.h) whose errors name the store's database.
 struct Store::Statement : SqliteStatement {
-  Statement(Store* store, const std::string& sql)
-      : SqliteStatement(store->db_, sql, store->db_path_.string()) {}
+  Statement(Store* store, const std::string& sql) : SqliteStatement(*store->db_, sql) {}
 };
 
 Store::Store(const std::filesystem::path& root) : root_(root), db_path_(root / "benchmark.sqlite") {
   REPHOTO_CHECK(std::filesystem::is_directory(root), "{}: not a folder", root.string());
-  if (sqlite3_open_v2(db_path_.c_str(), &db_,
-                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
-                      nullptr) != SQLITE_OK) {
-    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
-    sqlite3_close(db_);
-    db_ = nullptr;
-    ThrowError("{}: cannot open the database ({})", db_path_.string(), message);
-  }
-  try {
-    sqlite3_busy_timeout(db_, 10000);
-    Execute("PRAGMA journal_mode=WAL");
-    Execute("PRAGMA foreign_keys=ON");
-    Execute("PRAGMA synchronous=NORMAL");
-    Migrate();
-  } catch (...) {
-    sqlite3_close(db_);  // no destructor runs for a constructor that throws
-    db_ = nullptr;
-    throw;
-  }
+  db_ = std::make_unique<SqliteConnection>(
+      db_path_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, 10000);
+  // A throw below closes the connection (db_ is a constructed member).
+  Execute("PRAGMA journal_mode=WAL");
+  Execute("PRAGMA foreign_keys=ON");
+  Execute("PRAGMA synchronous=NORMAL");
+  Migrate();
 }
 
-Store::~Store() { sqlite3_close(db_); }
+Store::~Store() = default;
 
-void Store::Execute(const std::string& sql) { SqliteExecute(db_, sql, db_path_.string()); }
+void Store::Execute(const std::string& sql) { db_->Execute(sql); }
 
 int Store::SchemaVersion() {
   std::lock_guard lock(mutex_);
@@ -159,52 +146,42 @@ void Store::Migrate() {
   const int latest = static_cast<int>(std::size(kMigrations));
   // IMMEDIATE takes the write lock first, so two processes opening a new file do not both
   // apply the first migration.
-  Execute("BEGIN IMMEDIATE");
-  try {
-    int version = 0;
-    {
-      Statement statement(this, "PRAGMA user_version");
-      statement.Step();
-      version = static_cast<int>(statement.Int(0));
-    }
-    REPHOTO_CHECK(
-        version <= latest,
-        "{}: schema version {} is newer than this rephoto knows ({}); use a newer rephoto",
-        db_path_.string(), version, latest);
-    for (int i = version; i < latest; ++i) Execute(kMigrations[i]);
-    if (version < latest) Execute(fmt::format("PRAGMA user_version = {}", latest));
-    Execute("COMMIT");
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
+  SqliteTransaction transaction(*db_);
+  int version = 0;
+  {
+    Statement statement(this, "PRAGMA user_version");
+    statement.Step();
+    version = static_cast<int>(statement.Int(0));
   }
+  REPHOTO_CHECK(
+      version <= latest,
+      "{}: schema version {} is newer than this rephoto knows ({}); use a newer rephoto",
+      db_path_.string(), version, latest);
+  for (int i = version; i < latest; ++i) Execute(kMigrations[i]);
+  if (version < latest) Execute(fmt::format("PRAGMA user_version = {}", latest));
+  transaction.Commit();
 }
 
 int64_t Store::AddDataset(const std::string& name, const std::string& description,
                           const nlohmann::json& info, const std::vector<PublishedFile>& files) {
   std::lock_guard lock(mutex_);
-  Execute("BEGIN IMMEDIATE");
-  try {
-    {
-      Statement exists(this, "SELECT 1 FROM datasets WHERE name = ?");
-      REPHOTO_CHECK(!exists.Bind(name).Step(), "{}: dataset '{}' exists already", db_path_.string(),
-                    name);
-    }
-    Statement insert(this,
-                     "INSERT INTO datasets (name, description, info, created) VALUES (?, ?, ?, ?)");
-    insert.Bind(name).Bind(description).Bind(info.dump()).Bind(NowSeconds()).Step();
-    const int64_t id = sqlite3_last_insert_rowid(db_);
-    for (const PublishedFile& file : files) {
-      Statement add(
-          this, "INSERT INTO files (dataset_id, name, path, mime, size) VALUES (?, ?, ?, ?, ?)");
-      add.Bind(id).Bind(file.name).Bind(file.path).Bind(file.mime).Bind(file.size).Step();
-    }
-    Execute("COMMIT");
-    return id;
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
+  SqliteTransaction transaction(*db_);
+  {
+    Statement exists(this, "SELECT 1 FROM datasets WHERE name = ?");
+    REPHOTO_CHECK(!exists.Bind(name).Step(), "{}: dataset '{}' exists already", db_path_.string(),
+                  name);
   }
+  Statement insert(this,
+                   "INSERT INTO datasets (name, description, info, created) VALUES (?, ?, ?, ?)");
+  insert.Bind(name).Bind(description).Bind(info.dump()).Bind(NowSeconds()).Step();
+  const int64_t id = sqlite3_last_insert_rowid(db_->get());
+  for (const PublishedFile& file : files) {
+    Statement add(
+        this, "INSERT INTO files (dataset_id, name, path, mime, size) VALUES (?, ?, ?, ?, ?)");
+    add.Bind(id).Bind(file.name).Bind(file.path).Bind(file.mime).Bind(file.size).Step();
+  }
+  transaction.Commit();
+  return id;
 }
 
 std::vector<DatasetRecord> Store::Datasets() {
@@ -248,36 +225,31 @@ std::optional<PublishedFile> Store::FindFile(int64_t dataset_id, const std::stri
 std::string Store::AddParticipant(const std::string& name) {
   REPHOTO_CHECK(!name.empty() && name.size() <= 100, "participant name must be 1 to 100 bytes");
   std::lock_guard lock(mutex_);
-  Execute("BEGIN IMMEDIATE");
-  try {
-    {
-      Statement exists(this, "SELECT 1 FROM participants WHERE name = ?");
-      REPHOTO_CHECK(!exists.Bind(name).Step(), "{}: participant '{}' exists already",
-                    db_path_.string(), name);
-    }
-    const std::vector<unsigned char> salt = RandomBytes(16);
-    // The row first (its id is part of the token), then the hash of the whole token.
-    Statement insert(
-        this, "INSERT INTO participants (name, salt, token_hash, created) VALUES (?, ?, ?, ?)");
-    insert.Bind(name).Bind(salt).Bind(std::vector<unsigned char>(32, 0)).Bind(NowSeconds()).Step();
-    const int64_t id = sqlite3_last_insert_rowid(db_);
-    const std::vector<unsigned char> secret = RandomBytes(32);
-    const std::string token = fmt::format("rp{}_{}", id, Hex(secret.data(), secret.size()));
-    Statement update(this, "UPDATE participants SET token_hash = ? WHERE id = ?");
-    update.Bind(TokenHash(salt, token)).Bind(id).Step();
-    Execute("COMMIT");
-    return token;
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
+  SqliteTransaction transaction(*db_);
+  {
+    Statement exists(this, "SELECT 1 FROM participants WHERE name = ?");
+    REPHOTO_CHECK(!exists.Bind(name).Step(), "{}: participant '{}' exists already",
+                  db_path_.string(), name);
   }
+  const std::vector<unsigned char> salt = RandomBytes(16);
+  // The row first (its id is part of the token), then the hash of the whole token.
+  Statement insert(
+      this, "INSERT INTO participants (name, salt, token_hash, created) VALUES (?, ?, ?, ?)");
+  insert.Bind(name).Bind(salt).Bind(std::vector<unsigned char>(32, 0)).Bind(NowSeconds()).Step();
+  const int64_t id = sqlite3_last_insert_rowid(db_->get());
+  const std::vector<unsigned char> secret = RandomBytes(32);
+  const std::string token = fmt::format("rp{}_{}", id, Hex(secret.data(), secret.size()));
+  Statement update(this, "UPDATE participants SET token_hash = ? WHERE id = ?");
+  update.Bind(TokenHash(salt, token)).Bind(id).Step();
+  transaction.Commit();
+  return token;
 }
 
 void Store::RevokeParticipant(const std::string& name) {
   std::lock_guard lock(mutex_);
   Statement statement(this, "UPDATE participants SET revoked = 1 WHERE name = ?");
   statement.Bind(name).Step();
-  REPHOTO_CHECK(sqlite3_changes(db_) == 1, "{}: no participant named '{}'", db_path_.string(),
+  REPHOTO_CHECK(sqlite3_changes(db_->get()) == 1, "{}: no participant named '{}'", db_path_.string(),
                 name);
 }
 
@@ -318,55 +290,43 @@ std::optional<ParticipantRecord> Store::Authenticate(const std::string& token) {
 bool Store::AddSubmission(const SubmissionRecord& record, int max_per_window,
                           double window_seconds) {
   std::lock_guard lock(mutex_);
-  Execute("BEGIN IMMEDIATE");
-  try {
-    const double now = NowSeconds();
-    Statement count(this,
-                    "SELECT COUNT(*) FROM submissions WHERE participant_id = ? AND created > ?");
-    count.Bind(record.participant_id).Bind(now - window_seconds).Step();
-    if (count.Int(0) >= max_per_window) {
-      Execute("ROLLBACK");
-      return false;
-    }
-    Statement insert(
-        this,
-        "INSERT INTO submissions (id, dataset_id, participant_id, method, description, "
-        "status, created, updated) VALUES (?, ?, ?, ?, ?, 'queued', ?, ?)");
-    insert.Bind(record.id)
-        .Bind(record.dataset_id)
-        .Bind(record.participant_id)
-        .Bind(record.method)
-        .Bind(record.description)
-        .Bind(now)
-        .Bind(now)
-        .Step();
-    Execute("COMMIT");
-    return true;
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
+  SqliteTransaction transaction(*db_);
+  const double now = NowSeconds();
+  Statement count(this,
+                  "SELECT COUNT(*) FROM submissions WHERE participant_id = ? AND created > ?");
+  count.Bind(record.participant_id).Bind(now - window_seconds).Step();
+  if (count.Int(0) >= max_per_window) {
+    return false;  // (rolls back)
   }
+  Statement insert(
+      this,
+      "INSERT INTO submissions (id, dataset_id, participant_id, method, description, "
+      "status, created, updated) VALUES (?, ?, ?, ?, ?, 'queued', ?, ?)");
+  insert.Bind(record.id)
+      .Bind(record.dataset_id)
+      .Bind(record.participant_id)
+      .Bind(record.method)
+      .Bind(record.description)
+      .Bind(now)
+      .Bind(now)
+      .Step();
+  transaction.Commit();
+  return true;
 }
 
 bool Store::RecordAttempt(int64_t participant_id, int max_per_window, double window_seconds) {
   std::lock_guard lock(mutex_);
-  Execute("BEGIN IMMEDIATE");
-  try {
-    const double now = NowSeconds();
-    Statement count(this, "SELECT COUNT(*) FROM attempts WHERE participant_id = ? AND created > ?");
-    count.Bind(participant_id).Bind(now - window_seconds).Step();
-    if (count.Int(0) >= max_per_window) {
-      Execute("ROLLBACK");
-      return false;
-    }
-    Statement insert(this, "INSERT INTO attempts (participant_id, created) VALUES (?, ?)");
-    insert.Bind(participant_id).Bind(now).Step();
-    Execute("COMMIT");
-    return true;
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
+  SqliteTransaction transaction(*db_);
+  const double now = NowSeconds();
+  Statement count(this, "SELECT COUNT(*) FROM attempts WHERE participant_id = ? AND created > ?");
+  count.Bind(participant_id).Bind(now - window_seconds).Step();
+  if (count.Int(0) >= max_per_window) {
+    return false;  // (rolls back)
   }
+  Statement insert(this, "INSERT INTO attempts (participant_id, created) VALUES (?, ?)");
+  insert.Bind(participant_id).Bind(now).Step();
+  transaction.Commit();
+  return true;
 }
 
 int Store::RecentAttempts(int64_t participant_id, double window_seconds) {
@@ -400,7 +360,7 @@ void Store::SetStatus(const std::string& id, SubmissionStatus status, const std:
     }
   }
   statement.Bind(NowSeconds()).Bind(id).Step();
-  REPHOTO_CHECK(sqlite3_changes(db_) == 1, "{}: no submission '{}'", db_path_.string(), id);
+  REPHOTO_CHECK(sqlite3_changes(db_->get()) == 1, "{}: no submission '{}'", db_path_.string(), id);
 }
 
 std::vector<SubmissionRecord> Store::QuerySubmissions(const std::string& where,
@@ -472,7 +432,7 @@ void Store::SetDatasetInfo(const std::string& name, const nlohmann::json& info) 
   std::lock_guard lock(mutex_);
   Statement statement(this, "UPDATE datasets SET info = ? WHERE name = ?");
   statement.Bind(info.dump()).Bind(name).Step();
-  REPHOTO_CHECK(sqlite3_changes(db_) == 1, "{}: no dataset '{}'", db_path_.string(), name);
+  REPHOTO_CHECK(sqlite3_changes(db_->get()) == 1, "{}: no dataset '{}'", db_path_.string(), name);
 }
 
 }  // namespace rephoto::service

@@ -27,7 +27,9 @@
 #include <string>
 #include <vector>
 
-struct sqlite3;
+namespace rephoto {
+class SqliteConnection;
+}
 
 namespace rephoto::service {
 
@@ -137,7 +139,7 @@ class Store {
 
   std::filesystem::path root_;
   std::filesystem::path db_path_;
-  sqlite3* db_ = nullptr;
+  std::unique_ptr<SqliteConnection> db_;
   std::mutex mutex_;
 };
 
