@@ -42,11 +42,6 @@ CameraRays::CameraRays(const camera::Camera& camera) : camera_(camera) {
   });
 }
 
-bool CameraRays::Matches(const camera::Camera& camera) const {
-  return camera.model == camera_.model && camera.width == camera_.width &&
-         camera.height == camera_.height && camera.params == camera_.params;
-}
-
 std::shared_ptr<const CameraRays> SharedCameraRays(const camera::Camera& camera) {
   static RecentCache<camera::Camera, CameraRays> cache(4);
   return cache.Get(camera, [&] { return CameraRays(camera); });

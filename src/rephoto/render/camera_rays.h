@@ -32,8 +32,6 @@ class CameraRays {
   const camera::Camera& camera() const { return camera_; }
   int width() const { return camera_.width; }
   int height() const { return camera_.height; }
-  // True when `camera` has exactly these intrinsics (model, size, parameters).
-  bool Matches(const camera::Camera& camera) const;
 
   // The ray through pixel position (px, py), pixel-corner convention, 0 <= px <= width,
   // 0 <= py <= height. False when the camera cannot unproject there.
