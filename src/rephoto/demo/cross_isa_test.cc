@@ -117,7 +117,9 @@ TEST(CrossIsa, SmallDemoGivesTheSameResultsOnEveryPath) {
       EXPECT_TRUE(ReadBytes(path) == ReadBytes(files.at(name))) << name << " differs";
     }
   }
-  if (isas.size() > 1) EXPECT_GT(images, 100u);
+  // Every compared path wrote and compared its images (100 PNG/EXR per path at this size). The
+  // number of paths depends on the CPU: 3 with AVX-512, 2 on an AVX2 machine, 1 without AVX2.
+  if (isas.size() > 1) EXPECT_GE(images, 100u * (isas.size() - 1));
 }
 
 }  // namespace
