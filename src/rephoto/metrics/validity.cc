@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "rephoto/core/error.h"
@@ -18,8 +19,7 @@ inline float Value(float v) { return v; }
 inline float Value(uint8_t v) { return static_cast<float>(v) / 255.f; }
 
 template <typename T>
-Mask PhotoValidityOf(const ImageT<T>& photo, const Mask& user_mask,
-                     const ExposureOptions& options) {
+void CheckPhotoAndMask(const ImageT<T>& photo, const Mask& user_mask) {
   REPHOTO_CHECK(photo.channels() >= 1, "PhotoValidity: photo has no channels");
   if (!user_mask.empty()) {
     REPHOTO_CHECK(user_mask.SameSize(photo) && user_mask.channels() == 1,
@@ -28,6 +28,12 @@ Mask PhotoValidityOf(const ImageT<T>& photo, const Mask& user_mask,
                   user_mask.width(), user_mask.height(), user_mask.channels(), photo.width(),
                   photo.height());
   }
+}
+
+template <typename T>
+Mask PhotoValidityOf(const ImageT<T>& photo, const Mask& user_mask,
+                     const ExposureOptions& options) {
+  CheckPhotoAndMask(photo, user_mask);
   const int channels = photo.channels();
   // Grey (1) and grey+alpha (2) images have one colour channel; otherwise the first three.
   const int colour = channels <= 2 ? 1 : 3;
@@ -49,6 +55,46 @@ Mask PhotoValidityOf(const ImageT<T>& photo, const Mask& user_mask,
         }
         out[x] = ok ? 1 : 0;
       }
+    }
+  });
+  return valid;
+}
+
+// 8-bit photos: k / 255.f is non-decreasing in k, so the values k with dark < k / 255.f <
+// saturated (the float rule above, evaluated for all 256) form one interval [lo, hi], and a
+// sample passes exactly when it lies in it; the loop is then integer and branch-free (the
+// float rule per sample, with its division and short-circuit, was 7 % of a 12 MP `compare`).
+Mask PhotoValidity8(const Image8& photo, const Mask& user_mask, const ExposureOptions& options) {
+  int lo = 256, hi = -1;
+  for (int k = 0; k < 256; ++k) {
+    const float v = Value(static_cast<uint8_t>(k));
+    if (v > options.dark_threshold && v < options.saturated_threshold) {
+      lo = std::min(lo, k);
+      hi = std::max(hi, k);
+    }
+  }
+  const int channels = photo.channels();
+  const int colour = channels <= 2 ? 1 : 3;
+  const int width = photo.width();
+  Mask valid(width, photo.height(), 1, 0);
+  if (hi < lo) return valid;  // no 8-bit value is well exposed
+  const uint8_t base = static_cast<uint8_t>(lo), span = static_cast<uint8_t>(hi - lo);
+  ParallelFor(0, photo.height(), kRowGrain, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      const uint8_t* row = photo.row(static_cast<int>(y));
+      uint8_t* out = valid.row(static_cast<int>(y));
+      const uint8_t* user = user_mask.empty() ? nullptr : user_mask.row(static_cast<int>(y));
+      auto in = [&](uint8_t v) { return static_cast<uint8_t>(v - base) <= span; };
+      if (colour == 3) {
+        for (int x = 0; x < width; ++x) {
+          const uint8_t* px = row + static_cast<size_t>(x) * channels;
+          out[x] = in(px[0]) & in(px[1]) & in(px[2]);
+        }
+      } else {
+        for (int x = 0; x < width; ++x) out[x] = in(row[static_cast<size_t>(x) * channels]);
+      }
+      if (user != nullptr)
+        for (int x = 0; x < width; ++x) out[x] &= user[x] != 0;
     }
   });
   return valid;
@@ -77,6 +123,22 @@ Mask RephotoValidityOf(const ImageT<T>& rephoto, const Mask& explicit_mask) {
     for (int64_t y = y0; y < y1; ++y) {
       const T* row = rephoto.row(static_cast<int>(y));
       uint8_t* out = valid.row(static_cast<int>(y));
+      if constexpr (std::is_same_v<T, uint8_t>) {
+        // k / 255.f > 0 exactly when k > 0, and != 0 exactly when k != 0: integer and
+        // branch-free (the same mask as the float rule below).
+        if (has_alpha) {
+          for (int x = 0; x < width; ++x)
+            out[x] = row[static_cast<size_t>(x) * channels + channels - 1] != 0;
+        } else if (colour == 3) {
+          for (int x = 0; x < width; ++x) {
+            const uint8_t* px = row + static_cast<size_t>(x) * channels;
+            out[x] = (px[0] | px[1] | px[2]) != 0;
+          }
+        } else {
+          for (int x = 0; x < width; ++x) out[x] = row[x] != 0;
+        }
+        continue;
+      }
       for (int x = 0; x < width; ++x) {
         const T* px = row + static_cast<size_t>(x) * channels;
         bool ok;
@@ -99,7 +161,8 @@ Mask PhotoValidity(const Image& photo, const Mask& user_mask, const ExposureOpti
   return PhotoValidityOf(photo, user_mask, options);
 }
 Mask PhotoValidity(const Image8& photo, const Mask& user_mask, const ExposureOptions& options) {
-  return PhotoValidityOf(photo, user_mask, options);
+  CheckPhotoAndMask(photo, user_mask);
+  return PhotoValidity8(photo, user_mask, options);
 }
 Mask RephotoValidity(const Image& rephoto, const Mask& explicit_mask) {
   return RephotoValidityOf(rephoto, explicit_mask);

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "rephoto/core/error.h"
 #include "rephoto/testing/testing.h"
@@ -46,6 +47,61 @@ TEST(Validity, RephotoAlphaBlackAndExplicit) {
   Mask ve = RephotoValidity(rgb, explicit_mask);
   EXPECT_EQ(ve.at(0, 0), 1);
   EXPECT_EQ(ve.at(1, 0), 0);
+}
+
+// The 8-bit masks against the rules written out here per sample (SPEC: a photo pixel is valid
+// when every colour channel v / 255 lies strictly between the thresholds and the user mask is
+// set; a rendering pixel when its alpha is > 0, or without alpha when a channel is not 0), for
+// every channel count, thresholds on, between and beyond the 8-bit values, and every value.
+TEST(Validity, EightBitMasksFollowTheRuleForEveryValue) {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> byte(0, 255), coin(0, 3);
+  const float thresholds[][2] = {{0.f, 1.f},           {10 / 255.f, 245 / 255.f},
+                                 {0.0391f, 0.9609f},  {-1.f, 2.f},
+                                 {0.5f, 0.5f},        {254 / 255.f, 2.f},
+                                 {NAN, 1.f},          {100 / 255.f, 101 / 255.f}};
+  for (int channels = 1; channels <= 4; ++channels) {
+    Image8 image(300, 7, channels);
+    for (size_t i = 0; i < image.size(); ++i) image.data()[i] = static_cast<uint8_t>(byte(rng));
+    // Every value in every channel at least once, and pure black pixels.
+    for (int x = 0; x < 256; ++x)
+      for (int c = 0; c < channels; ++c) image.at(x, 0, c) = static_cast<uint8_t>(x);
+    for (int x = 0; x < 20; ++x)
+      for (int c = 0; c < channels; ++c) image.at(x, 1, c) = 0;
+    Mask user(300, 7, 1);
+    for (size_t i = 0; i < user.size(); ++i) user.data()[i] = coin(rng) == 0 ? 0 : 255;
+    const int colour = channels <= 2 ? 1 : 3;
+    for (const auto& t : thresholds) {
+      ExposureOptions o;
+      o.dark_threshold = t[0];
+      o.saturated_threshold = t[1];
+      for (const Mask* m : std::vector<const Mask*>{nullptr, &user}) {
+        const Mask got = PhotoValidity(image, m ? *m : Mask(), o);
+        for (int y = 0; y < 7; ++y)
+          for (int x = 0; x < 300; ++x) {
+            bool ok = m == nullptr || m->at(x, y) != 0;
+            for (int c = 0; c < colour; ++c) {
+              const float v = static_cast<float>(image.at(x, y, c)) / 255.f;
+              if (!(v > o.dark_threshold && v < o.saturated_threshold)) ok = false;
+            }
+            ASSERT_EQ(got.at(x, y), ok ? 1 : 0)
+                << channels << " channels, thresholds " << t[0] << " " << t[1] << " at " << x;
+          }
+      }
+    }
+    const Mask got = RephotoValidity(image);
+    const bool alpha = channels == 2 || channels == 4;
+    for (int y = 0; y < 7; ++y)
+      for (int x = 0; x < 300; ++x) {
+        bool ok = false;
+        if (alpha) {
+          ok = image.at(x, y, channels - 1) > 0;
+        } else {
+          for (int c = 0; c < channels; ++c) ok = ok || image.at(x, y, c) != 0;
+        }
+        ASSERT_EQ(got.at(x, y), ok ? 1 : 0) << channels << " channels at " << x << "," << y;
+      }
+  }
 }
 
 TEST(Validity, WindowValidityMatchesNaiveLoop) {
