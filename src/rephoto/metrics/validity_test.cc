@@ -107,8 +107,8 @@ TEST(Validity, EightBitMasksFollowTheRuleForEveryValue) {
 TEST(Validity, WindowValidityMatchesNaiveLoop) {
   auto rng = testing::MakeRng();
   std::bernoulli_distribution keep(0.97);
-  for (int window : {1, 3, 9}) {
-    Mask valid(37, 29, 1);
+  for (int window : {1, 3, 5, 7, 9, 11, 15, 17, 31, 33, 37, 39}) {
+    Mask valid(37, 29 + window, 1);
     for (size_t i = 0; i < valid.size(); ++i) valid.data()[i] = keep(rng);
     const Mask got = WindowValidity(valid, window);
     const int r = window / 2;
