@@ -46,6 +46,9 @@ class ColmapRegistrar : public Registrar {
     Result r;
     fs::create_directories(o_.workspace / "images");
     fs::create_directories(o_.workspace / "sparse" / "0");
+    // The model as it is before this photo, read once: nothing below changes it before
+    // image_registrator or the mapper runs.
+    const std::vector<Placed> before = AllPlaced();
     if (!fs::exists(image)) {
       LinkOrCopyFileAtomically(photo, image);
       ++added_;
@@ -63,7 +66,7 @@ class ColmapRegistrar : public Registrar {
         return r;
       }
       ShareCamera(name);
-      if (!MatchNew(name, &matched_all, &error)) {
+      if (!MatchNew(name, before, &matched_all, &error)) {
         r.message = error;
         return r;
       }
@@ -95,7 +98,7 @@ class ColmapRegistrar : public Registrar {
         fs::rename(tmp / "0" / f, Model() / f);
       return Lookup(name);
     }
-    if (Result placed = Lookup(name); placed.status == Result::kRegistered) return placed;
+    if (Result placed = Find(before, name); placed.status == Result::kRegistered) return placed;
     const auto registrator = [&] {
       return Run(WithThresholds({"image_registrator", "--database_path", Db(), "--input_path",
                                  Model().string(), "--output_path", Model().string()}),
@@ -152,16 +155,7 @@ class ColmapRegistrar : public Registrar {
       r.status = Result::kDeferred;
       return r;
     }
-    for (Placed& p : AllPlaced()) {
-      if (p.name != name) continue;
-      r.status = Result::kRegistered;
-      r.camera = std::move(p.camera);
-      r.cam_from_world = p.cam_from_world;
-      return r;
-    }
-    r.status = Result::kFailed;
-    r.message = "not in the COLMAP model";
-    return r;
+    return Find(AllPlaced(), name);
   }
 
   // The model's cameras and images only (COLMAP writes it binary here): the points, the
@@ -172,6 +166,21 @@ class ColmapRegistrar : public Registrar {
   }
 
  private:
+  // `name` among the placed photos: registered with its camera and pose, else failed.
+  static Result Find(const std::vector<Placed>& placed, const std::string& name) {
+    Result r;
+    for (const Placed& p : placed) {
+      if (p.name != name) continue;
+      r.status = Result::kRegistered;
+      r.camera = p.camera;
+      r.cam_from_world = p.cam_from_world;
+      return r;
+    }
+    r.status = Result::kFailed;
+    r.message = "not in the COLMAP model";
+    return r;
+  }
+
   std::vector<Placed> PlacedIn(const fs::path& model) const {
     std::vector<Placed> out;
     auto open = [](const fs::path& path) {
@@ -285,7 +294,8 @@ class ColmapRegistrar : public Registrar {
   // Matching (colmap_registrar.h, "Matching"). Matches the new photo `name` with every photo
   // before it while there are at most match_all_up_to of them (exhaustive_matcher; *all =
   // true); after that with the photos chosen below only (matches_importer; *all = false).
-  bool MatchNew(const std::string& name, bool* all, std::string* error) {
+  bool MatchNew(const std::string& name, const std::vector<Placed>& placed, bool* all,
+                std::string* error) {
     const std::vector<std::string> order = ImagesInOrder();
     // COLMAP's pair list separates the two names by a space: a name with one takes every pair.
     *all = static_cast<int>(order.size()) <= o_.match_all_up_to + 1 ||
@@ -300,7 +310,6 @@ class ColmapRegistrar : public Registrar {
     for (size_t i = order.size(); i-- > 0 && chosen.size() < static_cast<size_t>(o_.match_recent);)
       choose(order[i]);
     // The placed photos nearest to the last placed one (where the photographer was last placed).
-    const std::vector<Placed> placed = AllPlaced();
     const Placed* last = nullptr;
     for (auto it = order.rbegin(); it != order.rend() && !last; ++it)
       for (const Placed& p : placed)
