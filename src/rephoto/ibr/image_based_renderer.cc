@@ -126,6 +126,8 @@ void ValidateOptions(const ImageBasedOptions& o) {
   REPHOTO_CHECK(o.depth_tolerance > 0 && o.depth_tolerance < 1,
                 "image-based rendering: depth_tolerance {} not in (0, 1)", o.depth_tolerance);
   REPHOTO_CHECK(o.depth_penalty >= 0, "image-based rendering: depth_penalty must be >= 0");
+  REPHOTO_CHECK(o.resolution_penalty >= 0,
+                "image-based rendering: resolution_penalty must be >= 0");
   REPHOTO_CHECK(o.proxy_grid_spacing >= 1,
                 "image-based rendering: proxy_grid_spacing must be >= 1");
   REPHOTO_CHECK(o.proxy_edge_angle >= 0 && o.proxy_edge_angle < 90,
@@ -730,6 +732,40 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
   const float tolerance = static_cast<float>(options.depth_tolerance);
   const float depth_penalty = static_cast<float>(options.depth_penalty);
   const float epsilon = static_cast<float>(options.epipole_epsilon);
+  const float resolution_penalty = static_cast<float>(options.resolution_penalty);
+  // World point of pixel (x, y) at depth zz (false where the pixel has no ray).
+  auto unproject = [&](int x, int y, float zz, Eigen::Vector3f* P) {
+    float xn, yn;
+    if (!rays.Ray(x + 0.5f, y + 0.5f, &xn, &yn)) return false;
+    *P = origin + world_from_cam * Eigen::Vector3f(xn * zz, yn * zz, zz);
+    return true;
+  };
+  // dX along one image axis at (x, y) (header, step 3): the central difference, or the one-sided
+  // one when one neighbour is missing or beyond 10 * depth_tolerance; false when neither is.
+  const float neighbour_tolerance = 10 * tolerance;
+  auto derivative = [&](int x, int y, int dx, int dy, float z, const Eigen::Vector3f& X,
+                        Eigen::Vector3f* d) {
+    Eigen::Vector3f P[2];
+    bool ok[2];
+    for (int s = 0; s < 2; ++s) {
+      const int nx = x + (s ? dx : -dx), ny = y + (s ? dy : -dy);
+      ok[s] = false;
+      if (nx < 0 || ny < 0 || nx >= width || ny >= height) continue;
+      const float zn = depth.at(nx, ny);
+      if (!(std::abs(zn - z) <= neighbour_tolerance * z)) continue;
+      ok[s] = unproject(nx, ny, zn, &P[s]);
+    }
+    if (ok[0] && ok[1]) {
+      *d = 0.5f * (P[1] - P[0]);
+    } else if (ok[1]) {
+      *d = P[1] - X;
+    } else if (ok[0]) {
+      *d = X - P[0];
+    } else {
+      return false;
+    }
+    return true;
+  };
 
   // Candidate views for this novel view (RankViews at the median depth of the view).
   const std::vector<int> ranked = RankViews(views, pose, MedianDepth(depth, typical_depth));
@@ -765,6 +801,17 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
         if (!std::isfinite(z) || !rays.Ray(x + 0.5f, y + 0.5f, &xn, &yn)) continue;
         const Eigen::Vector3f X = origin + world_from_cam * Eigen::Vector3f(xn * z, yn * z, z);
         const Eigen::Vector3f to_novel = (origin - X).normalized();
+        // The novel pixel's footprint and the surface normal (resolution penalty only).
+        Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+        float novel_area = 0;
+        if (resolution_penalty > 0) {
+          Eigen::Vector3f dx, dy;
+          if (derivative(x, y, 1, 0, z, X, &dx) && derivative(x, y, 0, 1, z, X, &dy)) {
+            normal = dx.cross(dy);
+            novel_area = normal.norm();
+            if (novel_area > 0) normal /= novel_area;
+          }
+        }
         for (int i = 0; i < m; ++i) {
           const Eigen::Vector3f d = centers[i] - X;
           key[i] = -to_novel.dot(d) / d.norm();
@@ -812,6 +859,15 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
           if (!(depth_error <= limit)) continue;
           Accepted a;
           a.penalty = angle + depth_penalty * (depth_error / limit);
+          if (novel_area > 0) {
+            const Eigen::Vector3f ray = v.center - X;
+            const float distance = ray.norm();
+            // Edge-on (cosine 0) the footprint is unbounded; 1e-3 keeps the penalty finite
+            // (at most about 10 doublings more than at 45 degrees).
+            const float cosine = std::max(1e-3f, std::abs(normal.dot(ray)) / distance);
+            const float area = zi * zi * zi / (v.fx * v.fy * distance * cosine);
+            if (area > novel_area) a.penalty += resolution_penalty * std::log2(area / novel_area);
+          }
           if (count == k_best + 1 && a.penalty >= accepted[k_best].penalty) continue;
           if (smooth) {
             v.Bilinear(u, w, a.rgb);

@@ -33,6 +33,15 @@
 //    (Buehler's angular penalty) and e_i = |D - z_i| / (depth_tolerance * z_i) in [0, 1] the
 //    depth-consistency penalty (the role of the TS3 term in the paper: a view whose own
 //    geometry disagrees with the rendered surface is trusted less; 0 for an exact proxy).
+//    With resolution_penalty r > 0 (off by default) a third term r * max(0, log2(A_i / A)):
+//    A_i is the surface area one pixel of training photo i covers at X (z_i^3 / (fx_i fy_i
+//    |X - C_i| |cos t_i|), t_i the angle between the surface normal and the ray to C_i; exact
+//    for pinhole cameras), A the area one novel pixel covers (|dX/dx x dX/dy| from the novel
+//    depth of the neighbouring pixels, whose cross product is also the normal). A photo that
+//    sees the surface at a grazing angle or from much farther away samples it coarser than the
+//    novel view and is trusted less (Buehler's resolution penalty, with the surface's slant).
+//    The term is left out where the novel depth has no usable neighbour in x or in y (a
+//    neighbour counts when its depth is within 10 * depth_tolerance of the pixel's).
 // 4. The k_best candidates with the smallest penalties are fused. Weights follow Buehler's
 //    k-nearest blending, w_i = (1 - p_i / p_th) / (p_i + epipole_epsilon), p_th = the penalty
 //    of the (k_best+1)-th candidate (twice the largest penalty when there are at most k_best),
@@ -95,6 +104,7 @@ struct ImageBasedOptions {
   double epipole_epsilon = 0.002;  // radians (about 0.1 degrees), > 0
   double depth_tolerance = 0.02;   // relative depth agreement for visibility (> 0)
   double depth_penalty = 0.1;      // radians of penalty for a full-tolerance depth mismatch
+  double resolution_penalty = 0;   // radians per doubling of the pixel footprint (step 3); >= 0
   // IBR proxies.
   double proxy_grid_spacing = 4;  // photo pixels between proxy mesh vertices (>= 1)
   double proxy_edge_angle = 5;    // degrees; flatter proxy triangles are cut (occlusion edges)

@@ -304,6 +304,72 @@ TEST(ImageBasedRendererFusion, NearerViewWinsAndEpipoleIsConsistent) {
   EXPECT_NEAR(centre_value(25), 0.8f, 1e-6);
 }
 
+// The resolution penalty (header, step 3) on the same plane, with the closed form written out
+// here: the novel camera 60 degrees from the plane's normal, photo a at 80 degrees (20 from the
+// novel camera, but grazing: 10 degrees above the plane) and photo b at 20 degrees (40 from the
+// novel camera, steep). With k_best = 1 the pixel takes the colour of the smaller penalty. A
+// pinhole pixel covers z^3 / (fx fy |X - C| |cos t|) of the plane, so a's penalty grows by
+// r * log2(A_a / A_novel) and b's not at all (it samples the plane finer than the novel view):
+// below the r where the two penalties meet the pixel is a's, above it b's.
+TEST(ImageBasedRendererFusion, ResolutionPenaltyPrefersTheViewThatSeesTheSurfaceSteeply) {
+  mesh::Mesh plane;  // z = 0, [-50, 50]^2, facing +z
+  plane.positions = {{-50, -50, 0}, {50, -50, 0}, {50, 50, 0}, {-50, 50, 0}};
+  plane.faces = {{0, 1, 2}, {0, 2, 3}};
+  const camera::Camera camera{camera::CameraModel::kPinhole, 64, 48, {60, 60, 32, 24}};
+  auto pose_at = [](double degrees) {
+    const double a = degrees * M_PI / 180;
+    const Eigen::Vector3d centre(4 * std::sin(a), 0, 4 * std::cos(a));
+    const Eigen::Vector3d forward = -centre.normalized();
+    const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
+    camera::Pose pose;
+    pose.rotation.row(0) = right.transpose();
+    pose.rotation.row(1) = forward.cross(right).transpose();
+    pose.rotation.row(2) = forward.transpose();
+    pose.translation = -pose.rotation * centre;
+    return pose;
+  };
+  const camera::Pose novel = pose_at(60), pose_a = pose_at(80), pose_b = pose_at(20);
+  // The plane point of the novel camera's pixel (32, 24) and the closed-form penalties.
+  const Eigen::Vector3d ray = novel.rotation.transpose() * Eigen::Vector3d(0.5 / 60, 0.5 / 60, 1);
+  const Eigen::Vector3d X = novel.Center() - novel.Center().z() / ray.z() * ray;
+  auto area = [&](const camera::Pose& pose) {
+    const Eigen::Vector3d to = pose.Center() - X;
+    const double z = (pose.rotation * X + pose.translation).z();
+    return z * z * z / (60.0 * 60.0 * to.norm() * std::abs(to.z() / to.norm()));
+  };
+  auto angle = [&](const camera::Pose& pose) {
+    return std::acos((pose.Center() - X).normalized().dot((novel.Center() - X).normalized()));
+  };
+  const double log_ratio = std::log2(area(pose_a) / area(novel));
+  ASSERT_GT(log_ratio, 1.4);                   // cos 60 / cos 80 = 2.9: 1.53 doublings
+  ASSERT_LT(area(pose_b), area(novel));        // b: no resolution term
+  const double flip = (angle(pose_b) - angle(pose_a)) / log_ratio;  // about 0.23
+  EXPECT_NEAR(flip, (40 - 20) * M_PI / 180 / std::log2(std::cos(M_PI / 3) / std::cos(4 * M_PI / 9)),
+              0.01);
+
+  const auto dir = rephoto::testing::MakeTempDir();
+  io::WritePng(dir / "a.png", Image(64, 48, 3, 0.2f));
+  io::WritePng(dir / "b.png", Image(64, 48, 3, 0.8f));
+  const std::vector<TrainingView> training = {{"a", camera, pose_a, dir / "a.png", {}},
+                                              {"b", camera, pose_b, dir / "b.png", {}}};
+  auto centre_value = [&](double resolution_penalty) {
+    ImageBasedOptions options;
+    options.k_best = 1;
+    options.resolution_penalty = resolution_penalty;
+    const render::Rephoto r = ImageBasedRenderer::Vdt(plane, training, options).Render(camera, novel);
+    EXPECT_EQ(r.color.at(32, 24, 3), 1.f);
+    return r.color.at(32, 24, 0);
+  };
+  EXPECT_NEAR(centre_value(0), 0.2f, 1e-6);  // off: the smaller angle wins
+  EXPECT_NEAR(centre_value(0.97 * flip), 0.2f, 1e-6);
+  EXPECT_NEAR(centre_value(1.03 * flip), 0.8f, 1e-6);
+  EXPECT_NEAR(centre_value(1.0), 0.8f, 1e-6);
+
+  ImageBasedOptions bad;
+  bad.resolution_penalty = -0.1;
+  EXPECT_THROW(ImageBasedRenderer::Vdt(plane, training, bad), Error);
+}
+
 TEST_F(ImageBasedRendererTest, BadInputThrowsNamingTheFile) {
   std::vector<TrainingView> training = {demo_->Training(1)};
   training[0].photo = "/nonexistent/photo.png";
