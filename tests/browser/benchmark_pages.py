@@ -34,11 +34,16 @@ class Browser:
         and viewport size, when given. `timeout`: seconds a DevTools call may take."""
         self.profile = tempfile.mkdtemp(prefix="rephoto-chromium-")
         size = [f"--window-size={width},{height}"] if width else []
+        # Chromium's own temporary folders (org.chromium.Chromium.*) go inside the profile,
+        # which close() removes; in $TMPDIR they stayed behind after every run.
+        scratch = os.path.join(self.profile, "tmp")
+        os.mkdir(scratch)
         self.process = subprocess.Popen(
             [chromium, "--headless", "--no-sandbox", *flags, *size, "--no-first-run",
              "--no-default-browser-check", "--disable-extensions", "--remote-debugging-port=0",
              "--user-data-dir=" + self.profile, "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            env={**os.environ, "TMPDIR": scratch})
         self.url = ""
         port_file = os.path.join(self.profile, "DevToolsActivePort")
         deadline = time.time() + 60

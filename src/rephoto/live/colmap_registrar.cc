@@ -428,7 +428,18 @@ class ColmapRegistrar : public Registrar {
   }
 
   bool Run(std::vector<std::string> args, std::string* error) {
-    std::vector<std::string> argv = {"timeout", "-k", "10", fmt::format("{}", o_.timeout_seconds),
+    // COLMAP's glog writes a log file per run of mapper, image_registrator, ... into /tmp
+    // unless told otherwise (about 6 per photo, left behind for good); they go to W/logs, where
+    // a failed registration can be looked into and which goes with the run folder.
+    const fs::path logs = o_.workspace / "logs";
+    std::error_code ec;
+    fs::create_directories(logs, ec);
+    std::vector<std::string> argv = {"env",
+                                     "GLOG_log_dir=" + logs.string(),
+                                     "timeout",
+                                     "-k",
+                                     "10",
+                                     fmt::format("{}", o_.timeout_seconds),
                                      o_.colmap};
     argv.insert(argv.end(), args.begin(), args.end());
     const cluster::ProgramOutput out = cluster::RunProgram(argv);

@@ -1,12 +1,14 @@
 // Registering photos without a pose sidecar with COLMAP 3.8 (Debian `colmap`, CPU SIFT), driven
 // as subprocesses (cluster::RunProgram: own process group, stdin /dev/null), each under
-// coreutils `timeout` (`timeout_seconds`, then SIGKILL 10 s later), QT_QPA_PLATFORM=offscreen.
+// coreutils `timeout` (`timeout_seconds`, then SIGKILL 10 s later), QT_QPA_PLATFORM=offscreen,
+// COLMAP's own log files (glog) in W/logs instead of /tmp.
 //
 // Workspace W (inside the run folder, so resume keeps it):
 //   W/images/<name>   hard links (or copies) of the photos added so far
 //   W/database.db     COLMAP's database: one camera shared by all photos of one size and
 //                     focal prior (see "One camera" below)
 //   W/sparse/0        the model (binary)
+//   W/logs/           COLMAP's log files (colmap.<host>.<user>.log.INFO.<time>.<pid>)
 // Register(photo):
 //   1. feature_extractor on the new image only (--image_list_path), into the database;
 //   2. matching ("Matching" below);

@@ -10,7 +10,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -233,10 +235,24 @@ TEST(LiveColmapTest, EveryPhotoOfASparseRingRegisters) {
   ASSERT_EQ(truth.size(), 16u);
   ColmapRegistrarOptions co;
   co.workspace = testing::MakeTempDir() / "colmap";
+  // COLMAP's log files (glog: colmap.<host>.<user>.log.<level>.<time>.<pid>, in $TMPDIR or
+  // /tmp unless GLOG_log_dir is set) go to the workspace, none to the temporary folders.
+  auto colmap_logs = [](const fs::path& dir) {
+    std::set<std::string> found;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().filename().string().starts_with("colmap.")) found.insert(it->path().string());
+    return found;
+  };
+  const std::set<std::string> tmp_before = colmap_logs("/tmp"),
+                              tmpdir_before = colmap_logs(fs::temp_directory_path());
   const std::unique_ptr<Registrar> registrar = MakeColmapRegistrar(co);
   std::vector<std::string> names;
   for (int k = 0; k < 16; ++k) names.push_back(fmt::format("templeSR{:04d}.png", (k + 4) % 16 + 1));
   for (const std::string& n : names) registrar->Register(images / n);
+  EXPECT_EQ(colmap_logs("/tmp"), tmp_before);
+  EXPECT_EQ(colmap_logs(fs::temp_directory_path()), tmpdir_before);
+  EXPECT_GE(colmap_logs(co.workspace / "logs").size(), 16u);  // mapper, registrator, ... runs
   const std::vector<Registrar::Placed> placed = registrar->AllPlaced();
   std::vector<std::string> unplaced = names;
   for (const Registrar::Placed& p : placed) std::erase(unplaced, p.name);
