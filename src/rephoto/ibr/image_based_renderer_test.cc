@@ -258,38 +258,46 @@ TEST_F(ImageBasedRendererTest, IbrFromPlaneSweepDepthRendersHeldOutViewReasonabl
   EXPECT_GT(score.completeness, 0.6);
 }
 
+// A camera 4 units from the origin at `degrees` from +z around the y axis, looking at the origin
+// (the fusion tests' plane z = 0 is seen at 90 - degrees above it).
+camera::Pose PoseAround(double degrees) {
+  const double a = degrees * M_PI / 180;
+  const Eigen::Vector3d centre(4 * std::sin(a), 0, 4 * std::cos(a));
+  const Eigen::Vector3d forward = -centre.normalized();
+  const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
+  camera::Pose pose;
+  pose.rotation.row(0) = right.transpose();
+  pose.rotation.row(1) = forward.cross(right).transpose();
+  pose.rotation.row(2) = forward.transpose();
+  pose.translation = -pose.rotation * centre;
+  return pose;
+}
+
+// The plane z = 0 over [-half, half]^2, facing +z.
+mesh::Mesh Plane(float half) {
+  mesh::Mesh plane;
+  plane.positions = {{-half, -half, 0}, {half, -half, 0}, {half, half, 0}, {-half, half, 0}};
+  plane.faces = {{0, 1, 2}, {0, 2, 3}};
+  return plane;
+}
+
 // Two constant-colour training photos of a plane, 10 and 25 degrees to either side of the novel
 // camera: the weighted median returns the colour of the view with the smaller angle (Buehler's
 // weights: 1 - p/p_th over p + epsilon), the other one when the novel camera moves towards it,
 // and exactly a view's own colour at its own camera (epipole consistency).
 TEST(ImageBasedRendererFusion, NearerViewWinsAndEpipoleIsConsistent) {
-  mesh::Mesh plane;  // z = 0, [-5, 5]^2, facing +z
-  plane.positions = {{-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}};
-  plane.faces = {{0, 1, 2}, {0, 2, 3}};
+  const mesh::Mesh plane = Plane(5);
   const camera::Camera camera{camera::CameraModel::kPinhole, 64, 48, {60, 60, 32, 24}};
-  // A camera 4 units from the origin at `degrees` around the y axis, looking at the origin.
-  auto pose_at = [](double degrees) {
-    const double a = degrees * 3.14159265358979 / 180;
-    const Eigen::Vector3d centre(4 * std::sin(a), 0, 4 * std::cos(a));
-    const Eigen::Vector3d forward = -centre.normalized();
-    const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
-    camera::Pose pose;
-    pose.rotation.row(0) = right.transpose();
-    pose.rotation.row(1) = forward.cross(right).transpose();
-    pose.rotation.row(2) = forward.transpose();
-    pose.translation = -pose.rotation * centre;
-    return pose;
-  };
   const auto dir = rephoto::testing::MakeTempDir();
   io::WritePng(dir / "a.png", Image(64, 48, 3, 0.2f));
   io::WritePng(dir / "b.png", Image(64, 48, 3, 0.8f));
-  const std::vector<TrainingView> training = {{"a", camera, pose_at(-10), dir / "a.png", {}},
-                                              {"b", camera, pose_at(25), dir / "b.png", {}}};
+  const std::vector<TrainingView> training = {{"a", camera, PoseAround(-10), dir / "a.png", {}},
+                                              {"b", camera, PoseAround(25), dir / "b.png", {}}};
   ImageBasedOptions options;
   options.k_best = 2;
   const ImageBasedRenderer vdt = ImageBasedRenderer::Vdt(plane, training, options);
   auto centre_value = [&](double degrees) {
-    const camera::Pose pose = pose_at(degrees);
+    const camera::Pose pose = PoseAround(degrees);
     const render::Rephoto r = vdt.Render(camera, pose);
     EXPECT_EQ(r.color.at(32, 24, 3), 1.f);
     // Depth of the plane z = 0 through the centre of pixel (32, 24): (32.5 - 32) / 60 etc.
@@ -312,23 +320,9 @@ TEST(ImageBasedRendererFusion, NearerViewWinsAndEpipoleIsConsistent) {
 // r * log2(A_a / A_novel) and b's not at all (it samples the plane finer than the novel view):
 // below the r where the two penalties meet the pixel is a's, above it b's.
 TEST(ImageBasedRendererFusion, ResolutionPenaltyPrefersTheViewThatSeesTheSurfaceSteeply) {
-  mesh::Mesh plane;  // z = 0, [-50, 50]^2, facing +z
-  plane.positions = {{-50, -50, 0}, {50, -50, 0}, {50, 50, 0}, {-50, 50, 0}};
-  plane.faces = {{0, 1, 2}, {0, 2, 3}};
+  const mesh::Mesh plane = Plane(50);
   const camera::Camera camera{camera::CameraModel::kPinhole, 64, 48, {60, 60, 32, 24}};
-  auto pose_at = [](double degrees) {
-    const double a = degrees * M_PI / 180;
-    const Eigen::Vector3d centre(4 * std::sin(a), 0, 4 * std::cos(a));
-    const Eigen::Vector3d forward = -centre.normalized();
-    const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
-    camera::Pose pose;
-    pose.rotation.row(0) = right.transpose();
-    pose.rotation.row(1) = forward.cross(right).transpose();
-    pose.rotation.row(2) = forward.transpose();
-    pose.translation = -pose.rotation * centre;
-    return pose;
-  };
-  const camera::Pose novel = pose_at(60), pose_a = pose_at(80), pose_b = pose_at(20);
+  const camera::Pose novel = PoseAround(60), pose_a = PoseAround(80), pose_b = PoseAround(20);
   // The plane point of the novel camera's pixel (32, 24) and the closed-form penalties.
   const Eigen::Vector3d ray = novel.rotation.transpose() * Eigen::Vector3d(0.5 / 60, 0.5 / 60, 1);
   const Eigen::Vector3d X = novel.Center() - novel.Center().z() / ray.z() * ray;

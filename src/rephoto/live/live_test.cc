@@ -3,10 +3,12 @@
 // joining, suggestions in the sidecar's shape), resume and the one-writer lock.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+
 #include <unistd.h>
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -202,42 +204,65 @@ TEST(PlanTest, ViewCoverageGivesALonePhotoItsPartnerFirst) {
   EXPECT_FALSE(plan(25, 1.f).view_coverage);
 }
 
+// Exact depth maps (160 x 120, focal 160) of a sphere (radius 0.5 centred at (0, 0, 0.5))
+// standing on the floor z = 0 over [-2, 2]^2, from 8 cameras on a ring (radius 3, height 1.5)
+// looking at (0, 0, 0.45). `surface(c, dir, t_sphere, t_floor)` returns the ray parameter of the
+// depth at camera centre c along the unit direction dir (infinite: no depth) from those of the
+// sphere and the floor (infinite where the ray misses them); the default is the nearer one.
+struct SphereOnFloor {
+  camera::Camera camera{camera::CameraModel::kPinhole, 160, 120, {160, 160, 80, 60}};
+  std::vector<camera::Pose> poses;
+  std::vector<Image> depths;
+  std::vector<EnvelopeInput> Inputs() const {
+    std::vector<EnvelopeInput> in;
+    for (size_t k = 0; k < poses.size(); ++k) in.push_back({camera, poses[k], &depths[k]});
+    return in;
+  }
+};
+SphereOnFloor MakeSphereOnFloor(
+    const std::function<double(const Eigen::Vector3d&, const Eigen::Vector3d&, double, double)>&
+        surface = [](const Eigen::Vector3d&, const Eigen::Vector3d&, double ts, double tf) {
+          return std::min(ts, tf);
+        }) {
+  SphereOnFloor s;
+  const Eigen::Vector3d centre(0, 0, 0.5);
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 8; ++k) {
+    const double a = k * M_PI / 4;
+    s.poses.push_back(LookAt({3 * std::cos(a), 3 * std::sin(a), 1.5}, {0, 0, 0.45}));
+    Image d(160, 120, 1, std::nanf(""));
+    const Eigen::Vector3d c = s.poses.back().Center();
+    const Eigen::Matrix3d wfc = s.poses.back().rotation.transpose();
+    for (int y = 0; y < 120; ++y)
+      for (int x = 0; x < 160; ++x) {
+        const Eigen::Vector3d dir = (wfc * *s.camera.CamFromImg({x + 0.5, y + 0.5})).normalized();
+        const Eigen::Vector3d oc = c - centre;
+        const double b = dir.dot(oc), disc = b * b - (oc.squaredNorm() - 0.25);
+        const double ts = disc >= 0 ? -b - std::sqrt(disc) : inf;
+        double tf = inf;
+        if (dir.z() < 0) {
+          const double t = -c.z() / dir.z();
+          const Eigen::Vector3d hit = c + t * dir;
+          if (std::abs(hit.x()) <= 2 && std::abs(hit.y()) <= 2) tf = t;
+        }
+        const double t = surface(c, dir, ts, tf);
+        if (std::isfinite(t)) d.at(x, y) = static_cast<float>((t * dir).dot(wfc.col(2)));
+      }
+    s.depths.push_back(d);
+  }
+  return s;
+}
+
 TEST(EnvelopeTest, ObjectOnAFloorGivesSupportPlaneAndNoSpikes) {
   // Exact depth maps of a sphere (radius 0.5 centred at (0, 0, 0.5)) standing on the plane
   // z = 0, seen by 8 cameras on a ring (radius 3, height 1.5): the support plane is z = 0, its
   // cells cover the seen floor, no envelope vertex lies below the floor, and every observed
   // vertex lies on the sphere or on the floor (closed form).
-  camera::Camera cam{camera::CameraModel::kPinhole, 160, 120, {160, 160, 80, 60}};
-  std::vector<camera::Pose> poses;
-  std::vector<Image> depths;
+  const SphereOnFloor scene = MakeSphereOnFloor();
   const Eigen::Vector3d centre(0, 0, 0.5);
-  for (int k = 0; k < 8; ++k) {
-    const double a = k * M_PI / 4;
-    poses.push_back(LookAt({3 * std::cos(a), 3 * std::sin(a), 1.5}, {0, 0, 0.45}));
-    Image d(160, 120, 1, std::nanf(""));
-    const Eigen::Vector3d c = poses.back().Center();
-    const Eigen::Matrix3d wfc = poses.back().rotation.transpose();
-    for (int y = 0; y < 120; ++y)
-      for (int x = 0; x < 160; ++x) {
-        const Eigen::Vector3d dir = (wfc * *cam.CamFromImg({x + 0.5, y + 0.5})).normalized();
-        double t = std::numeric_limits<double>::infinity();
-        const Eigen::Vector3d oc = c - centre;
-        const double b = dir.dot(oc), disc = b * b - (oc.squaredNorm() - 0.25);
-        if (disc >= 0) t = -b - std::sqrt(disc);
-        if (dir.z() < 0) {
-          const double tf = -c.z() / dir.z();
-          const Eigen::Vector3d hit = c + tf * dir;
-          if (std::abs(hit.x()) <= 2 && std::abs(hit.y()) <= 2) t = std::min(t, tf);
-        }
-        if (std::isfinite(t)) d.at(x, y) = static_cast<float>((t * dir).dot(wfc.col(2)));
-      }
-    depths.push_back(d);
-  }
-  std::vector<EnvelopeInput> in;
-  for (size_t k = 0; k < poses.size(); ++k) in.push_back({cam, poses[k], &depths[k]});
   EnvelopeOptions eo;
   eo.stride = 2;
-  const Envelope env = BuildEnvelope(poses, in, eo);
+  const Envelope env = BuildEnvelope(scene.poses, scene.Inputs(), eo);
   ASSERT_FALSE(env.support.faces.empty());
   EXPECT_NEAR(env.support_plane.z(), 1.0, 1e-4);
   EXPECT_NEAR(env.support_plane[3], 0.0, 2e-3);
@@ -268,49 +293,27 @@ TEST(EnvelopeTest, ObjectOnAFloorGivesSupportPlaneAndNoSpikes) {
 // beyond the sphere (0.5 from the axis; 0.7 leaves room for the grid) toward the patch. With
 // the direct neighbours only, a vertex 0.88 from the axis remained.
 TEST(EnvelopeTest, AdjacentSpikesAtTheEdgeOfWhatWasSeenAreRemoved) {
-  camera::Camera cam{camera::CameraModel::kPinhole, 160, 120, {160, 160, 80, 60}};
-  std::vector<camera::Pose> poses;
-  std::vector<Image> depths;
-  const Eigen::Vector3d centre(0, 0, 0.5);
   auto in_sector = [](const Eigen::Vector3d& p) {
     const double az = std::atan2(p.y(), p.x()) * 180 / M_PI;
     return az >= 55 && az <= 80;
   };
-  for (int k = 0; k < 8; ++k) {
-    const double a = k * M_PI / 4;
-    poses.push_back(LookAt({3 * std::cos(a), 3 * std::sin(a), 1.5}, {0, 0, 0.45}));
-    Image d(160, 120, 1, std::nanf(""));
-    const Eigen::Vector3d c = poses.back().Center();
-    const Eigen::Matrix3d wfc = poses.back().rotation.transpose();
-    for (int y = 0; y < 120; ++y)
-      for (int x = 0; x < 160; ++x) {
-        const Eigen::Vector3d dir = (wfc * *cam.CamFromImg({x + 0.5, y + 0.5})).normalized();
-        double t = std::numeric_limits<double>::infinity();
-        const Eigen::Vector3d oc = c - centre;
-        const double b = dir.dot(oc), disc = b * b - (oc.squaredNorm() - 0.25);
-        bool missing = false;  // the sphere's underside in the sector: no depth
-        if (disc >= 0) {
-          t = -b - std::sqrt(disc);
-          const Eigen::Vector3d hit = c + t * dir;
-          missing = hit.z() < 0.35 && in_sector(hit);
-        }
-        if (dir.z() < 0) {
+  const SphereOnFloor scene = MakeSphereOnFloor(
+      [&](const Eigen::Vector3d& c, const Eigen::Vector3d& dir, double ts, double tf) {
+        const double inf = std::numeric_limits<double>::infinity();
+        double t = tf;
+        if (dir.z() < 0) {  // the raised patch of floor
           const double tp = (0.15 - c.z()) / dir.z();
           const Eigen::Vector3d patch = c + tp * dir;
           const double hd = std::hypot(patch.x(), patch.y());
-          if (hd >= 0.8 && hd <= 1.1 && in_sector(patch) && tp < t) t = tp;
-          const double tf = -c.z() / dir.z();
-          const Eigen::Vector3d hit = c + tf * dir;
-          if (std::abs(hit.x()) <= 2 && std::abs(hit.y()) <= 2 && tf < t) t = tf;
+          if (hd >= 0.8 && hd <= 1.1 && in_sector(patch)) t = std::min(t, tp);
         }
-        if (std::isfinite(t) && !(missing && (c + t * dir - centre).norm() < 0.5 + 1e-6))
-          d.at(x, y) = static_cast<float>((t * dir).dot(wfc.col(2)));
-      }
-    depths.push_back(d);
-  }
-  std::vector<EnvelopeInput> in;
-  for (size_t k = 0; k < poses.size(); ++k) in.push_back({cam, poses[k], &depths[k]});
-  const Envelope env = BuildEnvelope(poses, in, EnvelopeOptions{});
+        if (ts < t) {  // the sphere in front: no depth on its underside in the sector
+          const Eigen::Vector3d hit = c + ts * dir;
+          return hit.z() < 0.35 && in_sector(hit) ? inf : ts;
+        }
+        return t;
+      });
+  const Envelope env = BuildEnvelope(scene.poses, scene.Inputs(), EnvelopeOptions{});
   ASSERT_FALSE(env.support.faces.empty());
   size_t observed_in_sector = 0;
   for (size_t v = 0; v < env.mesh.positions.size(); ++v) {
