@@ -19,14 +19,25 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path& Scratch() {
-  static const fs::path folder = [] {
+// The scratch folder, made once and removed when the process exits normally (libFuzzer ends
+// a timed run with exit(); after a crash it stays, with the input that caused it).
+struct ScratchFolder {
+  fs::path path;
+  ScratchFolder() {
     char pattern[] = "/tmp/rephoto-fuzz-upload-XXXXXX";
     const char* made = mkdtemp(pattern);
     if (!made) std::abort();
-    return fs::path(made);
-  }();
-  return folder;
+    path = made;
+  }
+  ~ScratchFolder() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+const fs::path& Scratch() {
+  static const ScratchFolder folder;
+  return folder.path;
 }
 
 void Check(bool condition, const char* what) {

@@ -17,6 +17,7 @@ Exit code 0 when every check passed, 1 otherwise (each failure printed on one li
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -43,7 +44,7 @@ class Browser:
              "--no-default-browser-check", "--disable-extensions", "--remote-debugging-port=0",
              "--user-data-dir=" + self.profile, "about:blank"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            env={**os.environ, "TMPDIR": scratch})
+            env={**os.environ, "TMPDIR": scratch}, start_new_session=True)
         self.url = ""
         port_file = os.path.join(self.profile, "DevToolsActivePort")
         deadline = time.time() + 60
@@ -135,7 +136,19 @@ class Browser:
                 self.process.wait(10)
             except subprocess.TimeoutExpired:
                 self.process.kill()
-            shutil.rmtree(self.profile, ignore_errors=True)
+                self.process.wait()
+            # Chromium's helper processes (its own process group) can still be writing into the
+            # profile after the browser exits: stop them, then remove the profile (retried
+            # while a late write lands).
+            try:
+                os.killpg(self.process.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            for _ in range(20):
+                shutil.rmtree(self.profile, ignore_errors=True)
+                if not os.path.exists(self.profile):
+                    break
+                time.sleep(0.1)
 
 
 def main():

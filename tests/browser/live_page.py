@@ -82,7 +82,10 @@ def main():
         browser.evaluate("window.__liveMarker = 42")
         with open(signal, "w") as f:
             f.write("go\n")
-        s = wait_for(lambda s: len(registered(s)) == 5 and s["latest"].startswith("p4.png"), 60)
+        # The update replaces the images' sources: wait for them to load as well (checking right
+        # after the rows changed failed now and then with every image still loading).
+        s = wait_for(lambda s: len(registered(s)) == 5 and s["latest"].startswith("p4.png")
+                     and all(i["ok"] for i in s["images"]), 60)
         check(s["marker"] == 42, "the page was reloaded (marker lost)")
         check(len(registered(s)) == 5, f"after: expected 5 registered photos, got {s['rows']}")
         check(s["dots"] == 5, f"after: curve has {s['dots']} completeness points, not 5")
