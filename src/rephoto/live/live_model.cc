@@ -412,18 +412,22 @@ Envelope BuildEnvelope(const std::vector<camera::Pose>& poses,
       if (r + 1 < rows) link(vid(r, s), vid(r + 1, s));
     }
   }
-  // Spikes: one pass against the median of the observed vertices within two grid steps (at
-  // least 3; the direct neighbours alone miss spikes in pairs and at the edge of what was seen,
-  // where fewer than 3 of the 4 are observed).
+  // Spikes: one pass against the median of the observed grid neighbours, or, for a vertex with
+  // fewer than 3 of them (at the edge of what was seen), of the observed vertices within two
+  // grid steps (at least 3).
   {
     const std::vector<double> before = radius;
     std::vector<size_t> ring;
     for (size_t v = 0; v < n; ++v) {
       if (!env.observed[v]) continue;
       ring.assign(nb[v].begin(), nb[v].end());
-      for (size_t u : nb[v])
-        for (size_t w : nb[u])
-          if (w != v) ring.push_back(w);
+      int direct = 0;
+      for (size_t u : nb[v]) direct += env.observed[u];
+      if (direct < 3) {
+        for (size_t u : nb[v])
+          for (size_t w : nb[u])
+            if (w != v) ring.push_back(w);
+      }
       std::sort(ring.begin(), ring.end());
       ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
       std::vector<double> r;

@@ -22,10 +22,11 @@
 // on the support plane (below) or less than 3 inlier distances above it are the floor's, not
 // the object's; the envelope does not reach below the floor (radii are clamped to it, and
 // directions whose radius ends on the floor count as observed: the object's contact with the
-// floor has nothing to see). An observed radius more than 15 % from the median of the observed
-// vertices within two grid steps (at least 3) is a spike and takes that median (plane sweep's
-// wrong floor depths beside the object's unseen underside fill adjacent bins, which the 4
-// direct neighbours alone let through).
+// floor has nothing to see). An observed radius more than 15 % from the median of its (at
+// least 3) observed grid neighbours' is a spike and takes that median; a vertex with fewer than
+// 3 observed neighbours (at the edge of what was seen, where plane sweep's wrong floor depths
+// beside the object's unseen underside made spikes) is compared with the observed vertices
+// within two grid steps instead (at least 3).
 // Unseen surface. A direction is *observed* when its bin holds at least `min_points` points
 // from at least `min_views` different photos. Every other direction stands for surface no
 // photo has looked at yet: the far side of the object (directions no camera looked from), the

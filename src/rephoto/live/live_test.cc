@@ -285,17 +285,18 @@ TEST(EnvelopeTest, ObjectOnAFloorGivesSupportPlaneAndNoSpikes) {
 }
 
 // What plane sweep did on the demo at 560 x 420: where the sphere's underside near the floor is
-// missing from the depth maps, a patch of wrong floor depths (here a raised patch of floor at
-// z = 0.15, 0.8-1.1 from the axis, azimuth 55-80 degrees, in every depth map that sees it) fills
-// 2-3 adjacent bins of directions with points twice as far as the sphere. Their vertices have
-// fewer than 3 observed direct neighbours, or each other as one; the spike test over two grid
-// steps takes them back to the neighbourhood's radius, so no vertex off the floor reaches
-// beyond the sphere (0.5 from the axis; 0.7 leaves room for the grid) toward the patch. With
-// the direct neighbours only, a vertex 0.88 from the axis remained.
-TEST(EnvelopeTest, AdjacentSpikesAtTheEdgeOfWhatWasSeenAreRemoved) {
-  auto in_sector = [](const Eigen::Vector3d& p) {
+// missing from the depth maps (here at azimuths 40-100 degrees), a patch of wrong floor depths
+// (here a raised patch of floor at z = 0.15, 0.8-1.1 from the axis, azimuths 65-70 degrees, in
+// every depth map that sees it) fills a bin of directions with points twice as far as the
+// sphere. Its vertex has fewer than 3 observed grid neighbours (the missing underside beside it
+// is not observed); compared with the observed vertices within two grid steps it takes their
+// radius, so no vertex off the floor reaches beyond the sphere (0.5 from the axis; 0.7 leaves
+// room for the grid) toward the patch. Skipped as too thinly surrounded to judge (the rule
+// before the seventh stop of 2026-11-28), it stays 0.88 from the axis.
+TEST(EnvelopeTest, SpikesAtTheEdgeOfWhatWasSeenAreRemoved) {
+  auto in_sector = [](const Eigen::Vector3d& p, double from, double to) {
     const double az = std::atan2(p.y(), p.x()) * 180 / M_PI;
-    return az >= 55 && az <= 80;
+    return az >= from && az <= to;
   };
   const SphereOnFloor scene = MakeSphereOnFloor(
       [&](const Eigen::Vector3d& c, const Eigen::Vector3d& dir, double ts, double tf) {
@@ -305,11 +306,11 @@ TEST(EnvelopeTest, AdjacentSpikesAtTheEdgeOfWhatWasSeenAreRemoved) {
           const double tp = (0.15 - c.z()) / dir.z();
           const Eigen::Vector3d patch = c + tp * dir;
           const double hd = std::hypot(patch.x(), patch.y());
-          if (hd >= 0.8 && hd <= 1.1 && in_sector(patch)) t = std::min(t, tp);
+          if (hd >= 0.8 && hd <= 1.1 && in_sector(patch, 65, 70)) t = std::min(t, tp);
         }
         if (ts < t) {  // the sphere in front: no depth on its underside in the sector
           const Eigen::Vector3d hit = c + ts * dir;
-          return hit.z() < 0.35 && in_sector(hit) ? inf : ts;
+          return hit.z() < 0.35 && in_sector(hit, 40, 100) ? inf : ts;
         }
         return t;
       });
@@ -320,7 +321,7 @@ TEST(EnvelopeTest, AdjacentSpikesAtTheEdgeOfWhatWasSeenAreRemoved) {
     const Eigen::Vector3d x = env.mesh.positions[v].cast<double>();
     if (x.z() < 0.01) continue;  // on the floor
     EXPECT_LT(std::hypot(x.x(), x.y()), 0.7) << "vertex " << v << " at " << x.transpose();
-    if (env.observed[v] && in_sector(x) && x.z() < 0.35) ++observed_in_sector;
+    if (env.observed[v] && in_sector(x, 65, 70) && x.z() < 0.35) ++observed_in_sector;
   }
   // The patch's bins were observed (the test covers the spike rule, not the point filters).
   EXPECT_GT(observed_in_sector, 0u);
