@@ -733,34 +733,42 @@ void ImageBasedRenderer::State::Fuse(const render::CameraRays& rays, const camer
   const float depth_penalty = static_cast<float>(options.depth_penalty);
   const float epsilon = static_cast<float>(options.epipole_epsilon);
   const float resolution_penalty = static_cast<float>(options.resolution_penalty);
-  // World point of pixel (x, y) at depth zz (false where the pixel has no ray).
-  auto unproject = [&](int x, int y, float zz, Eigen::Vector3f* P) {
-    float xn, yn;
-    if (!rays.Ray(x + 0.5f, y + 0.5f, &xn, &yn)) return false;
-    *P = origin + world_from_cam * Eigen::Vector3f(xn * zz, yn * zz, zz);
-    return true;
-  };
+  // Resolution penalty only: the world point of every pixel with depth (NaN elsewhere), each
+  // computed once for the finite differences of its four neighbours.
+  std::vector<Eigen::Vector3f> points;
+  if (resolution_penalty > 0) {
+    points.assign(static_cast<size_t>(width) * height, Eigen::Vector3f::Constant(kNaN));
+    ParallelFor(0, height, 16, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y) {
+        for (int x = 0; x < width; ++x) {
+          const float z = depth.at(x, static_cast<int>(y));
+          float xn, yn;
+          if (!std::isfinite(z) || !rays.Ray(x + 0.5f, y + 0.5f, &xn, &yn)) continue;
+          points[static_cast<size_t>(y) * width + x] =
+              origin + world_from_cam * Eigen::Vector3f(xn * z, yn * z, z);
+        }
+      }
+    });
+  }
   // dX along one image axis at (x, y) (header, step 3): the central difference, or the one-sided
   // one when one neighbour is missing or beyond 10 * depth_tolerance; false when neither is.
   const float neighbour_tolerance = 10 * tolerance;
   auto derivative = [&](int x, int y, int dx, int dy, float z, const Eigen::Vector3f& X,
                         Eigen::Vector3f* d) {
-    Eigen::Vector3f P[2];
-    bool ok[2];
+    const Eigen::Vector3f* P[2] = {nullptr, nullptr};
     for (int s = 0; s < 2; ++s) {
       const int nx = x + (s ? dx : -dx), ny = y + (s ? dy : -dy);
-      ok[s] = false;
       if (nx < 0 || ny < 0 || nx >= width || ny >= height) continue;
       const float zn = depth.at(nx, ny);
-      if (!(std::abs(zn - z) <= neighbour_tolerance * z)) continue;
-      ok[s] = unproject(nx, ny, zn, &P[s]);
+      const Eigen::Vector3f& p = points[static_cast<size_t>(ny) * width + nx];
+      if (std::abs(zn - z) <= neighbour_tolerance * z && std::isfinite(p.x())) P[s] = &p;
     }
-    if (ok[0] && ok[1]) {
-      *d = 0.5f * (P[1] - P[0]);
-    } else if (ok[1]) {
-      *d = P[1] - X;
-    } else if (ok[0]) {
-      *d = X - P[0];
+    if (P[0] && P[1]) {
+      *d = 0.5f * (*P[1] - *P[0]);
+    } else if (P[1]) {
+      *d = *P[1] - X;
+    } else if (P[0]) {
+      *d = X - *P[0];
     } else {
       return false;
     }

@@ -262,15 +262,9 @@ TEST_F(ImageBasedRendererTest, IbrFromPlaneSweepDepthRendersHeldOutViewReasonabl
 // (the fusion tests' plane z = 0 is seen at 90 - degrees above it).
 camera::Pose PoseAround(double degrees) {
   const double a = degrees * M_PI / 180;
-  const Eigen::Vector3d centre(4 * std::sin(a), 0, 4 * std::cos(a));
-  const Eigen::Vector3d forward = -centre.normalized();
-  const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
-  camera::Pose pose;
-  pose.rotation.row(0) = right.transpose();
-  pose.rotation.row(1) = forward.cross(right).transpose();
-  pose.rotation.row(2) = forward.transpose();
-  pose.translation = -pose.rotation * centre;
-  return pose;
+  // Image y along +y (up = -y): the cameras turn about the image's vertical axis.
+  return camera::LookAt({4 * std::sin(a), 0, 4 * std::cos(a)}, Eigen::Vector3d::Zero(),
+                        -Eigen::Vector3d::UnitY());
 }
 
 // The plane z = 0 over [-half, half]^2, facing +z.
