@@ -101,82 +101,77 @@ void DecodeBytes(const uint8_t* __restrict pixels, int channels, int w, double* 
   }
 }
 
-// The cube root of glibc's dbl-64 s_cbrt.c (frexp, a degree-6 polynomial, one Halley step,
-// ldexp), written out for positive normal x so that it vectorises. Bit-identical to std::cbrt
-// of glibc 2.36 (Debian 12; 30 million values checked, and the icid test); iCID then no longer
-// depends on the libm it is linked with. Garbage (but no trap) for other x.
-inline double CbrtPositive(double x) {
-  // Integers are handled as exact doubles and moved in and out of exponent fields with 2^52
-  // (adding 2^52 puts a small integer in the low mantissa bits), so that the loops around
-  // this vectorise on every target (no int64 division or conversion, no branches).
-  constexpr double kTwo52 = 4503599627370496.0;
-  const uint64_t bits = std::bit_cast<uint64_t>(x);
-  // frexp: x = xm * 2^xe, xm in [0.5, 1).
-  const double xe =
-      std::bit_cast<double>(((bits >> 52) & 0x7ff) | std::bit_cast<uint64_t>(kTwo52)) - kTwo52 -
-      1022.0;
-  const double xm = std::bit_cast<double>((bits & 0x800fffffffffffffull) | (uint64_t{1022} << 52));
-  const double u =
-      (0.354895765043919860 +
-       ((1.50819193781584896 +
-         ((-2.11499494167371287 +
-           ((2.44693122563534430 +
-             ((-1.83469277483613086 + (0.784932344976639262 - 0.145263899385486377 * xm) * xm) *
-              xm)) *
-            xm)) *
-          xm)) *
-        xm));
-  const double t2 = u * u * u;
-  // C's xe / 3 for these small integers: trunc(xe * (1/3)) equals trunc(xe / 3.0) for every
-  // exponent xe in [-1022, 1025] (the product of a multiple of 3 rounds to the exact quotient;
-  // other quotients are at least 1/3 from an integer; all 2048 checked), without a division
-  // (vdivpd was the bound of the quantities loop: 16 per 4 pixels, 6 of them these).
-  const double q = std::trunc(xe * (1.0 / 3.0));
-  const double m = xe - 3.0 * q;  // C's xe % 3, in -2..2
-  // glibc's factor[2 + xe % 3].
-  double factor = 1.0;
-  factor = m == -2.0 ? 1.0 / 1.5874010519681994748 : factor;
-  factor = m == -1.0 ? 1.0 / 1.2599210498948731648 : factor;
-  factor = m == 1.0 ? 1.2599210498948731648 : factor;
-  factor = m == 2.0 ? 1.5874010519681994748 : factor;
-  const double ym = u * (t2 + 2.0 * xm) / (2.0 * t2 + xm) * factor;
-  // ldexp(ym, q): 2^q built in the exponent field.
-  const uint64_t exponent = std::bit_cast<uint64_t>(q + 1023.0 + kTwo52) & 0x7ff;
-  return ym * std::bit_cast<double>(exponent << 52);
+// CIELAB in float (issue 29): the quantities pass was ~40 % of iCID in double (six cube roots
+// with a division each and four divisions per pixel, 4 lanes per AVX2 vector); in float it runs
+// 8 lanes and without libm. The cube root of positive normal floats below 2^42 in float
+// arithmetic only, so that every instruction-set path and every libm give the same bits: the
+// first estimate of fdlibm's cbrtf from the bits (their integer / 3 taken by a float product,
+// which moves the estimate by < 1e-5 of its ~3 % error), then two Halley steps
+// y (y^3 + 2x) / (2y^3 + x) (cubic convergence: ~3e-5, then below float precision). Within
+// 1 ulp of the correctly rounded cube root (icid test). Garbage (but no trap) for other x.
+inline float CbrtPositiveF(float x) {
+  const int32_t bits = std::bit_cast<int32_t>(x);
+  const int32_t third = static_cast<int32_t>(static_cast<float>(bits) * (1.0f / 3.0f));
+  float y = std::bit_cast<float>(third + 709958130);
+  float y3 = y * y * y;
+  y = y * (y3 + (x + x)) / ((y3 + y3) + x);
+  // The second step as a correction of y, y - y (y^3 - x) / (2y^3 + x), the same iterate: the
+  // roundings of the small correction barely matter, so y ends within ~1 ulp.
+  y3 = y * y * y;
+  return y - y * (y3 - x) / ((y3 + y3) + x);
 }
 
 // Both branches computed, then selected: no control flow in the loop.
-inline double LabFFast(double t) {
-  const double root = CbrtPositive(t), linear = 7.787 * t + 16.0 / 116.0;
-  return t > 0.008856 ? root : linear;
+inline float LabFFloat(float t) {
+  const float root = CbrtPositiveF(t), linear = 7.787f * t + static_cast<float>(16.0 / 116.0);
+  return t > 0.008856f ? root : linear;
 }
 
-// CIELAB of planar linear RGB, the arithmetic of SrgbToLab.
-inline void LinearToLab(double rl, double gl, double bl, double& l, double& a, double& b) {
-  const double x = (0.412453 * rl + 0.357580 * gl + 0.180423 * bl) / 0.95047;
-  const double y = 0.212671 * rl + 0.715160 * gl + 0.072169 * bl;
-  const double z = (0.019334 * rl + 0.119193 * gl + 0.950227 * bl) / 1.08883;
-  const double fx = LabFFast(x), fy = LabFFast(y), fz = LabFFast(z);
-  l = 116.0 * fy - 16.0;
-  a = 500.0 * (fx - fy);
-  b = 200.0 * (fy - fz);
+// The sRGB -> XYZ matrix of SrgbToLab with the white point's division folded into its rows.
+constexpr float kXr = static_cast<float>(0.412453 / 0.95047);
+constexpr float kXg = static_cast<float>(0.357580 / 0.95047);
+constexpr float kXb = static_cast<float>(0.180423 / 0.95047);
+constexpr float kZr = static_cast<float>(0.019334 / 1.08883);
+constexpr float kZg = static_cast<float>(0.119193 / 1.08883);
+constexpr float kZb = static_cast<float>(0.950227 / 1.08883);
+
+// Planar float CIELAB (L, a, b planes of w) of planar linear RGB (r, g, b planes of w): the
+// formulas of SrgbToLab in float; L within ~1e-5 and a, b within ~1e-4 of SrgbToLab's (a and b
+// are 500 and 200 times a difference of cube roots; icid test), which moves iCID error values by
+// up to ~1e-6 (the naive-loop tests hold at 1e-6 against SrgbToLab in double).
+[[gnu::always_inline]] inline void LinearToLabRowBody(const double* __restrict linear, int w,
+                                                      float* __restrict lab) {
+  for (int x = 0; x < w; ++x) {
+    const float rl = static_cast<float>(linear[x]);
+    const float gl = static_cast<float>(linear[w + x]);
+    const float bl = static_cast<float>(linear[2 * w + x]);
+    const float fx = LabFFloat(kXr * rl + kXg * gl + kXb * bl);
+    const float fy = LabFFloat(0.212671f * rl + 0.715160f * gl + 0.072169f * bl);
+    const float fz = LabFFloat(kZr * rl + kZg * gl + kZb * bl);
+    lab[x] = 116.0f * fy - 16.0f;
+    lab[w + x] = 500.0f * (fx - fy);
+    lab[2 * w + x] = 200.0f * (fy - fz);
+  }
 }
+REPHOTO_ISA_DISPATCH(void, LinearToLabRow,
+                     (const double* __restrict linear, int w, float* __restrict lab),
+                     (linear, w, lab))
 
 // Per-pixel quantities that get window-averaged.
 enum Quantity { kL1, kL2, kC1, kC2, kL1L1, kL2L2, kC1C1, kC2C2, kL1L2, kC1C2, kHue, kCount };
 
-// The kCount quantities of a row from the planar linear RGB of photo (1) and rendering (2), one
-// __restrict pointer per output plane (through an array of pointers the loop did not vectorise).
+// The kCount quantities of a row from the planar float CIELAB of photo (1) and rendering (2)
+// (LinearToLabRow), in double, one __restrict pointer per output plane (through an array of
+// pointers the loop did not vectorise).
 [[gnu::always_inline]] inline void IcidQuantitiesRowBody(
-    const double* __restrict linear1, const double* __restrict linear2, int w,
-    double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
-    double* __restrict o_c2, double* __restrict o_l1l1, double* __restrict o_l2l2,
-    double* __restrict o_c1c1, double* __restrict o_c2c2, double* __restrict o_l1l2,
-    double* __restrict o_c1c2, double* __restrict o_hue) {
+    const float* __restrict lab1, const float* __restrict lab2, int w, double* __restrict o_l1,
+    double* __restrict o_l2, double* __restrict o_c1, double* __restrict o_c2,
+    double* __restrict o_l1l1, double* __restrict o_l2l2, double* __restrict o_c1c1,
+    double* __restrict o_c2c2, double* __restrict o_l1l2, double* __restrict o_c1c2,
+    double* __restrict o_hue) {
   for (int x = 0; x < w; ++x) {
-    double l1, a1, b1, l2, a2, b2;
-    LinearToLab(linear1[x], linear1[w + x], linear1[2 * w + x], l1, a1, b1);
-    LinearToLab(linear2[x], linear2[w + x], linear2[2 * w + x], l2, a2, b2);
+    const double l1 = lab1[x], a1 = lab1[w + x], b1 = lab1[2 * w + x];
+    const double l2 = lab2[x], a2 = lab2[w + x], b2 = lab2[2 * w + x];
     const double chroma1 = std::sqrt(a1 * a1 + b1 * b1), chroma2 = std::sqrt(a2 * a2 + b2 * b2);
     const double da = a1 - a2, db = b1 - b2, dc = chroma1 - chroma2;
     o_l1[x] = l1;
@@ -195,17 +190,17 @@ enum Quantity { kL1, kL2, kC1, kC2, kL1L1, kL2L2, kC1C1, kC2C2, kL1L2, kC1C2, kH
   }
 }
 REPHOTO_ISA_DISPATCH(void, IcidQuantitiesRow,
-                     (const double* __restrict linear1, const double* __restrict linear2, int w,
+                     (const float* __restrict lab1, const float* __restrict lab2, int w,
                       double* __restrict o_l1, double* __restrict o_l2, double* __restrict o_c1,
                       double* __restrict o_c2, double* __restrict o_l1l1, double* __restrict o_l2l2,
                       double* __restrict o_c1c1, double* __restrict o_c2c2,
                       double* __restrict o_l1l2, double* __restrict o_c1c2,
                       double* __restrict o_hue),
-                     (linear1, linear2, w, o_l1, o_l2, o_c1, o_c2, o_l1l1, o_l2l2, o_c1c1, o_c2c2,
+                     (lab1, lab2, w, o_l1, o_l2, o_c1, o_c2, o_l1l1, o_l2l2, o_c1c1, o_c2c2,
                       o_l1l2, o_c1c2, o_hue))
 
-void IcidQuantities(const double* linear1, const double* linear2, int w, double* const* out) {
-  IcidQuantitiesRow(linear1, linear2, w, out[kL1], out[kL2], out[kC1], out[kC2], out[kL1L1],
+void IcidQuantities(const float* lab1, const float* lab2, int w, double* const* out) {
+  IcidQuantitiesRow(lab1, lab2, w, out[kL1], out[kL2], out[kC1], out[kC2], out[kL1L1],
                     out[kL2L2], out[kC1C1], out[kC2C2], out[kL1L2], out[kC1C2], out[kHue]);
 }
 
@@ -346,6 +341,9 @@ void SrgbToLab(float r, float g, float b, double lab[3]) {
 
 namespace internal {
 
+void LinearRgbToLabFloat(const double* linear, int w, float* lab) { LinearToLabRow(linear, w, lab); }
+float CubeRootFloat(float x) { return CbrtPositiveF(x); }
+
 uint64_t NewCallId() {
   static std::atomic<uint64_t> last{0};
   return last.fetch_add(1, std::memory_order_relaxed) + 1;
@@ -401,6 +399,12 @@ MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& w
   }
   double* linear1 = linear_buffer.data();
   double* linear2 = linear1 + 3 * max_width;
+  thread_local std::vector<float> lab_buffer;
+  if (lab_buffer.size() < 6 * static_cast<size_t>(max_width)) {
+    lab_buffer.resize(6 * static_cast<size_t>(max_width));
+  }
+  float* lab1 = lab_buffer.data();
+  float* lab2 = lab1 + 3 * max_width;
   thread_local IcidCarry carry;
   const bool reuse = in.call != 0 && carry.call == in.call && carry.next_c0 == c0 &&
                      carry.width == w && carry.radius == r;
@@ -438,7 +442,9 @@ MeanSums IcidBand(const BandInputs& in, int window, const std::vector<double>& w
       for (int q = 0; q < kCount; ++q) {
         row_planes[q] = planes + q * plane + static_cast<size_t>(j) * sw;
       }
-      IcidQuantities(linear1, linear2, sw, row_planes);
+      LinearToLabRow(linear1, sw, lab1);
+      LinearToLabRow(linear2, sw, lab2);
+      IcidQuantities(lab1, lab2, sw, row_planes);
     }
     if (held) {
       for (int q = 0; q < kCount; ++q) {

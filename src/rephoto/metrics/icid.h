@@ -22,7 +22,9 @@
 //     contrast and chroma structure like the lightness ones with C* instead of L* (constants
 //     10, exponent 1). Error per window = 1 - product of the seven terms, in [0, 1].
 //     |s12| is limited to s1 s2 (Cauchy-Schwarz), which only removes rounding noise and makes
-//     identical images give exactly 0. Accumulation is in double.
+//     identical images give exactly 0. CIELAB is computed in float (L* within ~1e-5, a* and b*
+//     within ~1e-4 of the double formulas of SrgbToLab; error values move by up to ~1e-6), the
+//     window sums and the terms in double.
 //
 // Thread safety: pure functions of their inputs; safe to call from several threads at once.
 #pragma once
@@ -40,6 +42,15 @@ struct IcidOptions {
 
 // CIELAB (D65) of one sRGB colour given in [0,1] (clamped); L in [0,100].
 void SrgbToLab(float r, float g, float b, double lab[3]);
+
+namespace internal {
+// What ComputeIcid runs, for tests. CIELAB is computed in float (icid.cc LinearToLabRow): planar
+// linear RGB (r, g, b planes of w values in [0, 1], the sRGB transfer curve already undone) to
+// planar L, a, b planes of w floats; the cube root without libm (CubeRootFloat, positive normal
+// floats below 2^42).
+void LinearRgbToLabFloat(const double* linear, int w, float* lab);
+float CubeRootFloat(float x);
+}  // namespace internal
 
 // Writes the iCID error image (1 channel, NaN where the window is not entirely valid or leaves
 // the image) into `error` (already sized width x height x 1), and the mean over evaluated

@@ -192,14 +192,38 @@ double MaskRange(const float* values, const uint8_t* ok, int begin, int end, flo
 // path is AVX-512 (core::ActiveIsa()). Thread-safe.
 inline bool HasAvx512() { return core::ActiveIsa() == core::Isa::kAvx512; }
 
+// Census keys (issue 29). Census compares luma Y = 0.299 R + 0.587 G + 0.114 B in fixed point:
+// key = floor((255000 Y + 0.5) / 4), with 255000 Y clamped to [0, 255000] (NaN: 0), i.e. 0 to
+// 63750, stored as key - 32768 in int16 so that the compares run 16 (AVX2) or 32 (AVX-512) lanes
+// wide. For 8-bit values R, G, B (k / 255) it is exactly (299 R + 587 G + 114 B) >> 2: the
+// integer luma Y1000 in steps of 4 (4 / 255000 = 1 / 63750 of the range, 250 steps per 8-bit
+// level). For floats, t = 255000 Y is computed in float as below, whose rounding error is below
+// 0.05 for values k / 255.f (every 8-bit value's float), while every integer Y1000 lies 0.5 away
+// from a key boundary (t = 4 k - 0.5): an 8-bit image and its float conversion give the same
+// keys (checked for all 2^24 colours in metrics_test). The map is monotonic: a census bit
+// differs from a compare of exact luma only for two lumas less than 1/63750 apart that share a
+// key.
+inline int16_t CensusKey(float r, float g, float b) {
+  float t = 76245.f * r + 149685.f * g + 29070.f * b;  // 255 (299 r + 587 g + 114 b)
+  t = t >= 0.f ? (t <= 255000.f ? t : 255000.f) : 0.f;
+  return static_cast<int16_t>(static_cast<int>((t + 0.5f) * 0.25f) - 32768);
+}
+// The key of 8-bit values: (299 r + 587 g + 114 b) >> 2 = a + (b' >> 2) with a = 74 r + 146 g +
+// 28 b and b' = 3 r + 3 g + 2 b (299 = 4 * 74 + 3, ...), every step in 16 bits.
+inline int16_t CensusKeyOfBytes(uint8_t r, uint8_t g, uint8_t b) {
+  const uint16_t a = static_cast<uint16_t>(74 * r + 146 * g + 28 * b);
+  const uint16_t low = static_cast<uint16_t>(3 * r + 3 * g + 2 * b);
+  return static_cast<int16_t>(static_cast<uint16_t>(a + (low >> 2) - 32768));
+}
+
 // Census of a row of centres (census.cc): values[x] for x in [r, end) = the number of the
-// (2r+1)^2 - 1 window neighbours whose "darker than the centre" bit differs between the two
-// luma images, times inv_bits; `photo_rows` / `rephoto_rows` point to the 2r+1 luma rows of the
-// window (each of width w). end = r + the whole blocks of 16 (AVX2, baseline) or 32 (AVX-512)
-// centres that fit before w - r; returns end (the caller does the rest). The same values on
-// every target.
-int CensusValues(const float* const* photo_rows, const float* const* rephoto_rows, int r, int w,
-                 float inv_bits, float* values);
+// (2r+1)^2 - 1 window neighbours whose "darker than the centre" bit (key < centre key) differs
+// between the two key images, times inv_bits; `photo_rows` / `rephoto_rows` point to the 2r+1
+// key rows of the window (each of width w). end = w - r when the row holds at least one block
+// of 32 (AVX2, baseline) or 64 (AVX-512) centres and the window has at most 32767 neighbours,
+// else r; returns end (the caller does the rest). The same values on every target.
+int CensusValues(const int16_t* const* photo_rows, const int16_t* const* rephoto_rows, int r,
+                 int w, float inv_bits, float* values);
 
 // Fills a whole error row with NaN.
 void FillNaN(float* row, int width);

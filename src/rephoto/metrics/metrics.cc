@@ -29,6 +29,7 @@ using internal::ErrorRows;
 using internal::Scratch;
 using internal::V8f;
 using internal::V8i;
+using internal::V8s;
 using Inputs = internal::BandInputs;
 
 // ---------------------------------------------------------------------------------------------
@@ -63,22 +64,22 @@ REPHOTO_ISA_DISPATCH(void, Deinterleave,
                       float* __restrict c1, float* __restrict c2),
                      (rgb, w, c0, c1, c2))
 
-// Luma 0.299 R + 0.587 G + 0.114 B of an interleaved RGB row, the arithmetic of LumaPlanar on
-// the planes Deinterleave makes (same values), in one pass: census alone needs no planes.
-[[gnu::always_inline]] inline void LumaInterleavedBody(const float* __restrict rgb, int w,
-                                                       float* __restrict luma) {
+// Census keys (kernels.h CensusKey) of an interleaved float RGB row, eight pixels at a time by
+// shuffles: census alone needs no planes.
+[[gnu::always_inline]] inline void CensusKeysInterleavedBody(const float* __restrict rgb, int w,
+                                                             int16_t* __restrict keys) {
   int x = 0;
   for (; x + 8 <= w; x += 8) {
     V8f r, g, bl;
     Deinterleave8(rgb + 3 * x, &r, &g, &bl);
-    const V8f y = 0.299f * r + 0.587f * g + 0.114f * bl;
-    __builtin_memcpy(luma + x, &y, 32);
+    const V8s k = internal::CensusKeys8(r, g, bl);
+    __builtin_memcpy(keys + x, &k, 16);
   }
-  for (; x < w; ++x)
-    luma[x] = 0.299f * rgb[3 * x] + 0.587f * rgb[3 * x + 1] + 0.114f * rgb[3 * x + 2];
+  for (; x < w; ++x) keys[x] = internal::CensusKey(rgb[3 * x], rgb[3 * x + 1], rgb[3 * x + 2]);
 }
-REPHOTO_ISA_DISPATCH(void, LumaInterleaved,
-                     (const float* __restrict rgb, int w, float* __restrict luma), (rgb, w, luma))
+REPHOTO_ISA_DISPATCH(void, CensusKeysInterleaved,
+                     (const float* __restrict rgb, int w, int16_t* __restrict keys),
+                     (rgb, w, keys))
 
 // cols[q * w + x] += quantity q of the planar rows p (3 planes) and q (3 planes); with
 // `leaving` (kSlide), the same then -= quantity q of the planar rows `leaving`: the window's
@@ -257,19 +258,69 @@ REPHOTO_ISA_DISPATCH(void, BoxErrors,
 // so every window sum and deviation below fits in int32.
 constexpr int kMaxExactWindow = 9;
 
-// The byte planes of an interleaved 8-bit row (3 or 4 channels: alpha dropped).
+// The byte planes of an interleaved 8-bit row (3 or 4 channels: alpha dropped). 16 pixels at a
+// time by byte shuffles (the compiler's stride-3 loop was scalar: 12 % of census alone at 12 MP).
+typedef unsigned char V16u8 __attribute__((vector_size(16)));
 [[gnu::always_inline]] inline void BytePlanesBody(const uint8_t* __restrict row, int channels,
                                                   int w, uint8_t* __restrict c0,
                                                   uint8_t* __restrict c1, uint8_t* __restrict c2) {
+  int x = 0;
   if (channels == 4) {
-    for (int x = 0; x < w; ++x) {
+    for (; x + 16 <= w; x += 16) {
+      V16u8 a, b, c, d;
+      __builtin_memcpy(&a, row + 4 * x, 16);
+      __builtin_memcpy(&b, row + 4 * x + 16, 16);
+      __builtin_memcpy(&c, row + 4 * x + 32, 16);
+      __builtin_memcpy(&d, row + 4 * x + 48, 16);
+      // Per pair of vectors, the first 8 lanes red, then green; blue by itself.
+      const V16u8 rg_ab = __builtin_shufflevector(a, b, 0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13,
+                                                  17, 21, 25, 29);
+      const V16u8 rg_cd = __builtin_shufflevector(c, d, 0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13,
+                                                  17, 21, 25, 29);
+      const V16u8 b_ab = __builtin_shufflevector(a, b, 2, 6, 10, 14, 18, 22, 26, 30, 2, 6, 10, 14,
+                                                 18, 22, 26, 30);
+      const V16u8 b_cd = __builtin_shufflevector(c, d, 2, 6, 10, 14, 18, 22, 26, 30, 2, 6, 10, 14,
+                                                 18, 22, 26, 30);
+      const V16u8 red = __builtin_shufflevector(rg_ab, rg_cd, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18,
+                                                19, 20, 21, 22, 23);
+      const V16u8 green = __builtin_shufflevector(rg_ab, rg_cd, 8, 9, 10, 11, 12, 13, 14, 15, 24,
+                                                  25, 26, 27, 28, 29, 30, 31);
+      const V16u8 blue = __builtin_shufflevector(b_ab, b_cd, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18,
+                                                 19, 20, 21, 22, 23);
+      __builtin_memcpy(c0 + x, &red, 16);
+      __builtin_memcpy(c1 + x, &green, 16);
+      __builtin_memcpy(c2 + x, &blue, 16);
+    }
+    for (; x < w; ++x) {
       c0[x] = row[4 * x];
       c1[x] = row[4 * x + 1];
       c2[x] = row[4 * x + 2];
     }
     return;
   }
-  for (int x = 0; x < w; ++x) {
+  for (; x + 16 <= w; x += 16) {
+    V16u8 a, b, c;
+    __builtin_memcpy(&a, row + 3 * x, 16);
+    __builtin_memcpy(&b, row + 3 * x + 16, 16);
+    __builtin_memcpy(&c, row + 3 * x + 32, 16);
+    // Red is bytes 0, 3, ..., 45 of the 48: 6 from a, 5 from b, 5 from c; green and blue alike.
+    const V16u8 red_ab = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 30, 0,
+                                                 0, 0, 0, 0);
+    const V16u8 green_ab = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 16, 19, 22, 25, 28, 31,
+                                                   0, 0, 0, 0, 0);
+    const V16u8 blue_ab = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 17, 20, 23, 26, 29, 0, 0,
+                                                  0, 0, 0, 0);
+    const V16u8 red = __builtin_shufflevector(red_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 17, 20,
+                                              23, 26, 29);
+    const V16u8 green = __builtin_shufflevector(green_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 18,
+                                                21, 24, 27, 30);
+    const V16u8 blue = __builtin_shufflevector(blue_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 16, 19,
+                                               22, 25, 28, 31);
+    __builtin_memcpy(c0 + x, &red, 16);
+    __builtin_memcpy(c1 + x, &green, 16);
+    __builtin_memcpy(c2 + x, &blue, 16);
+  }
+  for (; x < w; ++x) {
     c0[x] = row[3 * x];
     c1[x] = row[3 * x + 1];
     c2[x] = row[3 * x + 2];
@@ -393,17 +444,40 @@ size_t CountRow(const uint8_t* __restrict ok, int w, int r) {
 // ---------------------------------------------------------------------------------------------
 // Census on luma.
 
-// Luma Y = 0.299 R + 0.587 G + 0.114 B of planar rows.
-[[gnu::always_inline]] inline void LumaPlanarBody(const float* __restrict red,
-                                                  const float* __restrict green,
-                                                  const float* __restrict blue, int w,
-                                                  float* __restrict luma) {
-  for (int x = 0; x < w; ++x) luma[x] = 0.299f * red[x] + 0.587f * green[x] + 0.114f * blue[x];
+// Census keys of planar float rows.
+[[gnu::always_inline]] inline void CensusKeysPlanarBody(const float* __restrict red,
+                                                        const float* __restrict green,
+                                                        const float* __restrict blue, int w,
+                                                        int16_t* __restrict keys) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    const V8s k = internal::CensusKeys8(REPHOTO_LOAD(V8f, red + x), REPHOTO_LOAD(V8f, green + x),
+                                        REPHOTO_LOAD(V8f, blue + x));
+    __builtin_memcpy(keys + x, &k, 16);
+  }
+  for (; x < w; ++x) keys[x] = internal::CensusKey(red[x], green[x], blue[x]);
 }
-REPHOTO_ISA_DISPATCH(void, LumaPlanar,
+REPHOTO_ISA_DISPATCH(void, CensusKeysPlanar,
                      (const float* __restrict red, const float* __restrict green,
-                      const float* __restrict blue, int w, float* __restrict luma),
-                     (red, green, blue, w, luma))
+                      const float* __restrict blue, int w, int16_t* __restrict keys),
+                     (red, green, blue, w, keys))
+
+// Census keys of 8-bit planes (kernels.h CensusKeyOfBytes), in 16-bit lanes.
+[[gnu::always_inline]] inline void CensusKeysOfBytesBody(const uint8_t* __restrict red,
+                                                         const uint8_t* __restrict green,
+                                                         const uint8_t* __restrict blue, int w,
+                                                         int16_t* __restrict keys) {
+  for (int x = 0; x < w; ++x) {
+    const uint16_t r = red[x], g = green[x], b = blue[x];
+    const uint16_t a = static_cast<uint16_t>(74 * r + 146 * g + 28 * b);
+    const uint16_t low = static_cast<uint16_t>(3 * r + 3 * g + 2 * b);
+    keys[x] = static_cast<int16_t>(static_cast<uint16_t>(a + (low >> 2) - 32768));
+  }
+}
+REPHOTO_ISA_DISPATCH(void, CensusKeysOfBytes,
+                     (const uint8_t* __restrict red, const uint8_t* __restrict green,
+                      const uint8_t* __restrict blue, int w, int16_t* __restrict keys),
+                     (red, green, blue, w, keys))
 
 // 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
 // planes and converted to luma once, and kept in a ring of 2r+2 rows (the window plus the row
@@ -425,10 +499,13 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
     }
   }
   if (c0 >= c1 || w < window) return true;
-  // Ring slot: photo R, G, B, rephoto R, G, B, photo luma, rephoto luma (8 planes of w; on the
-  // exact path the six colour planes are bytes at the start of the slot).
+  // Ring slot: photo R, G, B, rephoto R, G, B (6 planes of w; on the exact path bytes at the
+  // start of the slot); census keys of the photo and the rephoto in their own ring (2 x w).
   const int ring = 2 * r + 2;
-  const size_t slot_size = static_cast<size_t>(8) * w;
+  const size_t slot_size = static_cast<size_t>(6) * w;
+  thread_local std::vector<int16_t> key_buffer;
+  int16_t* key_slots = census ? Scratch(key_buffer, ring * 2 * static_cast<size_t>(w)) : nullptr;
+  auto keys = [&](int64_t j) { return key_slots + static_cast<size_t>(j % ring) * 2 * w; };
   thread_local std::vector<float> float_buffer;
   float* slots = Scratch(float_buffer, ring * slot_size + 3 * static_cast<size_t>(w));
   float* ncc_values = slots + ring * slot_size;
@@ -450,37 +527,49 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
   auto load = [&](int64_t j) {
     float* s = slot(j);
     const int yj = static_cast<int>(j);
-    const float* p = in.photo.row(yj);
-    const float* q = in.rephoto.row(yj);
-    if (!box) {  // census alone: luma only
-      LumaInterleaved(p, w, s + 6 * w);
-      LumaInterleaved(q, w, s + 7 * w);
+    const uint8_t* photo_bytes = in.photo.bytes_row(yj);
+    const uint8_t* rephoto_bytes = in.rephoto.bytes_row(yj);
+    uint8_t* b = bytes(j);
+    if (!box) {  // census alone: keys only, from the bytes when there are any
+      if (photo_bytes) {
+        BytePlanes(photo_bytes, in.photo.channels(), w, b, b + w, b + 2 * w);
+        CensusKeysOfBytes(b, b + w, b + 2 * w, w, keys(j));
+      } else {
+        CensusKeysInterleaved(in.photo.row(yj), w, keys(j));
+      }
+      if (rephoto_bytes) {
+        BytePlanes(rephoto_bytes, in.rephoto.channels(), w, b + 3 * w, b + 4 * w, b + 5 * w);
+        CensusKeysOfBytes(b + 3 * w, b + 4 * w, b + 5 * w, w, keys(j) + w);
+      } else {
+        CensusKeysInterleaved(in.rephoto.row(yj), w, keys(j) + w);
+      }
       return true;
     }
     if (exact) {
-      uint8_t* b = bytes(j);
       bool ok = true;
-      if (const uint8_t* raw = in.photo.bytes_row(yj)) {
-        BytePlanes(raw, in.photo.channels(), w, b, b + w, b + 2 * w);
+      if (photo_bytes) {
+        BytePlanes(photo_bytes, in.photo.channels(), w, b, b + w, b + 2 * w);
       } else {
-        ok = FloatBytePlanes(p, w, b, b + w, b + 2 * w);
+        ok = FloatBytePlanes(in.photo.row(yj), w, b, b + w, b + 2 * w);
       }
-      if (const uint8_t* raw = in.rephoto.bytes_row(yj)) {
-        BytePlanes(raw, in.rephoto.channels(), w, b + 3 * w, b + 4 * w, b + 5 * w);
+      if (rephoto_bytes) {
+        BytePlanes(rephoto_bytes, in.rephoto.channels(), w, b + 3 * w, b + 4 * w, b + 5 * w);
       } else {
-        ok = ok && FloatBytePlanes(q, w, b + 3 * w, b + 4 * w, b + 5 * w);
+        ok = ok && FloatBytePlanes(in.rephoto.row(yj), w, b + 3 * w, b + 4 * w, b + 5 * w);
       }
-      if (census) {
-        LumaInterleaved(p, w, s + 6 * w);
-        LumaInterleaved(q, w, s + 7 * w);
+      if (ok && census) {  // the keys of the bytes are those of their floats (CensusKey)
+        CensusKeysOfBytes(b, b + w, b + 2 * w, w, keys(j));
+        CensusKeysOfBytes(b + 3 * w, b + 4 * w, b + 5 * w, w, keys(j) + w);
       }
       return ok;
     }
+    const float* p = in.photo.row(yj);
+    const float* q = in.rephoto.row(yj);
     Deinterleave(p, w, s, s + w, s + 2 * w);
     Deinterleave(q, w, s + 3 * w, s + 4 * w, s + 5 * w);
     if (census) {
-      LumaPlanar(s, s + w, s + 2 * w, w, s + 6 * w);
-      LumaPlanar(s + 3 * w, s + 4 * w, s + 5 * w, w, s + 7 * w);
+      CensusKeysPlanar(s, s + w, s + 2 * w, w, keys(j));
+      CensusKeysPlanar(s + 3 * w, s + 4 * w, s + 5 * w, w, keys(j) + w);
     }
     return true;
   };
@@ -497,7 +586,7 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
   const double flat_scaled = flat * n * (255.0 * 255.0);
   const double zssd_scale = 1.0 / (n * n * (255.0 * 255.0) * 3.0);
   const float inv_bits = 1.0f / static_cast<float>(window * window - 1);
-  std::vector<const float*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
+  std::vector<const int16_t*> photo_rows(2 * r + 1), rephoto_rows(2 * r + 1);
   for (int64_t y = c0; y < c1; ++y) {
     const int yi = static_cast<int>(y);
     if (y > c0) {
@@ -524,15 +613,15 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
     }
     if (census) {
       for (int k = 0; k <= 2 * r; ++k) {
-        photo_rows[k] = slot(y - r + k) + 6 * w;
-        rephoto_rows[k] = slot(y - r + k) + 7 * w;
+        photo_rows[k] = keys(y - r + k);
+        rephoto_rows[k] = keys(y - r + k) + w;
       }
       float* census_values = zssd_values + w;
       const int done =
           CensusValues(photo_rows.data(), rephoto_rows.data(), r, w, inv_bits, census_values);
       for (int x = done; x < w - r; ++x) {  // tail
         int n = 0;
-        const float cp = photo_rows[r][x], cr = rephoto_rows[r][x];
+        const int16_t cp = photo_rows[r][x], cr = rephoto_rows[r][x];
         for (int k = 0; k <= 2 * r; ++k) {
           for (int dx = -r; dx <= r; ++dx) {
             n += (photo_rows[k][x + dx] < cp) != (rephoto_rows[k][x + dx] < cr);
@@ -827,9 +916,20 @@ BandSums ComputeBand(const Engine& e, const ErrorRows* const* rows, int64_t y0, 
   thread_local std::vector<float> photo_scratch, rephoto_scratch;
   internal::RgbRows p, q;
   const int first = static_cast<int>(y0) - e.halo, end = static_cast<int>(y1) + e.halo;
-  // iCID reads 8-bit rows itself: alone, it needs no float rows.
+  // iCID and census read 8-bit rows themselves, and so do 1-NCC and ZSSD on their exact path
+  // when both images are 8-bit (windows up to kMaxExactWindow; it then takes every row; with one
+  // float image a row may fail the exact path and go to the double one, which reads floats):
+  // without the other metrics, 8-bit images need no float rows.
+  const bool both_bytes = e.photo.bytes() != nullptr && e.rephoto.bytes() != nullptr;
   bool floats = false;
-  for (int m = 0; m < 8; ++m) floats |= e.want[m] && static_cast<Metric>(m) != Metric::kIcid;
+  for (int m = 0; m < 8; ++m) {
+    const Metric metric = static_cast<Metric>(m);
+    const bool reads_bytes =
+        metric == Metric::kIcid || metric == Metric::kCensus ||
+        ((metric == Metric::kOneMinusNcc || metric == Metric::kZssd) && both_bytes &&
+         e.options.window <= kMaxExactWindow);
+    floats |= e.want[m] && !reads_bytes;
+  }
   p.Load(e.photo, first, end, &photo_scratch, floats);
   q.Load(e.rephoto, first, end, &rephoto_scratch, floats);
   const Inputs in{p, q, e.valid, e.width, e.height, e.call};

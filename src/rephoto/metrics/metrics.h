@@ -37,7 +37,8 @@
 // in double (column sums, prefix sums along rows), so E[x^2] - E[x]^2 keeps ~12 significant
 // digits. Both give the same float error values but for last-bit roundings (~1e-12 apart before
 // the rounding to float), and an 8-bit image and its float conversion give identical results;
-// census compares float luma exactly; ssim/dssim filter in float (separable, values shifted by
+// census compares luma in fixed point (kernels.h CensusKey: 63750 steps over [0, 1], for 8-bit
+// colours exactly (299 R + 587 G + 114 B) >> 2, the same for an 8-bit image and its floats); ssim/dssim filter in float (separable, values shifted by
 // -0.5 to reduce cancellation): per-pixel values agree with a double-precision reference to
 // ~2e-5 and the means with scikit-image to ~1e-6 (tests). Costs do not depend on the window
 // size except for the exact path's sums along rows (window adds) and the separable Gaussian (2 x

@@ -127,13 +127,26 @@ float Luma(const Image& img, int x, int y) {
   return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
 }
 
+// kernels.h CensusKey: luma in fixed point, floor((255000 Y + 0.5) / 4) with 255000 Y in [0,
+// 255000], written here in double from the SPEC's coefficients (the float arithmetic of the
+// code can differ from it only within 0.05 of a key boundary: not for 8-bit values, see
+// CensusKeysOfEveryEightBitColour; the random float images below are 8-bit values or smooth
+// images whose keys the float rounding moves with probability ~1e-2 per pixel, so those cases
+// compare keys computed the code's way, in float).
+long CensusLevel(const Image& img, int x, int y) {
+  const float r = img.at(x, y, 0), g = img.at(x, y, 1), b = img.at(x, y, 2);
+  float t = 76245.f * r + 149685.f * g + 29070.f * b;
+  if (!(t >= 0.f)) t = 0.f;
+  if (t > 255000.f) t = 255000.f;
+  return static_cast<long>(std::floor((t + 0.5f) * 0.25f));
+}
 double NaiveCensus(const Image& p, const Image& q, int x, int y, int r) {
   int differ = 0;
   for (int dy = -r; dy <= r; ++dy) {
     for (int dx = -r; dx <= r; ++dx) {
       if (dx == 0 && dy == 0) continue;
-      const bool bp = Luma(p, x + dx, y + dy) < Luma(p, x, y);
-      const bool bq = Luma(q, x + dx, y + dy) < Luma(q, x, y);
+      const bool bp = CensusLevel(p, x + dx, y + dy) < CensusLevel(p, x, y);
+      const bool bq = CensusLevel(q, x + dx, y + dy) < CensusLevel(q, x, y);
       differ += bp != bq;
     }
   }
@@ -410,6 +423,61 @@ TEST(Metrics, IdenticalImagesGiveExactlyZero) {
 
 // Regression: iCID's contrast terms once rounded 10 + a + b twice and gave 2e-16 instead of 0 on
 // identical dark, noisy 8-bit content (like the near-black parts of a photo).
+// iCID's float CIELAB (icid.h): the cube root within 1 ulp of the correctly rounded one
+// (std::cbrt in double, rounded to float) on every 97th float of [2^-7, 2^2) and on a sweep up to
+// 2^40; L*, a* and b* of every 8-bit colour within 1e-4 of SrgbToLab's double formulas (a* and b*
+// are 500 and 200 times a difference of two cube roots of ~1: 6e-8 each in float; measured 7.2e-5).
+TEST(Metrics, IcidFloatLabFollowsTheDoubleFormulas) {
+  int worst_ulps = 0;
+  auto check = [&](float x) {
+    const float got = internal::CubeRootFloat(x);
+    const float want = static_cast<float>(std::cbrt(static_cast<double>(x)));
+    int32_t a, b;
+    std::memcpy(&a, &got, 4);
+    std::memcpy(&b, &want, 4);
+    worst_ulps = std::max(worst_ulps, std::abs(a - b));
+  };
+  for (float x = 0x1p-7f; x < 4.f; x = std::nextafter(x, 8.f)) {
+    check(x);
+    for (int k = 0; k < 96; ++k) x = std::nextafter(x, 8.f);
+  }
+  for (float x = 0x1p-7f; x < 0x1p40f; x *= 1.0001f) check(x);
+  EXPECT_LE(worst_ulps, 1);
+
+  auto decode = [](double c) {  // IEC 61966-2-1, written out here
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+  };
+  const int w = 256 * 256;
+  std::vector<double> linear(3 * w);
+  std::vector<float> lab(3 * w);
+  double worst = 0;
+  for (int r = 0; r < 256; ++r) {
+    for (int g = 0; g < 256; ++g) {
+      for (int b = 0; b < 256; ++b) {
+        const int x = 256 * g + b;
+        linear[x] = decode(static_cast<float>(r) / 255.f);
+        linear[w + x] = decode(static_cast<float>(g) / 255.f);
+        linear[2 * w + x] = decode(static_cast<float>(b) / 255.f);
+      }
+    }
+    internal::LinearRgbToLabFloat(linear.data(), w, lab.data());
+    for (int g = 0; g < 256; ++g) {
+      for (int b = 0; b < 256; ++b) {
+        const int x = 256 * g + b;
+        double want[3];
+        SrgbToLab(static_cast<float>(r) / 255.f, static_cast<float>(g) / 255.f,
+                  static_cast<float>(b) / 255.f, want);
+        for (int c = 0; c < 3; ++c) {
+          worst = std::max(worst, std::abs(lab[static_cast<size_t>(c) * w + x] - want[c]));
+        }
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-4);
+  std::printf("float CIELAB: cube root within %d ulp, L*a*b* within %.3g of the double formulas\n",
+              worst_ulps, worst);
+}
+
 TEST(Metrics, IcidIsExactlyZeroOnIdenticalDarkNoisyImages) {
   auto rng = testing::MakeRng();
   std::uniform_int_distribution<int> level(0, 6);
@@ -420,11 +488,26 @@ TEST(Metrics, IcidIsExactlyZeroOnIdenticalDarkNoisyImages) {
   EXPECT_EQ(res.mean, 0.0);
 }
 
+// Grey 8-bit values (R = G = B = k / 255): two different lumas are at least 1/255 apart, so
+// after a gain of 0.6 still far more than census's key step (1/63750) apart.
+Image RandomGreyImage(std::mt19937_64& rng, int w, int h) {
+  std::uniform_int_distribution<int> q(0, 255);
+  Image img(w, h, 3);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const float v = static_cast<float>(q(rng)) / 255.0f;
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = v;
+    }
+  }
+  return img;
+}
+
 TEST(Metrics, NccAndCensusInvariantUnderGainAndOffset) {
   auto rng = testing::MakeRng();
-  // 8-bit values, so no two different lumas are closer than the rounding of gain * v + offset.
-  const Image photo = RandomImage(rng, 40, 30, true);
-  const Image rephoto = RandomImage(rng, 40, 30, true);
+  // 8-bit values, so no two different lumas are closer than the rounding of gain * v + offset
+  // (census: nor closer than its key step, see RandomGreyImage).
+  const Image photo = RandomGreyImage(rng, 40, 30);
+  const Image rephoto = RandomGreyImage(rng, 40, 30);
   Image changed = rephoto;
   for (size_t i = 0; i < changed.size(); ++i) changed.data()[i] = 0.6f * changed.data()[i] + 0.3f;
   const std::vector<Metric> set = {Metric::kOneMinusNcc, Metric::kCensus, Metric::kZssd};
@@ -451,6 +534,60 @@ TEST(Metrics, NccAndCensusInvariantUnderGainAndOffset) {
       ASSERT_NEAR(z0.error.data()[i], z1.error.data()[i], 1e-6);
     }
   }
+}
+
+// Every 8-bit colour: the key of its floats k / 255.f (the census path of float images) is the
+// integer luma (299 R + 587 G + 114 B) >> 2 (the path of 8-bit images), so that an 8-bit image
+// and its float conversion give the same census.
+TEST(Metrics, CensusKeysOfEveryEightBitColour) {
+  size_t differ = 0, differ_bytes = 0;
+  for (int r = 0; r < 256; ++r) {
+    for (int g = 0; g < 256; ++g) {
+      for (int b = 0; b < 256; ++b) {
+        const long exact = (299L * r + 587L * g + 114L * b) >> 2;
+        const int key = internal::CensusKey(static_cast<float>(r) / 255.f,
+                                            static_cast<float>(g) / 255.f,
+                                            static_cast<float>(b) / 255.f) + 32768;
+        const int key_of_bytes = internal::CensusKeyOfBytes(static_cast<uint8_t>(r),
+                                                            static_cast<uint8_t>(g),
+                                                            static_cast<uint8_t>(b)) + 32768;
+        differ += key != exact;
+        differ_bytes += key_of_bytes != exact;
+      }
+    }
+  }
+  EXPECT_EQ(differ, 0u);
+  EXPECT_EQ(differ_bytes, 0u);
+}
+
+// Census's keys (kernels.h CensusKey): lumas that share a key compare equal, lumas two key steps
+// apart do not, and luma outside [0, 1] compares as its clamped value.
+TEST(Metrics, CensusComparesLumaRoundedTo16Bits) {
+  const int w = 15, h = 15;
+  auto grey = [&](float centre, float others) {
+    Image img(w, h, 3);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const float v = (x == 7 && y == 7) ? centre : others;
+        for (int c = 0; c < 3; ++c) img.at(x, y, c) = v;
+      }
+    }
+    return img;
+  };
+  MetricOptions options;
+  options.window = 3;
+  auto census_at_centre = [&](const Image& p, const Image& q) {
+    const MetricResult res = ComputeMetric(Metric::kCensus, p, q, {}, options);
+    return res.error.at(7, 7, 0);
+  };
+  const Image flat = grey(0.5f, 0.5f);
+  // 255000 * 0.5 = 127500, key 31875; 1e-6 above: 127500.255, the same key.
+  EXPECT_EQ(census_at_centre(grey(0.5f, 0.5f + 1e-6f), flat), 0.0f);
+  // Neighbours darker than the centre by two key steps: all 8 bits differ from the flat image.
+  EXPECT_EQ(census_at_centre(grey(0.5f, 0.5f - 8.f / 255000.f), flat), 1.0f);
+  // Above 1 is 1: a centre at 1.5 among neighbours at 1 ties with them, as a centre at 1 would.
+  EXPECT_EQ(census_at_centre(grey(1.5f, 1.0f), flat), 0.0f);
+  EXPECT_EQ(census_at_centre(grey(1.0f, 0.9f), flat), 1.0f);
 }
 
 TEST(Metrics, InvertedPatchGivesNccErrorTwo) {
@@ -614,6 +751,21 @@ TEST(Metrics, BandsAndEightBitInputsGiveIdenticalResults) {
                     ComputeMetrics(photo, rephoto, valid, icid));
   ExpectSameResults(ComputeInBands(photo8, rephoto_rgba, valid, icid),
                     ComputeMetrics(photo, rephoto, valid, icid));
+  // So do census alone and 1-NCC + ZSSD on their exact path (both images 8-bit); with one image
+  // float and not of 8-bit values, the window pass falls back to the double path, which reads
+  // the float rows of the 8-bit image too.
+  for (const std::vector<Metric>& byte_readers :
+       {std::vector<Metric>{Metric::kCensus},
+        std::vector<Metric>{Metric::kOneMinusNcc, Metric::kZssd, Metric::kCensus, Metric::kIcid}}) {
+    ExpectSameResults(ComputeInBands(photo8, rephoto8, valid, byte_readers),
+                      ComputeMetrics(photo, rephoto, valid, byte_readers));
+    ExpectSameResults(ComputeInBands(photo8, rephoto_rgba, valid, byte_readers),
+                      ComputeMetrics(photo, rephoto, valid, byte_readers));
+    Image off_grid = rephoto;
+    for (size_t i = 0; i < off_grid.size(); i += 7) off_grid.data()[i] *= 0.999f;
+    ExpectSameResults(ComputeInBands(photo8, off_grid, valid, byte_readers),
+                      ComputeMetrics(photo, off_grid, valid, byte_readers));
+  }
 }
 
 // 1-NCC and ZSSD of 8-bit values from exact statistics: a reference written from the SPEC's

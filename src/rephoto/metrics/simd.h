@@ -12,6 +12,9 @@ typedef float V8f __attribute__((vector_size(32)));
 typedef int V8i __attribute__((vector_size(32)));
 typedef float V16f __attribute__((vector_size(64)));
 typedef int V16i __attribute__((vector_size(64)));
+typedef short V8s __attribute__((vector_size(16)));
+typedef short V16s __attribute__((vector_size(32)));
+typedef short V32s __attribute__((vector_size(64)));
 
 #define REPHOTO_LOAD(VF, p)                 \
   ({                                        \
@@ -24,6 +27,15 @@ typedef int V16i __attribute__((vector_size(64)));
     const auto s_ = (v);                    \
     __builtin_memcpy((p), &s_, sizeof(s_)); \
   } while (false)
+
+// Census keys (kernels.h CensusKey) of eight pixels, lane by lane the scalar arithmetic.
+[[gnu::always_inline]] inline V8s CensusKeys8(V8f r, V8f g, V8f b) {
+  const V8f zero = V8f{}, top = V8f{} + 255000.f;
+  V8f t = 76245.f * r + 149685.f * g + 29070.f * b;
+  t = t >= zero ? (t <= top ? t : top) : zero;  // NaN -> 0
+  const V8i k = __builtin_convertvector((t + 0.5f) * 0.25f, V8i) - 32768;
+  return __builtin_convertvector(k, V8s);
+}
 
 // Eight interleaved triples p[0..23] (RGB pixels, or 3 channel values per pixel) split into
 // their three planes by shuffles: c0 = p[0], p[3], ..., c1 = p[1], p[4], ..., c2 = p[2], ...
