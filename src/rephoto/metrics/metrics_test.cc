@@ -123,10 +123,6 @@ double NaiveZssd(const Image& p, const Image& q, int x, int y, int r) {
   return total / 3;
 }
 
-float Luma(const Image& img, int x, int y) {
-  return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
-}
-
 // kernels.h CensusKey: luma in fixed point, floor((255000 Y + 0.5) / 4) with 255000 Y in [0,
 // 255000], written here in double from the SPEC's coefficients (the float arithmetic of the
 // code can differ from it only within 0.05 of a key boundary: not for 8-bit values, see
