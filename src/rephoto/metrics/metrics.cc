@@ -29,7 +29,6 @@ using internal::ErrorRows;
 using internal::Scratch;
 using internal::V8f;
 using internal::V8i;
-using internal::V8s;
 using Inputs = internal::BandInputs;
 
 // ---------------------------------------------------------------------------------------------
@@ -72,8 +71,7 @@ REPHOTO_ISA_DISPATCH(void, Deinterleave,
   for (; x + 8 <= w; x += 8) {
     V8f r, g, bl;
     Deinterleave8(rgb + 3 * x, &r, &g, &bl);
-    const V8s k = internal::CensusKeys8(r, g, bl);
-    __builtin_memcpy(keys + x, &k, 16);
+    internal::CensusKeys8(&r, &g, &bl, keys + x);
   }
   for (; x < w; ++x) keys[x] = internal::CensusKey(rgb[3 * x], rgb[3 * x + 1], rgb[3 * x + 2]);
 }
@@ -258,72 +256,67 @@ REPHOTO_ISA_DISPATCH(void, BoxErrors,
 // so every window sum and deviation below fits in int32.
 constexpr int kMaxExactWindow = 9;
 
-// The byte planes of an interleaved 8-bit row (3 or 4 channels: alpha dropped). 16 pixels at a
-// time by byte shuffles (the compiler's stride-3 loop was scalar: 12 % of census alone at 12 MP).
+// The red, green and blue bytes of 16 interleaved 8-bit pixels (3 or 4 channels: alpha dropped),
+// by byte shuffles (the compiler's stride-3 loop was scalar: 12 % of census alone at 12 MP).
 typedef unsigned char V16u8 __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline void DeinterleaveBytes16(const uint8_t* row, int channels,
+                                                       V16u8* red, V16u8* green, V16u8* blue) {
+  if (channels == 4) {
+    V16u8 a, b, c, d;
+    __builtin_memcpy(&a, row, 16);
+    __builtin_memcpy(&b, row + 16, 16);
+    __builtin_memcpy(&c, row + 32, 16);
+    __builtin_memcpy(&d, row + 48, 16);
+    // Per pair of vectors, the first 8 lanes red, then green; blue by itself.
+    const V16u8 rg_ab =
+        __builtin_shufflevector(a, b, 0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13, 17, 21, 25, 29);
+    const V16u8 rg_cd =
+        __builtin_shufflevector(c, d, 0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13, 17, 21, 25, 29);
+    const V16u8 b_ab =
+        __builtin_shufflevector(a, b, 2, 6, 10, 14, 18, 22, 26, 30, 2, 6, 10, 14, 18, 22, 26, 30);
+    const V16u8 b_cd =
+        __builtin_shufflevector(c, d, 2, 6, 10, 14, 18, 22, 26, 30, 2, 6, 10, 14, 18, 22, 26, 30);
+    *red = __builtin_shufflevector(rg_ab, rg_cd, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21,
+                                   22, 23);
+    *green = __builtin_shufflevector(rg_ab, rg_cd, 8, 9, 10, 11, 12, 13, 14, 15, 24, 25, 26, 27,
+                                     28, 29, 30, 31);
+    *blue = __builtin_shufflevector(b_ab, b_cd, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22,
+                                    23);
+    return;
+  }
+  V16u8 a, b, c;
+  __builtin_memcpy(&a, row, 16);
+  __builtin_memcpy(&b, row + 16, 16);
+  __builtin_memcpy(&c, row + 32, 16);
+  // Red is bytes 0, 3, ..., 45 of the 48: 6 from a, 5 from b, 5 from c; green and blue alike.
+  const V16u8 red_ab =
+      __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 30, 0, 0, 0, 0, 0);
+  const V16u8 green_ab =
+      __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 16, 19, 22, 25, 28, 31, 0, 0, 0, 0, 0);
+  const V16u8 blue_ab =
+      __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 17, 20, 23, 26, 29, 0, 0, 0, 0, 0, 0);
+  *red = __builtin_shufflevector(red_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 17, 20, 23, 26, 29);
+  *green =
+      __builtin_shufflevector(green_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 18, 21, 24, 27, 30);
+  *blue = __builtin_shufflevector(blue_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 16, 19, 22, 25, 28, 31);
+}
+
+// The byte planes of an interleaved 8-bit row (3 or 4 channels: alpha dropped).
 [[gnu::always_inline]] inline void BytePlanesBody(const uint8_t* __restrict row, int channels,
                                                   int w, uint8_t* __restrict c0,
                                                   uint8_t* __restrict c1, uint8_t* __restrict c2) {
   int x = 0;
-  if (channels == 4) {
-    for (; x + 16 <= w; x += 16) {
-      V16u8 a, b, c, d;
-      __builtin_memcpy(&a, row + 4 * x, 16);
-      __builtin_memcpy(&b, row + 4 * x + 16, 16);
-      __builtin_memcpy(&c, row + 4 * x + 32, 16);
-      __builtin_memcpy(&d, row + 4 * x + 48, 16);
-      // Per pair of vectors, the first 8 lanes red, then green; blue by itself.
-      const V16u8 rg_ab = __builtin_shufflevector(a, b, 0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13,
-                                                  17, 21, 25, 29);
-      const V16u8 rg_cd = __builtin_shufflevector(c, d, 0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13,
-                                                  17, 21, 25, 29);
-      const V16u8 b_ab = __builtin_shufflevector(a, b, 2, 6, 10, 14, 18, 22, 26, 30, 2, 6, 10, 14,
-                                                 18, 22, 26, 30);
-      const V16u8 b_cd = __builtin_shufflevector(c, d, 2, 6, 10, 14, 18, 22, 26, 30, 2, 6, 10, 14,
-                                                 18, 22, 26, 30);
-      const V16u8 red = __builtin_shufflevector(rg_ab, rg_cd, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18,
-                                                19, 20, 21, 22, 23);
-      const V16u8 green = __builtin_shufflevector(rg_ab, rg_cd, 8, 9, 10, 11, 12, 13, 14, 15, 24,
-                                                  25, 26, 27, 28, 29, 30, 31);
-      const V16u8 blue = __builtin_shufflevector(b_ab, b_cd, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18,
-                                                 19, 20, 21, 22, 23);
-      __builtin_memcpy(c0 + x, &red, 16);
-      __builtin_memcpy(c1 + x, &green, 16);
-      __builtin_memcpy(c2 + x, &blue, 16);
-    }
-    for (; x < w; ++x) {
-      c0[x] = row[4 * x];
-      c1[x] = row[4 * x + 1];
-      c2[x] = row[4 * x + 2];
-    }
-    return;
-  }
   for (; x + 16 <= w; x += 16) {
-    V16u8 a, b, c;
-    __builtin_memcpy(&a, row + 3 * x, 16);
-    __builtin_memcpy(&b, row + 3 * x + 16, 16);
-    __builtin_memcpy(&c, row + 3 * x + 32, 16);
-    // Red is bytes 0, 3, ..., 45 of the 48: 6 from a, 5 from b, 5 from c; green and blue alike.
-    const V16u8 red_ab = __builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 30, 0,
-                                                 0, 0, 0, 0);
-    const V16u8 green_ab = __builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 16, 19, 22, 25, 28, 31,
-                                                   0, 0, 0, 0, 0);
-    const V16u8 blue_ab = __builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 17, 20, 23, 26, 29, 0, 0,
-                                                  0, 0, 0, 0);
-    const V16u8 red = __builtin_shufflevector(red_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 17, 20,
-                                              23, 26, 29);
-    const V16u8 green = __builtin_shufflevector(green_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 18,
-                                                21, 24, 27, 30);
-    const V16u8 blue = __builtin_shufflevector(blue_ab, c, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 16, 19,
-                                               22, 25, 28, 31);
+    V16u8 red, green, blue;
+    DeinterleaveBytes16(row + channels * x, channels, &red, &green, &blue);
     __builtin_memcpy(c0 + x, &red, 16);
     __builtin_memcpy(c1 + x, &green, 16);
     __builtin_memcpy(c2 + x, &blue, 16);
   }
   for (; x < w; ++x) {
-    c0[x] = row[3 * x];
-    c1[x] = row[3 * x + 1];
-    c2[x] = row[3 * x + 2];
+    c0[x] = row[channels * x];
+    c1[x] = row[channels * x + 1];
+    c2[x] = row[channels * x + 2];
   }
 }
 REPHOTO_ISA_DISPATCH(void, BytePlanes,
@@ -451,9 +444,9 @@ size_t CountRow(const uint8_t* __restrict ok, int w, int r) {
                                                         int16_t* __restrict keys) {
   int x = 0;
   for (; x + 8 <= w; x += 8) {
-    const V8s k = internal::CensusKeys8(REPHOTO_LOAD(V8f, red + x), REPHOTO_LOAD(V8f, green + x),
-                                        REPHOTO_LOAD(V8f, blue + x));
-    __builtin_memcpy(keys + x, &k, 16);
+    const V8f r = REPHOTO_LOAD(V8f, red + x), g = REPHOTO_LOAD(V8f, green + x),
+              b = REPHOTO_LOAD(V8f, blue + x);
+    internal::CensusKeys8(&r, &g, &b, keys + x);
   }
   for (; x < w; ++x) keys[x] = internal::CensusKey(red[x], green[x], blue[x]);
 }
@@ -462,22 +455,57 @@ REPHOTO_ISA_DISPATCH(void, CensusKeysPlanar,
                       const float* __restrict blue, int w, int16_t* __restrict keys),
                      (red, green, blue, w, keys))
 
-// Census keys of 8-bit planes (kernels.h CensusKeyOfBytes), in 16-bit lanes.
+// Census keys of 8-bit values (kernels.h CensusKeyOfBytes), 16 at a time in 16-bit lanes.
+typedef unsigned short V16u16 __attribute__((vector_size(32)));
+[[gnu::always_inline]] inline void CensusKeys16(const V16u8* red, const V16u8* green,
+                                                const V16u8* blue, int16_t* keys) {
+  const V16u16 r = __builtin_convertvector(*red, V16u16);
+  const V16u16 g = __builtin_convertvector(*green, V16u16);
+  const V16u16 b = __builtin_convertvector(*blue, V16u16);
+  const V16u16 a = 74 * r + 146 * g + 28 * b;
+  const V16u16 low = 3 * r + 3 * g + 2 * b;
+  const V16u16 k = a + (low >> 2) - 32768;
+  __builtin_memcpy(keys, &k, 32);
+}
+
+// Census keys of 8-bit planes.
 [[gnu::always_inline]] inline void CensusKeysOfBytesBody(const uint8_t* __restrict red,
                                                          const uint8_t* __restrict green,
                                                          const uint8_t* __restrict blue, int w,
                                                          int16_t* __restrict keys) {
-  for (int x = 0; x < w; ++x) {
-    const uint16_t r = red[x], g = green[x], b = blue[x];
-    const uint16_t a = static_cast<uint16_t>(74 * r + 146 * g + 28 * b);
-    const uint16_t low = static_cast<uint16_t>(3 * r + 3 * g + 2 * b);
-    keys[x] = static_cast<int16_t>(static_cast<uint16_t>(a + (low >> 2) - 32768));
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    V16u8 r, g, b;
+    __builtin_memcpy(&r, red + x, 16);
+    __builtin_memcpy(&g, green + x, 16);
+    __builtin_memcpy(&b, blue + x, 16);
+    CensusKeys16(&r, &g, &b, keys + x);
   }
+  for (; x < w; ++x) keys[x] = internal::CensusKeyOfBytes(red[x], green[x], blue[x]);
 }
 REPHOTO_ISA_DISPATCH(void, CensusKeysOfBytes,
                      (const uint8_t* __restrict red, const uint8_t* __restrict green,
                       const uint8_t* __restrict blue, int w, int16_t* __restrict keys),
                      (red, green, blue, w, keys))
+
+// Census keys of an interleaved 8-bit row (3 or 4 channels), without planes: census alone.
+[[gnu::always_inline]] inline void CensusKeysOfRowBody(const uint8_t* __restrict row, int channels,
+                                                       int w, int16_t* __restrict keys) {
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    V16u8 r, g, b;
+    DeinterleaveBytes16(row + channels * x, channels, &r, &g, &b);
+    CensusKeys16(&r, &g, &b, keys + x);
+  }
+  for (; x < w; ++x) {
+    keys[x] = internal::CensusKeyOfBytes(row[channels * x], row[channels * x + 1],
+                                         row[channels * x + 2]);
+  }
+}
+REPHOTO_ISA_DISPATCH(void, CensusKeysOfRow,
+                     (const uint8_t* __restrict row, int channels, int w,
+                      int16_t* __restrict keys),
+                     (row, channels, w, keys))
 
 // 1-NCC, ZSSD and census share the window and the source rows: each source row is split into
 // planes and converted to luma once, and kept in a ring of 2r+2 rows (the window plus the row
@@ -532,14 +560,12 @@ bool WindowBandPass(const Inputs& in, int window, double flat, const ErrorRows* 
     uint8_t* b = bytes(j);
     if (!box) {  // census alone: keys only, from the bytes when there are any
       if (photo_bytes) {
-        BytePlanes(photo_bytes, in.photo.channels(), w, b, b + w, b + 2 * w);
-        CensusKeysOfBytes(b, b + w, b + 2 * w, w, keys(j));
+        CensusKeysOfRow(photo_bytes, in.photo.channels(), w, keys(j));
       } else {
         CensusKeysInterleaved(in.photo.row(yj), w, keys(j));
       }
       if (rephoto_bytes) {
-        BytePlanes(rephoto_bytes, in.rephoto.channels(), w, b + 3 * w, b + 4 * w, b + 5 * w);
-        CensusKeysOfBytes(b + 3 * w, b + 4 * w, b + 5 * w, w, keys(j) + w);
+        CensusKeysOfRow(rephoto_bytes, in.rephoto.channels(), w, keys(j) + w);
       } else {
         CensusKeysInterleaved(in.rephoto.row(yj), w, keys(j) + w);
       }

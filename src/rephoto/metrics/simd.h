@@ -28,13 +28,16 @@ typedef short V32s __attribute__((vector_size(64)));
     __builtin_memcpy((p), &s_, sizeof(s_)); \
   } while (false)
 
-// Census keys (kernels.h CensusKey) of eight pixels, lane by lane the scalar arithmetic.
-[[gnu::always_inline]] inline V8s CensusKeys8(V8f r, V8f g, V8f b) {
+// Census keys (kernels.h CensusKey) of eight pixels, lane by lane the scalar arithmetic, stored
+// at keys[0..8) (vectors by pointer: see above).
+[[gnu::always_inline]] inline void CensusKeys8(const V8f* r, const V8f* g, const V8f* b,
+                                               short* keys) {
   const V8f zero = V8f{}, top = V8f{} + 255000.f;
-  V8f t = 76245.f * r + 149685.f * g + 29070.f * b;
+  V8f t = 76245.f * *r + 149685.f * *g + 29070.f * *b;
   t = t >= zero ? (t <= top ? t : top) : zero;  // NaN -> 0
   const V8i k = __builtin_convertvector((t + 0.5f) * 0.25f, V8i) - 32768;
-  return __builtin_convertvector(k, V8s);
+  const V8s s = __builtin_convertvector(k, V8s);
+  __builtin_memcpy(keys, &s, sizeof(s));
 }
 
 // Eight interleaved triples p[0..23] (RGB pixels, or 3 channel values per pixel) split into
