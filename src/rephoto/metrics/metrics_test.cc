@@ -123,12 +123,9 @@ double NaiveZssd(const Image& p, const Image& q, int x, int y, int r) {
   return total / 3;
 }
 
-// kernels.h CensusKey: luma in fixed point, floor((255000 Y + 0.5) / 4) with 255000 Y in [0,
-// 255000], written here in double from the SPEC's coefficients (the float arithmetic of the
-// code can differ from it only within 0.05 of a key boundary: not for 8-bit values, see
-// CensusKeysOfEveryEightBitColour; the random float images below are 8-bit values or smooth
-// images whose keys the float rounding moves with probability ~1e-2 per pixel, so those cases
-// compare keys computed the code's way, in float).
+// kernels.h CensusKey: luma in fixed point, floor((255000 Y + 0.5) / 4) with 255000 Y clamped
+// to [0, 255000], in the float arithmetic the definition states for float inputs (for 8-bit
+// values it is the integer rule, CensusKeysOfEveryEightBitColour).
 long CensusLevel(const Image& img, int x, int y) {
   const float r = img.at(x, y, 0), g = img.at(x, y, 1), b = img.at(x, y, 2);
   float t = 76245.f * r + 149685.f * g + 29070.f * b;
