@@ -49,6 +49,17 @@ struct MeanSums {
   }
 };
 
+// k / 255.f for the float of an 8-bit value k, without the division: k * c_hi + k * c_lo with
+// c_hi = 0x1.01p-8 (9 significant bits, so k * c_hi is exact) and c_lo = 0x1.010102p-24 (the
+// rest of 1/255, its product rounded off ~2^-40 of the value): the one rounding of the sum is
+// that of k / 255, which lies at least ~2^-33 of the value away from a rounding boundary (255
+// is odd, k / 255 is never a tie), so the result is k / 255.f bit for bit. Checked for every
+// k (ByteToUnitFloatIsTheDivisionForEveryByte). Plain multiplies and an add (contraction is off
+// for this library), so the same on every path; a division costs 2-3x more per vector.
+// (kernels.cc's 8-wide conversion writes the same expression on vectors.)
+inline constexpr float kUnitHi = 0x1.01p-8f, kUnitLo = 0x1.010102p-24f;
+[[gnu::always_inline]] inline float ByteToUnitFloat(float k) { return k * kUnitHi + k * kUnitLo; }
+
 // Interleaved float RGB rows [first, end) of an RgbView: pointers into the image itself when it
 // is float RGB, else the rows converted into per-thread scratch (8-bit v -> float(v) / 255.f,
 // alpha dropped). Rows outside the image are not available.
@@ -162,6 +173,11 @@ void SsimHorizontalFused(const float* in, const float* weights, int r, int n, fl
 // SsimHorizontalFused, so the same bits.
 void SsimHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
                                float* tin, float* out);
+// SsimVerticalRows of 8 rows followed by SsimHorizontalTransposed8, in one pass: rows holds the
+// 2r + 8 product rows, r is 3 or 5; tin and out as there. The vertical rows are transposed in
+// registers instead of stored and loaded again; the same arithmetic per value, so the same bits.
+void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r,
+                                       int n, float* tin, float* out);
 
 // The SSIM settings of a call.
 struct SsimSetup {

@@ -9,9 +9,11 @@
 #include <functional>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/metrics/icid.h"
 #include "rephoto/metrics/kernels.h"
@@ -883,18 +885,33 @@ TEST(Metrics, FloatsThatAreNotBytesTakeTheDoublePath) {
 
 // Every 8-bit value, as the band pass converts it, equals v / 255.f (io::ReadImage's value).
 TEST(Metrics, EightBitRowsConvertToTheFloatsOfReadImage) {
-  const int w = 256;
-  Image8 bytes(w, 1, 3);
-  for (int x = 0; x < w; ++x) {
-    for (int c = 0; c < 3; ++c) bytes.at(x, 0, c) = static_cast<uint8_t>(x);
-  }
-  internal::RgbRows rows;
-  std::vector<float> scratch;
-  rows.Load(bytes, 0, 1, &scratch);
-  for (int x = 0; x < w; ++x) {
-    for (int c = 0; c < 3; ++c) {
-      ASSERT_EQ(rows.row(0)[3 * x + c], static_cast<float>(x) / 255.f) << x;
+  // Every byte value, as RGB and as RGBA rows of a width that is not a vector multiple, on every
+  // instruction-set path: Load's rows are the division k / 255.f itself (the reference here;
+  // the kernels multiply, kernels.h ByteToUnitFloat).
+  const int w = 259;
+  for (int channels : {3, 4}) {
+    Image8 bytes(w, 1, channels);
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < channels; ++c) bytes.at(x, 0, c) = static_cast<uint8_t>((x + 85 * c) % 256);
     }
+    for (core::Isa isa : core::SupportedIsas()) {
+      core::ScopedIsa scoped(isa);
+      SCOPED_TRACE(std::string(core::IsaName(isa)) + " channels " + std::to_string(channels));
+      internal::RgbRows rows;
+      std::vector<float> scratch;
+      rows.Load(bytes, 0, 1, &scratch);
+      for (int x = 0; x < w; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(rows.row(0)[3 * x + c], static_cast<float>(bytes.at(x, 0, c)) / 255.f) << x;
+        }
+      }
+    }
+  }
+}
+
+TEST(Metrics, ByteToUnitFloatIsTheDivisionForEveryByte) {
+  for (int k = 0; k < 256; ++k) {
+    ASSERT_EQ(internal::ByteToUnitFloat(static_cast<float>(k)), static_cast<float>(k) / 255.f) << k;
   }
 }
 

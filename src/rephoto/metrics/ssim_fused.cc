@@ -58,6 +58,20 @@ template <typename VF>
   }
 }
 
+// acc[t] = the vertical sum of output row t in [0, B) at element offset `off` (a compile-time
+// radius; the arithmetic of VerticalQuantity below).
+template <typename VF, int B, int kRadius>
+[[gnu::always_inline]] inline void VerticalSums(const float* const* rows, const VF* w, size_t off,
+                                                VF* acc) {
+  constexpr int kRows = 2 * kRadius + B;
+  VF v[kRows];
+  for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
+  for (int t = 0; t < B; ++t) acc[t] = w[0] * v[t + kRadius];
+  for (int k = 1; k <= kRadius; ++k) {
+    for (int t = 0; t < B; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
+  }
+}
+
 // Output rows t in [0, B) of one quantity at element offset `off`: rows[t + r + k], k in
 // [-r, r]. kRadius > 0: the radius is a compile-time constant, every row is loaded once into a
 // register and used by all B outputs; kRadius == 0: runtime radius (B must be 1). `w` holds the
@@ -67,14 +81,8 @@ template <typename VF, int B, int kRadius>
                                                     const float* weights, int r, size_t off,
                                                     float* const* out) {
   if constexpr (kRadius > 0) {
-    constexpr int kRows = 2 * kRadius + B;
-    VF v[kRows];
-    for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
     VF acc[B];
-    for (int t = 0; t < B; ++t) acc[t] = w[0] * v[t + kRadius];
-    for (int k = 1; k <= kRadius; ++k) {
-      for (int t = 0; t < B; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
-    }
+    VerticalSums<VF, B, kRadius>(rows, w, off, acc);
     for (int t = 0; t < B; ++t) REPHOTO_STORE(out[t] + off, acc[t]);
   } else {
     static_assert(B == 1);
@@ -314,6 +322,52 @@ REPHOTO_ISA_DISPATCH_AVX2(void, HorizontalTransposed8,
                            float* tin, float* out),
                           (rows, weights, r, n, tin, out))
 
+// SsimVerticalHorizontalTransposed8 (kernels.h): per plane, the vertical filter of 8 output
+// rows for each block of 8 values (two blocks of 4 rows, VerticalQuantity as in Vertical8, the
+// last block overlapping its predecessor), transposed in registers into tin, then
+// FilterTransposed: the vertical rows are never stored and loaded again.
+template <int kRadius>
+[[gnu::always_inline]] inline void VerticalTransposedPlane(const float* const* rp, const V8f* w,
+                                                           size_t plane, int n, float* tin) {
+  for (int i = 0; (i = VectorStart<8>(i, n)) >= 0; i += 8) {
+    const size_t off = plane + i;
+    V8f v[8], tv[8];
+    VerticalSums<V8f, 4, kRadius>(rp, w, off, v);
+    VerticalSums<V8f, 4, kRadius>(rp + 4, w, off, v + 4);
+    Transpose8(v, tv);
+    for (int j = 0; j < 8; ++j) REPHOTO_STORE(tin + static_cast<size_t>(i + j) * 8, tv[j]);
+  }
+}
+
+template <int kRadius>
+[[gnu::always_inline]] inline void VerticalHorizontalTransposed8Fixed(const float* const* rows,
+                                                                      const float* weights, int n,
+                                                                      float* tin, float* out) {
+  constexpr int kRows = 2 * kRadius + 8;
+  const float* rp[kRows];  // local: the stores could otherwise alias the row pointers
+  for (int j = 0; j < kRows; ++j) rp[j] = rows[j];
+  V8f w[kRadius + 1];
+  for (int k = 0; k <= kRadius; ++k) w[k] = V8f{} + weights[kRadius + k];
+  for (int q = 0; q < kSsimQuantities; ++q) {
+    const size_t plane = static_cast<size_t>(q) * n;
+    VerticalTransposedPlane<kRadius>(rp, w, plane, n, tin);
+    FilterTransposed<kRadius>(tin, weights, kRadius, n, out + plane * 8);
+  }
+}
+
+[[gnu::always_inline]] inline void VerticalHorizontalTransposed8Body(const float* const* rows,
+                                                                     const float* weights, int r,
+                                                                     int n, float* tin,
+                                                                     float* out) {
+  if (r == 5) return VerticalHorizontalTransposed8Fixed<5>(rows, weights, n, tin, out);
+  VerticalHorizontalTransposed8Fixed<3>(rows, weights, n, tin, out);
+}
+REPHOTO_ISA_DISPATCH_AVX2(void, VerticalHorizontalTransposed8,
+                          (const float* const* rows, const float* weights, int r, int n,
+                           float* tin, float* out),
+                          (rows, weights, r, n, tin, out))
+
+
 // Rows per vertical block (each loaded row feeds every output row of the block). AVX-512's 32
 // registers hold the 2r + 4 rows, 4 sums and the weights. AVX2's 16 do not, but 4 rows with some
 // values spilled or re-read from L1 measured ~15 % faster for the vertical filter (r = 5,
@@ -392,6 +446,11 @@ void SsimVerticalRows(const float* const* rows, const float* weights, int r, int
 void SsimHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
                                float* tin, float* out) {
   HorizontalTransposed8(rows, weights, r, n, tin, out);
+}
+
+void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r,
+                                       int n, float* tin, float* out) {
+  VerticalHorizontalTransposed8(rows, weights, r, n, tin, out);
 }
 
 void SsimHorizontalFused(const float* in, const float* weights, int r, int n, float* out) {
