@@ -79,61 +79,23 @@ const uint8_t* WindowValidityRows::Row(int y) {
 
 namespace {
 
-// The floats of 8 bytes: the float io::ReadImage makes of each 8-bit value, k / 255.f
-// (ByteToUnitFloat's expression, the same bits as the division). The int conversion is written
-// as a fixed-length loop, which GCC's SLP vectorizer turns into one zero extension and one
-// conversion (__builtin_convertvector from 8 bytes was lowered to scalar code per lane).
-[[gnu::always_inline]] inline void StoreUnitFloats8(const uint8_t* bytes, float* out) {
-  V8i wide;
-  for (int j = 0; j < 8; ++j) wide[j] = bytes[j];
-  const V8f k = __builtin_convertvector(wide, V8f);
-  const V8f v = k * kUnitHi + k * kUnitLo;
-  __builtin_memcpy(out, &v, sizeof(v));
-}
-
-// Explicit 8-wide vectors with the last one overlapping its predecessor (the same values written
-// again), so that short spans (RgbRows::span converts one strip's row, ~800 values) cost no
-// scalar tail or loop versioning; scalar code only below one vector.
+// The float io::ReadImage makes of each 8-bit value, k / 255.f: by ByteToUnitFloat's two
+// products and a sum (the same bits as the division, kernels.h), which GCC vectorises at the
+// width of each path.
 [[gnu::always_inline]] inline void BytesToFloatsBody(const uint8_t* __restrict in, int n,
                                                      float* __restrict out) {
-  if (n < 8) {
-    for (int i = 0; i < n; ++i) out[i] = ByteToUnitFloat(static_cast<float>(in[i]));
-    return;
-  }
-  for (int i = 0;; i += 8) {
-    if (i + 8 > n) i = n - 8;
-    StoreUnitFloats8(in + i, out + i);
-    if (i + 8 == n) break;
-  }
+  for (int i = 0; i < n; ++i) out[i] = ByteToUnitFloat(static_cast<float>(in[i]));
 }
 REPHOTO_ISA_DISPATCH(void, BytesToFloats,
                      (const uint8_t* __restrict in, int n, float* __restrict out), (in, n, out))
 
-// The same for RGBA pixels, alpha dropped: 8 pixels (32 bytes) give 24 floats, the RGB bytes
-// picked by shuffles.
+// The same for RGBA pixels, alpha dropped.
 [[gnu::always_inline]] inline void RgbaBytesToFloatsBody(const uint8_t* __restrict in, int w,
                                                          float* __restrict out) {
-  if (w < 8) {
-    for (int x = 0; x < w; ++x) {
-      for (int c = 0; c < 3; ++c) {
-        out[3 * x + c] = ByteToUnitFloat(static_cast<float>(in[4 * x + c]));
-      }
-    }
-    return;
-  }
-  for (int x = 0;; x += 8) {
-    if (x + 8 > w) x = w - 8;
-    const uint8_t* p = in + 4 * x;
-    uint8_t rgb[24];
-    for (int j = 0; j < 8; ++j) {
-      rgb[3 * j] = p[4 * j];
-      rgb[3 * j + 1] = p[4 * j + 1];
-      rgb[3 * j + 2] = p[4 * j + 2];
-    }
-    StoreUnitFloats8(rgb, out + 3 * x);
-    StoreUnitFloats8(rgb + 8, out + 3 * x + 8);
-    StoreUnitFloats8(rgb + 16, out + 3 * x + 16);
-    if (x + 8 == w) break;
+  for (int x = 0; x < w; ++x) {
+    out[3 * x] = ByteToUnitFloat(static_cast<float>(in[4 * x]));
+    out[3 * x + 1] = ByteToUnitFloat(static_cast<float>(in[4 * x + 1]));
+    out[3 * x + 2] = ByteToUnitFloat(static_cast<float>(in[4 * x + 2]));
   }
 }
 REPHOTO_ISA_DISPATCH(void, RgbaBytesToFloats,

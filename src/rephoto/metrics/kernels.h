@@ -56,7 +56,6 @@ struct MeanSums {
 // is odd, k / 255 is never a tie), so the result is k / 255.f bit for bit. Checked for every
 // k (ByteToUnitFloatIsTheDivisionForEveryByte). Plain multiplies and an add (contraction is off
 // for this library), so the same on every path; a division costs 2-3x more per vector.
-// (kernels.cc's 8-wide conversion writes the same expression on vectors.)
 inline constexpr float kUnitHi = 0x1.01p-8f, kUnitLo = 0x1.010102p-24f;
 [[gnu::always_inline]] inline float ByteToUnitFloat(float k) { return k * kUnitHi + k * kUnitLo; }
 
