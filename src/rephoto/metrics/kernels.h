@@ -175,8 +175,8 @@ void SsimHorizontalTransposed8(const float* const* rows, const float* weights, i
 // SsimVerticalRows of 8 rows followed by SsimHorizontalTransposed8, in one pass: rows holds the
 // 2r + 8 product rows, r is 3 or 5; tin and out as there. The vertical rows are transposed in
 // registers instead of stored and loaded again; the same arithmetic per value, so the same bits.
-void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r,
-                                       int n, float* tin, float* out);
+void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
+                                       float* tin, float* out);
 
 // The SSIM settings of a call.
 struct SsimSetup {

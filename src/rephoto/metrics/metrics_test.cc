@@ -892,7 +892,9 @@ TEST(Metrics, EightBitRowsConvertToTheFloatsOfReadImage) {
   for (int channels : {3, 4}) {
     Image8 bytes(w, 1, channels);
     for (int x = 0; x < w; ++x) {
-      for (int c = 0; c < channels; ++c) bytes.at(x, 0, c) = static_cast<uint8_t>((x + 85 * c) % 256);
+      for (int c = 0; c < channels; ++c) {
+        bytes.at(x, 0, c) = static_cast<uint8_t>((x + 85 * c) % 256);
+      }
     }
     for (core::Isa isa : core::SupportedIsas()) {
       core::ScopedIsa scoped(isa);

@@ -258,24 +258,24 @@ MeanSums SsimBandFiveQuantities(const BandInputs& in, const SsimSetup& setup, co
   return sums;
 }
 
-// The shift of a strip's values of one image (shift[i] for its elements i in [0, m), m a
-// multiple of 3): per channel, the mean of the strip's values of one row, `values` [0, m). Moments of values minus
+// The shift of a strip's values of one image (shift[i] for its elements i in [0, e1 - e0), e0 a
+// multiple of 3): per channel, the mean of the image's values in `row`. Moments of values minus
 // a shift near them lose less to cancellation (E[x^2] - E[x]^2) in nearly flat windows, where
 // float rounding matters most (sigma^2 ~ 1e-6 next to c2 = 9e-4): for a sky at 0.85 the squares
 // are ~1e-3 instead of 0.12 with a fixed shift of 0.5. One shift per image, strip and band, so
 // that every window sees one shift; it depends only on the image (identical images get the
 // same shift), so the values are the same for any number of threads.
-void StripShift(const float* values, int m, float* shift) {
+void StripShift(const float* row, int e0, int e1, float* shift) {
   double sum[3] = {};
-  for (int i = 0; i < m; i += 3) {
-    sum[0] += values[i];
-    sum[1] += values[i + 1];
-    sum[2] += values[i + 2];
+  for (int i = e0; i < e1; i += 3) {
+    sum[0] += row[i];
+    sum[1] += row[i + 1];
+    sum[2] += row[i + 2];
   }
-  const double count = m / 3;
+  const double count = (e1 - e0) / 3;
   const float c0 = static_cast<float>(sum[0] / count), c1 = static_cast<float>(sum[1] / count),
               c2 = static_cast<float>(sum[2] / count);
-  for (int i = 0; i < m; i += 3) {
+  for (int i = 0; i < e1 - e0; i += 3) {
     shift[i] = c0;
     shift[i + 1] = c1;
     shift[i + 2] = c2;
@@ -339,8 +339,8 @@ MeanSums SsimBandFused(const BandInputs& in, const SsimSetup& setup, const Error
     const int xa = std::max(x0, r), xb = std::min(x1, w - r);
     // Input row j's products live in ring slot (j - (c0 - r)) % ring; `next` is the first row
     // not yet formed.
-    StripShift(in.photo.row(static_cast<int>(c0)) + e0, m, shift_p);
-    StripShift(in.rephoto.row(static_cast<int>(c0)) + e0, m, shift_q);
+    StripShift(in.photo.row(static_cast<int>(c0)), e0, e1, shift_p);
+    StripShift(in.rephoto.row(static_cast<int>(c0)), e0, e1, shift_q);
     const int64_t first_input = c0 - r;
     int64_t next = first_input;
     auto slot = [&](int64_t j) { return products + ((j - first_input) % ring) * (kQ * m); };

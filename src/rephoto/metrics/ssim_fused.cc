@@ -363,10 +363,9 @@ template <int kRadius>
   VerticalHorizontalTransposed8Fixed<3>(rows, weights, n, tin, out);
 }
 REPHOTO_ISA_DISPATCH_AVX2(void, VerticalHorizontalTransposed8,
-                          (const float* const* rows, const float* weights, int r, int n,
-                           float* tin, float* out),
+                          (const float* const* rows, const float* weights, int r, int n, float* tin,
+                           float* out),
                           (rows, weights, r, n, tin, out))
-
 
 // Rows per vertical block (each loaded row feeds every output row of the block). AVX-512's 32
 // registers hold the 2r + 4 rows, 4 sums and the weights. AVX2's 16 do not, but 4 rows with some
@@ -448,8 +447,8 @@ void SsimHorizontalTransposed8(const float* const* rows, const float* weights, i
   HorizontalTransposed8(rows, weights, r, n, tin, out);
 }
 
-void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r,
-                                       int n, float* tin, float* out) {
+void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
+                                       float* tin, float* out) {
   VerticalHorizontalTransposed8(rows, weights, r, n, tin, out);
 }
 
