@@ -55,7 +55,7 @@ struct MeanSums {
 // that of k / 255, which lies at least ~2^-33 of the value away from a rounding boundary (255
 // is odd, k / 255 is never a tie), so the result is k / 255.f bit for bit. Checked for every
 // k (ByteToUnitFloatIsTheDivisionForEveryByte). Plain multiplies and an add (contraction is off
-// for this library), so the same on every path; a division costs 2-3x more per vector.
+// for this library), so the same on every path, and no division on the hot path.
 inline constexpr float kUnitHi = 0x1.01p-8f, kUnitLo = 0x1.010102p-24f;
 [[gnu::always_inline]] inline float ByteToUnitFloat(float k) { return k * kUnitHi + k * kUnitLo; }
 
@@ -164,17 +164,13 @@ void SsimVerticalRows(const float* const* rows, const float* weights, int r, int
 // Horizontal filter of the 4 planes of n values of SsimVerticalRows' output: out[q * n + i] =
 // weighted sum of in[q * n + i + 3k], k in [-r, r], for i in [3r, n - 3r).
 void SsimHorizontalFused(const float* in, const float* weights, int r, int n, float* out);
-// The same horizontal filter for 8 output rows at once, on transposed data (the path without
-// AVX-512, where the taps of one row vector are shuffles across 128-bit halves): tin (n x 8
-// floats, scratch) receives each plane of the 8 rows transposed, value i of row t at
-// tin[8 i + t], so that every tap is a whole vector; out[(q * n + i) * 8 + t] = the filtered
-// value i of plane q of row t, for i in [3r, n - 3r). The same arithmetic per value as
-// SsimHorizontalFused, so the same bits.
-void SsimHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
-                               float* tin, float* out);
-// SsimVerticalRows of 8 rows followed by SsimHorizontalTransposed8, in one pass: rows holds the
-// 2r + 8 product rows, r is 3 or 5; tin and out as there. The vertical rows are transposed in
-// registers instead of stored and loaded again; the same arithmetic per value, so the same bits.
+// SsimVerticalRows of 8 rows followed by the horizontal filter of each of them, in one pass on
+// transposed data (the path without AVX-512, where the taps of one row vector are shuffles
+// across 128-bit halves): rows holds the 2r + 8 product rows; tin (n x 8 floats, scratch)
+// receives each plane's 8 vertical rows transposed in registers, value i of row t at
+// tin[8 i + t], so that every horizontal tap is a whole vector; out[(q * n + i) * 8 + t] = the
+// filtered value i of plane q of row t, for i in [3r, n - 3r). The same arithmetic per value as
+// SsimVerticalRows and SsimHorizontalFused, so the same bits.
 void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
                                        float* tin, float* out);
 

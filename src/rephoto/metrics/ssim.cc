@@ -111,7 +111,7 @@ REPHOTO_ISA_DISPATCH(void, SsimFormulaFused,
                       float* __restrict ssim),
                      (moments, shift_p, shift_q, r, n, cov_norm, ssim))
 
-// FusedSsim and ChannelMeans for 8 rows at once on SsimHorizontalTransposed8's output
+// FusedSsim and ChannelMeans for 8 rows at once on SsimVerticalHorizontalTransposed8's output
 // (value i of plane q of row t at moments[(q * n + i) * 8 + t]): the SSIM of pixel x, for the
 // pixels [xa, xb) whose first value is at i = 3 (x - xa) + ia, is the mean of its 3 channels'
 // values; written transposed back into ssim[t][x] and dssim[t][x] = (1 - ssim) / 2. The same
@@ -284,8 +284,8 @@ void StripShift(const float* row, int e0, int e1, float* shift) {
 
 // The fused kernel: per strip, a ring of product rows (each input row's products formed once),
 // the vertical filter for a block of output rows at a time, then horizontal filter and formula.
-// On the AVX2 path 8 rows at a time on transposed data (SsimHorizontalTransposed8: an 8-wide
-// tap window that crosses the 128-bit halves costs two shuffles on AVX2, a transpose 3 per
+// On the AVX2 path 8 rows at a time on transposed data (SsimVerticalHorizontalTransposed8: an
+// 8-wide tap window that crosses the 128-bit halves costs two shuffles on AVX2, a transpose 3 per
 // vector, and same-phase outputs share their loaded taps; 0.89x the time of the row-wise pass
 // for DSSIM at 12 MP, one thread, in turns), the last block's rows below 8 one row at a time.
 // Per output row otherwise: AVX-512 shuffles its 16-wide windows in one instruction, and the
@@ -351,14 +351,8 @@ MeanSums SsimBandFused(const BandInputs& in, const SsimSetup& setup, const Error
         SsimProducts(in.photo.row(j) + e0, in.rephoto.row(j) + e0, shift_p, shift_q, m, slot(next));
       }
       for (int k = 0; k < 2 * r + count; ++k) rows[k] = slot(y - r + k);
-      const bool eight = count == 8 && transposed;
-      if (eight && (r == 3 || r == 5)) {
+      if (count == 8 && transposed) {
         SsimVerticalHorizontalTransposed8(rows.data(), setup.weights.data(), r, m, tin, moments8);
-      } else {
-        SsimVerticalRows(rows.data(), setup.weights.data(), r, m, count, out_rows);
-        if (eight) SsimHorizontalTransposed8(out_rows, setup.weights.data(), r, m, tin, moments8);
-      }
-      if (eight) {
         if (xa < xb) {
           SsimFinishTransposed8(moments8, shift_p, shift_q, m, setup.cov_norm, 3 * xa - e0, xa, xb,
                                 pixels8, ssim_rows, dssim_rows);
@@ -370,6 +364,7 @@ MeanSums SsimBandFused(const BandInputs& in, const SsimSetup& setup, const Error
         }
         continue;
       }
+      SsimVerticalRows(rows.data(), setup.weights.data(), r, m, count, out_rows);
       for (int t = 0; t < count; ++t) {
         SsimHorizontalFused(out_rows[t], setup.weights.data(), r, m, moments);
         SsimFormulaFused(moments, shift_p, shift_q, r, m, setup.cov_norm, element);

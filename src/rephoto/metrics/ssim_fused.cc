@@ -58,41 +58,44 @@ template <typename VF>
   }
 }
 
-// acc[t] = the vertical sum of output row t in [0, B) at element offset `off` (a compile-time
-// radius; the arithmetic of VerticalQuantity below).
+// acc[t] = the vertical sum of output row t in [0, B) of one quantity at element offset `off`:
+// rows[t + r + k], k in [-r, r]. kRadius > 0: the radius is a compile-time constant, every row
+// is loaded once into a register and used by all B outputs, `w` holds the weights w[k] =
+// weights[r + k] for k in [0, r] as vectors; kRadius == 0: runtime radius r, each output from
+// its own loads of `weights`. The same operations per value either way (w[0] * centre, then
+// acc += w[k] * (top + bottom) for k = 1..r).
 template <typename VF, int B, int kRadius>
-[[gnu::always_inline]] inline void VerticalSums(const float* const* rows, const VF* w, size_t off,
-                                                VF* acc) {
-  constexpr int kRows = 2 * kRadius + B;
-  VF v[kRows];
-  for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
-  for (int t = 0; t < B; ++t) acc[t] = w[0] * v[t + kRadius];
-  for (int k = 1; k <= kRadius; ++k) {
-    for (int t = 0; t < B; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
+[[gnu::always_inline]] inline void VerticalSums(const float* const* rows, const VF* w,
+                                                const float* weights, int r, size_t off, VF* acc) {
+  if constexpr (kRadius > 0) {
+    constexpr int kRows = 2 * kRadius + B;
+    VF v[kRows];
+    for (int j = 0; j < kRows; ++j) v[j] = REPHOTO_LOAD(VF, rows[j] + off);
+    for (int t = 0; t < B; ++t) acc[t] = w[0] * v[t + kRadius];
+    for (int k = 1; k <= kRadius; ++k) {
+      for (int t = 0; t < B; ++t) acc[t] += w[k] * (v[t + kRadius - k] + v[t + kRadius + k]);
+    }
+  } else {
+    for (int t = 0; t < B; ++t) {
+      const float* const* rt = rows + t;
+      acc[t] = (VF{} + weights[r]) * REPHOTO_LOAD(VF, rt[r] + off);
+      for (int k = 1; k <= r; ++k) {
+        acc[t] += (VF{} + weights[r + k]) *
+                  (REPHOTO_LOAD(VF, rt[r - k] + off) + REPHOTO_LOAD(VF, rt[r + k] + off));
+      }
+    }
   }
 }
 
-// Output rows t in [0, B) of one quantity at element offset `off`: rows[t + r + k], k in
-// [-r, r]. kRadius > 0: the radius is a compile-time constant, every row is loaded once into a
-// register and used by all B outputs; kRadius == 0: runtime radius (B must be 1). `w` holds the
-// weights w[k] = weights[r + k] for k in [0, r] as vectors.
+// VerticalSums stored at out[t] + off (B must be 1 for a runtime radius: VerticalBody's use).
 template <typename VF, int B, int kRadius>
 [[gnu::always_inline]] inline void VerticalQuantity(const float* const* rows, const VF* w,
                                                     const float* weights, int r, size_t off,
                                                     float* const* out) {
-  if constexpr (kRadius > 0) {
-    VF acc[B];
-    VerticalSums<VF, B, kRadius>(rows, w, off, acc);
-    for (int t = 0; t < B; ++t) REPHOTO_STORE(out[t] + off, acc[t]);
-  } else {
-    static_assert(B == 1);
-    VF acc = (VF{} + weights[r]) * REPHOTO_LOAD(VF, rows[r] + off);
-    for (int k = 1; k <= r; ++k) {
-      acc += (VF{} + weights[r + k]) *
-             (REPHOTO_LOAD(VF, rows[r - k] + off) + REPHOTO_LOAD(VF, rows[r + k] + off));
-    }
-    REPHOTO_STORE(out[0] + off, acc);
-  }
+  static_assert(kRadius > 0 || B == 1);
+  VF acc[B];
+  VerticalSums<VF, B, kRadius>(rows, w, weights, r, off, acc);
+  for (int t = 0; t < B; ++t) REPHOTO_STORE(out[t] + off, acc[t]);
 }
 
 template <typename VF, int B, int kRadius>
@@ -251,9 +254,9 @@ template <typename VF>
   HorizontalRange<VF>(in, weights, r, 3 * r, n - 3 * r, out);
 }
 
-// SsimHorizontalTransposed8 (kernels.h): per plane, the 8 rows transposed into tin (blocks of
-// 8 values by Transpose8, the tail one value at a time), then the filter with one load per tap
-// and no shuffle. On transposed data the horizontal taps of value i are the vectors at i + 3k,
+// The horizontal filter on transposed data (value i of row t at tin[8 i + t]; kernels.h
+// SsimVerticalHorizontalTransposed8): the filter with one load per tap and no shuffle. On
+// transposed data the horizontal taps of value i are the vectors at i + 3k,
 // which is the vertical filter's layout with "rows" 3 values (24 floats) apart, so it is
 // VerticalQuantity itself: per channel phase, the outputs i + c + 3t (t < 4) share their
 // 2r + 4 loaded taps, and the arithmetic is that of every other filter pass (w[0] * centre,
@@ -290,68 +293,41 @@ template <int kRadius>
   }
 }
 
-[[gnu::always_inline]] inline void HorizontalTransposed8Body(const float* const* rows,
-                                                             const float* weights, int r, int n,
-                                                             float* tin, float* out) {
-  const float* rp[8];  // local: the stores could otherwise alias the row pointers
-  for (int t = 0; t < 8; ++t) rp[t] = rows[t];
+// SsimVerticalHorizontalTransposed8 (kernels.h): per plane, the vertical filter of the 8
+// output rows for each block of 8 values (two blocks of 4 rows for a compile-time radius, as in
+// Vertical8; the last block overlapping its predecessor), transposed in registers into tin,
+// then FilterTransposed: the vertical rows are never stored and loaded again.
+template <int kRadius>
+[[gnu::always_inline]] inline void VerticalHorizontalTransposed8Radius(const float* const* rows,
+                                                                       const float* weights, int r,
+                                                                       int n, float* tin,
+                                                                       float* out) {
+  // Local copies for a constant radius: the stores could otherwise alias the row pointers.
+  constexpr int kRows = kRadius > 0 ? 2 * kRadius + 8 : 1;
+  const float* fixed_rows[kRows];
+  const float* const* rp = rows;
+  V8f w[kRadius + 1];
+  if constexpr (kRadius > 0) {
+    for (int j = 0; j < kRows; ++j) fixed_rows[j] = rows[j];
+    rp = fixed_rows;
+    for (int k = 0; k <= kRadius; ++k) w[k] = V8f{} + weights[kRadius + k];
+  }
   for (int q = 0; q < kSsimQuantities; ++q) {
     const size_t plane = static_cast<size_t>(q) * n;
-    int i = 0;
-    for (; i + 8 <= n; i += 8) {
+    // (n < 8 has no output value: n is a multiple of 3 and outputs need n > 6r >= 6.)
+    for (int i = 0; (i = VectorStart<8>(i, n)) >= 0; i += 8) {
+      const size_t off = plane + i;
       V8f v[8], tv[8];
-      for (int t = 0; t < 8; ++t) v[t] = REPHOTO_LOAD(V8f, rp[t] + plane + i);
+      if constexpr (kRadius > 0) {
+        VerticalSums<V8f, 4, kRadius>(rp, w, weights, r, off, v);
+        VerticalSums<V8f, 4, kRadius>(rp + 4, w, weights, r, off, v + 4);
+      } else {
+        VerticalSums<V8f, 8, 0>(rp, w, weights, r, off, v);
+      }
       Transpose8(v, tv);
       for (int j = 0; j < 8; ++j) REPHOTO_STORE(tin + static_cast<size_t>(i + j) * 8, tv[j]);
     }
-    for (; i < n; ++i) {
-      for (int t = 0; t < 8; ++t) tin[static_cast<size_t>(i) * 8 + t] = rp[t][plane + i];
-    }
-    float* o = out + plane * 8;
-    if (r == 5) {
-      FilterTransposed<5>(tin, weights, r, n, o);
-    } else if (r == 3) {
-      FilterTransposed<3>(tin, weights, r, n, o);
-    } else {
-      FilterTransposed<0>(tin, weights, r, n, o);
-    }
-  }
-}
-REPHOTO_ISA_DISPATCH_AVX2(void, HorizontalTransposed8,
-                          (const float* const* rows, const float* weights, int r, int n,
-                           float* tin, float* out),
-                          (rows, weights, r, n, tin, out))
-
-// SsimVerticalHorizontalTransposed8 (kernels.h): per plane, the vertical filter of 8 output
-// rows for each block of 8 values (two blocks of 4 rows, VerticalQuantity as in Vertical8, the
-// last block overlapping its predecessor), transposed in registers into tin, then
-// FilterTransposed: the vertical rows are never stored and loaded again.
-template <int kRadius>
-[[gnu::always_inline]] inline void VerticalTransposedPlane(const float* const* rp, const V8f* w,
-                                                           size_t plane, int n, float* tin) {
-  for (int i = 0; (i = VectorStart<8>(i, n)) >= 0; i += 8) {
-    const size_t off = plane + i;
-    V8f v[8], tv[8];
-    VerticalSums<V8f, 4, kRadius>(rp, w, off, v);
-    VerticalSums<V8f, 4, kRadius>(rp + 4, w, off, v + 4);
-    Transpose8(v, tv);
-    for (int j = 0; j < 8; ++j) REPHOTO_STORE(tin + static_cast<size_t>(i + j) * 8, tv[j]);
-  }
-}
-
-template <int kRadius>
-[[gnu::always_inline]] inline void VerticalHorizontalTransposed8Fixed(const float* const* rows,
-                                                                      const float* weights, int n,
-                                                                      float* tin, float* out) {
-  constexpr int kRows = 2 * kRadius + 8;
-  const float* rp[kRows];  // local: the stores could otherwise alias the row pointers
-  for (int j = 0; j < kRows; ++j) rp[j] = rows[j];
-  V8f w[kRadius + 1];
-  for (int k = 0; k <= kRadius; ++k) w[k] = V8f{} + weights[kRadius + k];
-  for (int q = 0; q < kSsimQuantities; ++q) {
-    const size_t plane = static_cast<size_t>(q) * n;
-    VerticalTransposedPlane<kRadius>(rp, w, plane, n, tin);
-    FilterTransposed<kRadius>(tin, weights, kRadius, n, out + plane * 8);
+    FilterTransposed<kRadius>(tin, weights, r, n, out + plane * 8);
   }
 }
 
@@ -359,8 +335,9 @@ template <int kRadius>
                                                                      const float* weights, int r,
                                                                      int n, float* tin,
                                                                      float* out) {
-  if (r == 5) return VerticalHorizontalTransposed8Fixed<5>(rows, weights, n, tin, out);
-  VerticalHorizontalTransposed8Fixed<3>(rows, weights, n, tin, out);
+  if (r == 5) return VerticalHorizontalTransposed8Radius<5>(rows, weights, r, n, tin, out);
+  if (r == 3) return VerticalHorizontalTransposed8Radius<3>(rows, weights, r, n, tin, out);
+  VerticalHorizontalTransposed8Radius<0>(rows, weights, r, n, tin, out);
 }
 REPHOTO_ISA_DISPATCH_AVX2(void, VerticalHorizontalTransposed8,
                           (const float* const* rows, const float* weights, int r, int n, float* tin,
@@ -440,11 +417,6 @@ void SsimVerticalRows(const float* const* rows, const float* weights, int r, int
   if (HasAvx512()) return Vertical16(rows, weights, r, n, count, out);
 #endif
   Vertical8(rows, weights, r, n, count, out);
-}
-
-void SsimHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
-                               float* tin, float* out) {
-  HorizontalTransposed8(rows, weights, r, n, tin, out);
 }
 
 void SsimVerticalHorizontalTransposed8(const float* const* rows, const float* weights, int r, int n,
