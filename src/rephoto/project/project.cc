@@ -3,15 +3,18 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <memory>
 #include <set>
 
+#include "rephoto/core/background_worker.h"
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
@@ -130,6 +133,13 @@ Sample SampleVertex(const ViewContext& view, const Eigen::Vector3d& world, doubl
   const double px = pixel->x(), py = pixel->y();
   const int width = view.depth.width(), height = view.depth.height();
   if (!(px >= 0 && px < width && py >= 0 && py < height)) return sample;
+  // The rendered depth at the pixel agrees with the vertex's. Tested before the ray below (both
+  // must hold, so the order changes no result): most vertices that fail fail here (hidden),
+  // and the ray table is then not read.
+  const double tolerance = view.relative_tolerance * z + radius;
+  const int ix = std::min(static_cast<int>(px), width - 1);
+  const int iy = std::min(static_cast<int>(py), height - 1);
+  if (!DepthAgrees(view.depth.at(ix, iy), z, tolerance)) return sample;
   // And the pixel's rendered ray points back at the vertex: the depth read there is this
   // vertex's (the ray table and the projection agree to a pixel).
   float xn = 0, yn = 0;
@@ -137,11 +147,6 @@ Sample SampleVertex(const ViewContext& view, const Eigen::Vector3d& world, doubl
   const double u = cam.x() / z, v = cam.y() / z;
   const double slack = 1.0 + u * u + v * v;  // one pixel, widened off-axis (fisheye)
   if (std::abs(xn - u) * view.fx > slack || std::abs(yn - v) * view.fy > slack) return sample;
-
-  const double tolerance = view.relative_tolerance * z + radius;
-  const int ix = std::min(static_cast<int>(px), width - 1);
-  const int iy = std::min(static_cast<int>(py), height - 1);
-  if (!DepthAgrees(view.depth.at(ix, iy), z, tolerance)) return sample;
   sample.visible = true;
 
   // Bilinear over the 4 pixel centres around p, qualifying pixels only.
@@ -291,14 +296,30 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
   render_options.pattern = render::SamplePattern::kRegular;
   render_options.backfaces = options.backfaces;
   render::Rephoto rephoto;
-  Image error;
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("project", views.size());
+
+  // The next view's error image (and depth image, when given) are read by a background thread
+  // while this view's samples are taken: two sets of buffers, view v in set v % 2. Reading
+  // (EXR parsing) is otherwise a serial step between the parallel passes of every view.
+  std::array<Image, 2> errors, depths;
+  BackgroundWorker reader;
+  std::future<void> read;
+  const auto read_view = [&](size_t v) {
+    const ProjectView& next = views[v];
+    return reader.Submit([&next, error = &errors[v % 2], depth = &depths[v % 2]] {
+      io::ReadImage(next.error_image, error);
+      if (!next.depth_image.empty()) io::ReadImage(next.depth_image, depth);
+    });
+  };
+  if (!views.empty()) read = read_view(0);
 
   for (size_t v = 0; v < views.size(); ++v) {
     const ProjectView& view = views[v];
     auto start = std::chrono::steady_clock::now();
-    io::ReadImage(view.error_image, &error);
+    read.get();  // rethrows view v's read error, in view order
+    if (v + 1 < views.size()) read = read_view(v + 1);
+    const Image& error = errors[v % 2];
     const camera::Camera camera =
         CameraForImage(view, error.width(), error.height(), error.channels(), options);
     result.project_seconds += Seconds(start);
@@ -308,7 +329,7 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
     if (view.depth_image.empty()) {
       render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
     } else {
-      io::ReadImage(view.depth_image, &rephoto.depth);  // its size was checked by CheckViews
+      std::swap(rephoto.depth, depths[v % 2]);  // its size was checked by CheckViews
     }
     result.render_seconds += Seconds(start);
 

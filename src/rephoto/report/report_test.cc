@@ -481,6 +481,31 @@ TEST(Report, BadInputThrowsNamingTheFile) {
   EXPECT_FALSE(fs::exists(root / "out.html"));
 }
 
+// The image of a thumbnail's data URI (base64 decoded by hand: the inverse of Base64).
+Image DecodeThumbnail(const Thumbnail& t) {
+  const std::string b64 = t.data_uri.substr(t.data_uri.find(',') + 1);
+  std::vector<uint8_t> bytes;
+  uint32_t buffer = 0;
+  int bits = 0;
+  for (char c : b64) {
+    if (c == '=') break;
+    const int v = std::isupper(c)   ? c - 'A'
+                  : std::islower(c) ? c - 'a' + 26
+                  : std::isdigit(c) ? c - '0' + 52
+                  : c == '+'        ? 62
+                                    : 63;
+    buffer = (buffer << 6) | v;
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      bytes.push_back(static_cast<uint8_t>(buffer >> bits));
+    }
+  }
+  Image image;
+  io::DecodeImage(bytes, "thumbnail", &image);
+  return image;
+}
+
 TEST(Thumbnails, MaskFromAlphaAndNanAwareErrorShrinking) {
   const fs::path root = rephoto::testing::MakeTempDir();
   testing::MakeCompareRun(root, 2, 0.01, 3, false);
@@ -490,35 +515,11 @@ TEST(Thumbnails, MaskFromAlphaAndNanAwareErrorShrinking) {
   ASSERT_TRUE(rephoto.error.empty()) << rephoto.error;
   EXPECT_EQ(mask.width, 40);  // never enlarged
   Image decoded;
-  const auto Decode = [&](const Thumbnail& t) {
-    const std::string b64 = t.data_uri.substr(t.data_uri.find(',') + 1);
-    // Decode base64 by hand (the inverse of Base64).
-    std::vector<uint8_t> bytes;
-    uint32_t buffer = 0;
-    int bits = 0;
-    for (char c : b64) {
-      if (c == '=') break;
-      const int v = std::isupper(c)   ? c - 'A'
-                    : std::islower(c) ? c - 'a' + 26
-                    : std::isdigit(c) ? c - '0' + 52
-                    : c == '+'        ? 62
-                                      : 63;
-      buffer = (buffer << 6) | v;
-      bits += 6;
-      if (bits >= 8) {
-        bits -= 8;
-        bytes.push_back(static_cast<uint8_t>(buffer >> bits));
-      }
-    }
-    Image image;
-    io::DecodeImage(bytes, "thumbnail", &image);
-    return image;
-  };
-  decoded = Decode(mask);
+  decoded = DecodeThumbnail(mask);
   ASSERT_EQ(decoded.channels(), 1);
   EXPECT_EQ(decoded.at(7, 6), 0.f);
   EXPECT_EQ(decoded.at(30, 20), 1.f);
-  decoded = Decode(rephoto);
+  decoded = DecodeThumbnail(rephoto);
   // Black (texture values are 0.15-0.85); JPEG chroma subsampling of the small block blurs a
   // few levels in.
   float sum = 0;
@@ -541,7 +542,7 @@ TEST(Thumbnails, MaskFromAlphaAndNanAwareErrorShrinking) {
   ASSERT_TRUE(t.error.empty()) << t.error;
   EXPECT_EQ(t.width, 32);
   EXPECT_EQ(t.height, 24);
-  decoded = Decode(t);
+  decoded = DecodeThumbnail(t);
   const std::array<float, 3> jet = JetColor(0.25f);  // range [0, 1] for 1-ncc
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(decoded.at(24, 12, c), jet[c], 6 / 255.f) << c;
   for (int c = 0; c < 3; ++c) {
@@ -552,6 +553,55 @@ TEST(Thumbnails, MaskFromAlphaAndNanAwareErrorShrinking) {
   EXPECT_FALSE(ErrorThumbnail(root / "none.exr", root / "none.png", metrics::Metric::kCbCr, 32)
                    .error.empty());
   EXPECT_FALSE(PhotoThumbnail(root / "none.png", 32).error.empty());
+}
+
+// The process-wide cache (thumbnails.h): the same file gives the same thumbnail, also named
+// by another path; a file rewritten in place (same size, same modification time set back) or
+// replaced by a rename gives the thumbnail of its new content; a missing file is not kept.
+TEST(Thumbnails, CacheFollowsTheFilesContent) {
+  const fs::path root = rephoto::testing::MakeTempDir();
+  const auto Uniform = [&](const fs::path& path, float value) {
+    io::WriteExr(path, Image(64, 48, 1, value));
+  };
+  const auto Centre = [](const Thumbnail& t) {
+    const Image image = DecodeThumbnail(t);
+    return std::array<float, 3>{image.at(16, 12, 0), image.at(16, 12, 1), image.at(16, 12, 2)};
+  };
+  const auto ExpectJet = [&](const Thumbnail& t, float value) {
+    ASSERT_TRUE(t.error.empty()) << t.error;
+    const std::array<float, 3> got = Centre(t), jet = JetColor(value);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], jet[c], 6 / 255.f) << value << " " << c;
+  };
+  const metrics::Metric m = metrics::Metric::kOneMinusNcc;  // jet over [0, 1]
+  const fs::path e = root / "e.exr";
+  Uniform(e, 0.25f);
+  const Thumbnail first = ErrorThumbnail(e, {}, m, 32);
+  ExpectJet(first, 0.25f);
+  EXPECT_EQ(ErrorThumbnail(root / "." / "e.exr", {}, m, 32).data_uri, first.data_uri);
+
+  // Rewritten in place (the same inode and size) with its old modification time put back: the
+  // status-change time still tells.
+  const fs::file_time_type written = fs::last_write_time(e);
+  {
+    Image other(64, 48, 1, 0.75f);
+    const fs::path tmp = root / "other.exr";
+    io::WriteExr(tmp, other);
+    ASSERT_EQ(fs::file_size(tmp), fs::file_size(e));
+    fs::copy_file(tmp, e, fs::copy_options::overwrite_existing);
+    fs::last_write_time(e, written);
+  }
+  ExpectJet(ErrorThumbnail(e, {}, m, 32), 0.75f);
+
+  // Replaced by a rename (a new inode), as rephoto writes its outputs.
+  Uniform(root / "next.exr", 0.5f);
+  fs::rename(root / "next.exr", e);
+  ExpectJet(ErrorThumbnail(e, {}, m, 32), 0.5f);
+
+  // A failure is not kept: the file appearing later gives its thumbnail.
+  const fs::path late = root / "late.exr";
+  EXPECT_FALSE(ErrorThumbnail(late, {}, m, 32).error.empty());
+  Uniform(late, 0.25f);
+  ExpectJet(ErrorThumbnail(late, {}, m, 32), 0.25f);
 }
 
 }  // namespace

@@ -1,7 +1,15 @@
 #include "rephoto/report/thumbnails.h"
 
+#include <fmt/format.h>
+#include <sys/stat.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <deque>
+#include <functional>
+#include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "rephoto/compare/compare.h"
@@ -94,7 +102,143 @@ Thumbnail Failed(const std::string& message) {
   return t;
 }
 
+// What identifies a file's content for the cache: its absolute path, device and inode (a file
+// replaced by a rename, as rephoto writes its outputs, is a new inode), size and modification
+// and status-change times in nanoseconds; "-" when it does not exist; nullopt when it cannot be
+// told (then nothing is cached).
+std::optional<std::string> FileIdentity(const fs::path& path) {
+  if (path.empty()) return std::string("-");
+  std::error_code ec;
+  const fs::path absolute = fs::absolute(path, ec).lexically_normal();
+  if (ec) return std::nullopt;
+  struct stat st {};
+  if (::stat(absolute.c_str(), &st) != 0) {
+    if (errno == ENOENT) return std::string("-");
+    return std::nullopt;
+  }
+  if (!S_ISREG(st.st_mode)) return std::nullopt;
+  return fmt::format("{}\n{} {} {} {}.{} {}.{}", absolute.string(), st.st_dev, st.st_ino,
+                     st.st_size, st.st_mtim.tv_sec, st.st_mtim.tv_nsec, st.st_ctim.tv_sec,
+                     st.st_ctim.tv_nsec);
+}
+
+// The finished thumbnails of the process (see thumbnails.h, "Cache"): at most kCacheBytes of
+// data URIs, the oldest dropped first. Thread-safe.
+class ThumbnailCache {
+ public:
+  static constexpr size_t kCacheBytes = size_t{64} << 20;
+
+  static ThumbnailCache& Instance() {
+    static ThumbnailCache cache;
+    return cache;
+  }
+
+  std::optional<std::vector<Thumbnail>> Find(const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = entries_.find(key);
+    if (it == entries_.end()) return std::nullopt;
+    return it->second;
+  }
+
+  void Store(const std::string& key, std::vector<Thumbnail> value) {
+    size_t bytes = key.size();
+    for (const Thumbnail& t : value) bytes += t.data_uri.size();
+    if (bytes > kCacheBytes / 4) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.count(key) != 0) return;
+    while (bytes_ + bytes > kCacheBytes && !order_.empty()) {
+      const auto old = entries_.find(order_.front());
+      for (const Thumbnail& t : old->second) bytes_ -= t.data_uri.size();
+      bytes_ -= old->first.size();
+      entries_.erase(old);
+      order_.pop_front();
+    }
+    entries_.emplace(key, std::move(value));
+    order_.push_back(key);
+    bytes_ += bytes;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::unordered_map<std::string, std::vector<Thumbnail>> entries_;
+  std::deque<std::string> order_;  // keys, oldest first
+  size_t bytes_ = 0;
+};
+
+// The key of a thumbnail of `files` made by `kind` at `width` (nullopt: not cacheable).
+std::optional<std::string> CacheKey(const std::string& kind, int width,
+                                    std::initializer_list<const fs::path*> files) {
+  std::string key = fmt::format("{}\n{}", kind, width);
+  for (const fs::path* file : files) {
+    const std::optional<std::string> identity = FileIdentity(*file);
+    if (!identity) return std::nullopt;
+    key += "\n" + *identity;
+  }
+  return key;
+}
+
+// make() unless the cache holds the thumbnails of `key`; stored when they all succeeded and
+// the files are still those of `key` (a file rewritten meanwhile is not stored under its old
+// identity).
+template <typename Make>
+std::vector<Thumbnail> Cached(const std::optional<std::string>& key, const Make& make,
+                              const std::function<std::optional<std::string>()>& key_again) {
+  if (!key) return make();
+  if (std::optional<std::vector<Thumbnail>> found = ThumbnailCache::Instance().Find(*key)) {
+    return *std::move(found);
+  }
+  std::vector<Thumbnail> made = make();
+  const bool ok =
+      std::all_of(made.begin(), made.end(), [](const Thumbnail& t) { return !t.data_uri.empty(); });
+  if (ok && key_again() == key) ThumbnailCache::Instance().Store(*key, made);
+  return made;
+}
+
+Thumbnail MakePhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scratch);
+void MakeRenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask,
+                          ThumbnailScratch* scratch);
+Thumbnail MakeErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metric metric,
+                             int width, ThumbnailScratch* scratch);
+
 }  // namespace
+
+Thumbnail PhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scratch) {
+  if (photo.empty()) return Failed("no photo");
+  const auto key = [&] { return CacheKey("photo", width, {&photo}); };
+  return Cached(
+      key(), [&] { return std::vector<Thumbnail>{MakePhotoThumbnail(photo, width, scratch)}; },
+      key)[0];
+}
+
+void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask,
+                      ThumbnailScratch* scratch) {
+  if (render.empty()) {
+    *rephoto = *mask = Failed("no rendering");
+    return;
+  }
+  const auto key = [&] { return CacheKey("render", width, {&render}); };
+  std::vector<Thumbnail> both = Cached(
+      key(),
+      [&] {
+        std::vector<Thumbnail> made(2);
+        MakeRenderThumbnails(render, width, &made[0], &made[1], scratch);
+        return made;
+      },
+      key);
+  *rephoto = std::move(both[0]);
+  *mask = std::move(both[1]);
+}
+
+Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metric metric,
+                         int width, ThumbnailScratch* scratch) {
+  const auto key = [&] {
+    return CacheKey(fmt::format("error {}", metrics::MetricName(metric)), width, {&exr, &png});
+  };
+  return Cached(
+      key(),
+      [&] { return std::vector<Thumbnail>{MakeErrorThumbnail(exr, png, metric, width, scratch)}; },
+      key)[0];
+}
 
 std::unique_ptr<ThumbnailScratch> ThumbnailScratches::Acquire() {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -109,8 +253,9 @@ void ThumbnailScratches::Release(std::unique_ptr<ThumbnailScratch> scratch) {
   free_.push_back(std::move(scratch));
 }
 
-Thumbnail PhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scratch) {
-  if (photo.empty()) return Failed("no photo");
+namespace {
+
+Thumbnail MakePhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scratch) {
   ThumbnailScratch local;
   ThumbnailScratch& s = scratch != nullptr ? *scratch : local;
   try {
@@ -128,12 +273,8 @@ Thumbnail PhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scr
   }
 }
 
-void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask,
-                      ThumbnailScratch* scratch) {
-  if (render.empty()) {
-    *rephoto = *mask = Failed("no rendering");
-    return;
-  }
+void MakeRenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask,
+                          ThumbnailScratch* scratch) {
   ThumbnailScratch local;
   ThumbnailScratch& s = scratch != nullptr ? *scratch : local;
   try {
@@ -168,8 +309,8 @@ void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thu
   }
 }
 
-Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metric metric,
-                         int width, ThumbnailScratch* scratch) {
+Thumbnail MakeErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metric metric,
+                             int width, ThumbnailScratch* scratch) {
   std::error_code ec;
   ThumbnailScratch local;
   ThumbnailScratch& s = scratch != nullptr ? *scratch : local;
@@ -214,4 +355,5 @@ Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metr
   }
 }
 
+}  // namespace
 }  // namespace rephoto::report
