@@ -3,18 +3,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <future>
 #include <limits>
 #include <memory>
 #include <set>
 
-#include "rephoto/core/background_worker.h"
 #include "rephoto/core/colormap.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/file.h"
@@ -296,30 +293,14 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
   render_options.pattern = render::SamplePattern::kRegular;
   render_options.backfaces = options.backfaces;
   render::Rephoto rephoto;
+  Image error;
   std::unique_ptr<Progress> progress;
   if (options.show_progress) progress = std::make_unique<Progress>("project", views.size());
-
-  // The next view's error image (and depth image, when given) are read by a background thread
-  // while this view's samples are taken: two sets of buffers, view v in set v % 2. Reading
-  // (EXR parsing) is otherwise a serial step between the parallel passes of every view.
-  std::array<Image, 2> errors, depths;
-  BackgroundWorker reader;
-  std::future<void> read;
-  const auto read_view = [&](size_t v) {
-    const ProjectView& next = views[v];
-    return reader.Submit([&next, error = &errors[v % 2], depth = &depths[v % 2]] {
-      io::ReadImage(next.error_image, error);
-      if (!next.depth_image.empty()) io::ReadImage(next.depth_image, depth);
-    });
-  };
-  if (!views.empty()) read = read_view(0);
 
   for (size_t v = 0; v < views.size(); ++v) {
     const ProjectView& view = views[v];
     auto start = std::chrono::steady_clock::now();
-    read.get();  // rethrows view v's read error, in view order
-    if (v + 1 < views.size()) read = read_view(v + 1);
-    const Image& error = errors[v % 2];
+    io::ReadImage(view.error_image, &error);
     const camera::Camera camera =
         CameraForImage(view, error.width(), error.height(), error.channels(), options);
     result.project_seconds += Seconds(start);
@@ -329,7 +310,7 @@ ProjectResult ProjectErrors(const render::RenderModel& model, const std::vector<
     if (view.depth_image.empty()) {
       render::RenderRephoto(model, *rays, view.cam_from_world, render_options, &rephoto);
     } else {
-      std::swap(rephoto.depth, depths[v % 2]);  // its size was checked by CheckViews
+      io::ReadImage(view.depth_image, &rephoto.depth);  // its size was checked by CheckViews
     }
     result.render_seconds += Seconds(start);
 

@@ -7,7 +7,6 @@
 #include <cerrno>
 #include <cmath>
 #include <deque>
-#include <functional>
 #include <optional>
 #include <unordered_map>
 #include <vector>
@@ -177,12 +176,12 @@ std::optional<std::string> CacheKey(const std::string& kind, int width,
   return key;
 }
 
-// make() unless the cache holds the thumbnails of `key`; stored when they all succeeded and
-// the files are still those of `key` (a file rewritten meanwhile is not stored under its old
-// identity).
-template <typename Make>
-std::vector<Thumbnail> Cached(const std::optional<std::string>& key, const Make& make,
-                              const std::function<std::optional<std::string>()>& key_again) {
+// make() unless the cache holds the thumbnails of key_of(); stored when they all succeeded and
+// key_of() still gives the same key afterwards (a file rewritten meanwhile is not stored under
+// its old identity).
+template <typename Key, typename Make>
+std::vector<Thumbnail> Cached(const Key& key_of, const Make& make) {
+  const std::optional<std::string> key = key_of();
   if (!key) return make();
   if (std::optional<std::vector<Thumbnail>> found = ThumbnailCache::Instance().Find(*key)) {
     return *std::move(found);
@@ -190,7 +189,7 @@ std::vector<Thumbnail> Cached(const std::optional<std::string>& key, const Make&
   std::vector<Thumbnail> made = make();
   const bool ok =
       std::all_of(made.begin(), made.end(), [](const Thumbnail& t) { return !t.data_uri.empty(); });
-  if (ok && key_again() == key) ThumbnailCache::Instance().Store(*key, made);
+  if (ok && key_of() == key) ThumbnailCache::Instance().Store(*key, made);
   return made;
 }
 
@@ -206,8 +205,7 @@ Thumbnail PhotoThumbnail(const fs::path& photo, int width, ThumbnailScratch* scr
   if (photo.empty()) return Failed("no photo");
   const auto key = [&] { return CacheKey("photo", width, {&photo}); };
   return Cached(
-      key(), [&] { return std::vector<Thumbnail>{MakePhotoThumbnail(photo, width, scratch)}; },
-      key)[0];
+      key, [&] { return std::vector<Thumbnail>{MakePhotoThumbnail(photo, width, scratch)}; })[0];
 }
 
 void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thumbnail* mask,
@@ -217,14 +215,11 @@ void RenderThumbnails(const fs::path& render, int width, Thumbnail* rephoto, Thu
     return;
   }
   const auto key = [&] { return CacheKey("render", width, {&render}); };
-  std::vector<Thumbnail> both = Cached(
-      key(),
-      [&] {
-        std::vector<Thumbnail> made(2);
-        MakeRenderThumbnails(render, width, &made[0], &made[1], scratch);
-        return made;
-      },
-      key);
+  std::vector<Thumbnail> both = Cached(key, [&] {
+    std::vector<Thumbnail> made(2);
+    MakeRenderThumbnails(render, width, &made[0], &made[1], scratch);
+    return made;
+  });
   *rephoto = std::move(both[0]);
   *mask = std::move(both[1]);
 }
@@ -234,10 +229,9 @@ Thumbnail ErrorThumbnail(const fs::path& exr, const fs::path& png, metrics::Metr
   const auto key = [&] {
     return CacheKey(fmt::format("error {}", metrics::MetricName(metric)), width, {&exr, &png});
   };
-  return Cached(
-      key(),
-      [&] { return std::vector<Thumbnail>{MakeErrorThumbnail(exr, png, metric, width, scratch)}; },
-      key)[0];
+  return Cached(key, [&] {
+    return std::vector<Thumbnail>{MakeErrorThumbnail(exr, png, metric, width, scratch)};
+  })[0];
 }
 
 std::unique_ptr<ThumbnailScratch> ThumbnailScratches::Acquire() {
