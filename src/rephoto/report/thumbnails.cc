@@ -6,14 +6,14 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <deque>
+#include <memory>
 #include <optional>
-#include <unordered_map>
 #include <vector>
 
 #include "rephoto/compare/compare.h"
 #include "rephoto/compare/resample.h"
 #include "rephoto/core/error.h"
+#include "rephoto/core/recent_cache.h"
 #include "rephoto/io/image_encode.h"
 #include "rephoto/io/image_io.h"
 #include "rephoto/report/html.h"
@@ -121,48 +121,13 @@ std::optional<std::string> FileIdentity(const fs::path& path) {
                      st.st_ctim.tv_nsec);
 }
 
-// The finished thumbnails of the process (see thumbnails.h, "Cache"): at most kCacheBytes of
-// data URIs, the oldest dropped first. Thread-safe.
-class ThumbnailCache {
- public:
-  static constexpr size_t kCacheBytes = size_t{64} << 20;
-
-  static ThumbnailCache& Instance() {
-    static ThumbnailCache cache;
-    return cache;
-  }
-
-  std::optional<std::vector<Thumbnail>> Find(const std::string& key) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = entries_.find(key);
-    if (it == entries_.end()) return std::nullopt;
-    return it->second;
-  }
-
-  void Store(const std::string& key, std::vector<Thumbnail> value) {
-    size_t bytes = key.size();
-    for (const Thumbnail& t : value) bytes += t.data_uri.size();
-    if (bytes > kCacheBytes / 4) return;
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (entries_.count(key) != 0) return;
-    while (bytes_ + bytes > kCacheBytes && !order_.empty()) {
-      const auto old = entries_.find(order_.front());
-      for (const Thumbnail& t : old->second) bytes_ -= t.data_uri.size();
-      bytes_ -= old->first.size();
-      entries_.erase(old);
-      order_.pop_front();
-    }
-    entries_.emplace(key, std::move(value));
-    order_.push_back(key);
-    bytes_ += bytes;
-  }
-
- private:
-  std::mutex mutex_;
-  std::unordered_map<std::string, std::vector<Thumbnail>> entries_;
-  std::deque<std::string> order_;  // keys, oldest first
-  size_t bytes_ = 0;
-};
+// The finished thumbnails of the process (see thumbnails.h, "Cache"): at most 64 MiB of data
+// URIs, the least recently used dropped first (4096 entries bound the linear lookup).
+using ThumbnailCache = RecentCache<std::string, std::vector<Thumbnail>>;
+ThumbnailCache& FinishedThumbnails() {
+  static ThumbnailCache cache(4096, size_t{64} << 20);
+  return cache;
+}
 
 // The key of a thumbnail of `files` made by `kind` at `width` (nullopt: not cacheable).
 std::optional<std::string> CacheKey(const std::string& kind, int width,
@@ -183,13 +148,17 @@ template <typename Key, typename Make>
 std::vector<Thumbnail> Cached(const Key& key_of, const Make& make) {
   const std::optional<std::string> key = key_of();
   if (!key) return make();
-  if (std::optional<std::vector<Thumbnail>> found = ThumbnailCache::Instance().Find(*key)) {
-    return *std::move(found);
-  }
+  if (const auto found = FinishedThumbnails().Find(*key)) return *found;
   std::vector<Thumbnail> made = make();
-  const bool ok =
-      std::all_of(made.begin(), made.end(), [](const Thumbnail& t) { return !t.data_uri.empty(); });
-  if (ok && key_of() == key) ThumbnailCache::Instance().Store(*key, made);
+  size_t bytes = key->size();
+  bool ok = true;
+  for (const Thumbnail& t : made) {
+    bytes += t.data_uri.size();
+    ok = ok && !t.data_uri.empty();
+  }
+  if (ok && key_of() == key) {
+    FinishedThumbnails().Put(*key, std::make_shared<const std::vector<Thumbnail>>(made), bytes);
+  }
   return made;
 }
 

@@ -21,16 +21,17 @@
 // photos, PNG renderings, EXR errors, 2 threads): 1.62 s wall / 853 MiB peak against 2.47 s /
 // 627 MiB with fresh buffers and full-size JPEG decoding.
 //
-// Cache: the thumbnails made are kept for the process (at most 64 MiB of data URIs, the oldest
-// dropped first), keyed by what they were made of: the kind, the width, the metric, and for each
-// file its absolute path, inode, size and modification and status-change times. The runs of one
-// scene share their photos, so the reports of several runs in one process (`rephoto demo`'s six)
-// and a comparison report of several runs encode each photo once per width. A file rewritten
-// (a new inode, size or time) is made again; a failure is not kept; a thumbnail whose file
-// changed while it was made is not kept either.
+// Cache: the thumbnails made are kept for the process (core/recent_cache.h: at most 64 MiB of
+// data URIs in 4096 entries, the least recently used dropped first), keyed by what they were
+// made of: the kind, the width, the metric, and for each file its absolute path, inode, size and
+// modification and status-change times. The runs of one scene share their photos, so the
+// reports of several runs in one process (`rephoto demo`'s six) and a comparison report of
+// several runs encode each photo once per width. A file rewritten (a new inode, size or time) is
+// made again; a failure is not kept; a thumbnail whose file changed while it was made is not
+// kept either.
 //
-// Thread safety: reentrant (reads the images named; no shared state) as long as each thread
-// uses its own scratch.
+// Thread safety: reentrant (reads the images named; the cache is the only shared state and
+// locks itself) as long as each thread uses its own scratch.
 #pragma once
 
 #include <tbb/task_arena.h>
