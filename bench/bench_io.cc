@@ -1,11 +1,13 @@
 // Image I/O costs that dominate `rephoto compare` on large photos: decoding a photo, writing a
-// float error image (EXR) and a jet-coloured RGBA PNG per metric.
+// float error image (EXR) and a jet-coloured RGBA PNG per metric; PNG decoding against libspng.
 //   build-*/bench/rephoto_bench_io [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <filesystem>
+#include <cstdio>
 #include <random>
+#include <vector>
 
 #include "rephoto/core/image.h"
 #include "rephoto/io/image_io.h"
@@ -75,6 +77,65 @@ void BM_ReadPng(benchmark::State& state) {
   for (auto _ : state) rephoto::io::ReadImage(path, &image);
 }
 
+// PNG decoding from memory, rephoto's decoder (libspng, with libdeflate inflating the common
+// variants: io/png_inflate.h) against libspng alone, in the same run:
+//   source 0: a smooth 4000x3000 RGB field written by io::WritePng ("up" filter, libdeflate);
+//   source 1: the same with sensor-like noise (+-4 levels), as the demo's photos;
+//   source 2: the 20 photos of ../shared/data/llff_fern/images_8 (504x378, written by another
+//             encoder: mostly Paeth rows), all decoded per iteration.
+// decoder 0: io::DecodeImage; 1: io::internal::DecodeImageByLibspng.
+void BM_DecodePng(benchmark::State& state) {
+  const int source = static_cast<int>(state.range(0));
+  const bool libspng = state.range(1) == 1;
+  std::vector<std::vector<uint8_t>> files;
+  const auto read = [](const fs::path& path) {
+    std::vector<uint8_t> bytes(fs::file_size(path));
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    const size_t n = f ? std::fread(bytes.data(), 1, bytes.size(), f) : 0;
+    if (f) std::fclose(f);
+    bytes.resize(n);
+    return bytes;
+  };
+  if (source < 2) {
+    rephoto::Image photo(4000, 3000, 3);
+    std::mt19937 rng(2);
+    std::uniform_int_distribution<int> noise(-4, 4);
+    for (int y = 0; y < photo.height(); ++y) {
+      for (int x = 0; x < photo.width(); ++x) {
+        for (int c = 0; c < 3; ++c) {
+          photo.at(x, y, c) = 0.5f + 0.4f * std::sin(x * 0.02f + y * 0.03f * c) +
+                              (source == 1 ? noise(rng) / 255.f : 0.f);
+        }
+      }
+    }
+    const fs::path path = BenchDir() / "decode.png";
+    rephoto::io::WritePng(path, photo);
+    files.push_back(read(path));
+  } else {
+    const fs::path dir =
+        fs::path(__FILE__).parent_path().parent_path().parent_path() / "shared/data/llff_fern/images_8";
+    if (!fs::is_directory(dir)) {
+      state.SkipWithError("shared data not found");
+      return;
+    }
+    for (const auto& entry : fs::directory_iterator(dir)) files.push_back(read(entry.path()));
+  }
+  rephoto::Image image;
+  double pixels = 0;
+  for (auto _ : state) {
+    pixels = 0;
+    for (const std::vector<uint8_t>& file : files) {
+      if (libspng) {
+        rephoto::io::internal::DecodeImageByLibspng(file, "bench.png", &image);
+      } else {
+        rephoto::io::DecodeImage(file, "bench.png", &image);
+      }
+      pixels += image.pixel_count();
+    }
+  }
+  state.counters["MP"] = pixels / 1e6;
+}
+
 // A real JPEG photo (3072x2048) when the shared datasets are present.
 void BM_ReadJpeg(benchmark::State& state) {
   // <repo>/bench/bench_io.cc -> <repo>/../shared/data
@@ -93,6 +154,10 @@ void BM_ReadJpeg(benchmark::State& state) {
 BENCHMARK(BM_WriteExrError)->Args({4000, 3000})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_WriteJetPng)->Args({4000, 3000})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ReadPng)->Args({4000, 3000})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DecodePng)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_ReadJpeg)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
 #include "rephoto/io/image_encode.h"
+#include "rephoto/io/png_inflate.h"
 
 namespace rephoto::io {
 namespace fs = std::filesystem;
@@ -118,6 +119,10 @@ void ConvertToFloat(const T* samples, int width, int height, int channels, Image
 
 // ----------------------------------------------------------------------------------- PNG
 
+// Set by internal::DecodeImageByLibspng for the calling thread.
+thread_local bool libspng_only = false;
+bool LibspngOnly() { return libspng_only; }
+
 struct SpngDeleter {
   void operator()(spng_ctx* ctx) const { spng_ctx_free(ctx); }
 };
@@ -157,9 +162,20 @@ bool DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* i
   const int channels = PngChannels(ihdr.color_type, has_trns);
   REPHOTO_CHECK(channels > 0, "{}: unsupported PNG colour type {}", name, ihdr.color_type);
   const bool wide = ihdr.bit_depth == 16;
+  // libdeflate's inflate for the common variants (io/png_inflate.h), libspng's for the others
+  // and for any file that path does not take.
   // Floats (4 bytes) plus the decoded samples (1 or 2 bytes), or the 8-bit samples alone.
-  CheckSize(name, "PNG", ihdr.width, ihdr.height, channels,
-            image8 != nullptr && !wide ? 1 : (wide ? 6 : 5));
+  const int stored = wide ? 2 : 1;
+  const int bytes_per_value = image8 != nullptr && !wide ? 1 : 4 + stored;
+  CheckSize(name, "PNG", ihdr.width, ihdr.height, channels, bytes_per_value);
+  // The libdeflate path also holds the filtered samples (1 or 2 bytes per value): taken only
+  // where that fits in --max-memory too, so that every PNG libspng decodes within the limit
+  // still decodes (libspng, row by row).
+  const uint64_t values = uint64_t{ihdr.width} * ihdr.height * channels;
+  const bool inflate = internal::InflatePngHandles(ihdr.color_type, ihdr.bit_depth,
+                                                   ihdr.interlace_method, has_trns) &&
+                       !LibspngOnly() &&
+                       values * (bytes_per_value + stored) + ihdr.height <= MaxMemoryBytes();
 
   int format = 0;
   switch (ihdr.color_type) {
@@ -199,7 +215,13 @@ bool DecodePng(std::span<const uint8_t> bytes, const std::string& name, Image* i
     pixels.resize(size);
     target = pixels.data();
   }
-  r = spng_decode_image(ctx.get(), target, size, format, has_trns ? SPNG_DECODE_TRNS : 0);
+  const internal::PngLayout layout{.width = ihdr.width,
+                                   .height = ihdr.height,
+                                   .channels = channels,
+                                   .bit_depth = ihdr.bit_depth};
+  r = inflate && internal::InflatePng(bytes, layout, target, size)
+          ? 0
+          : spng_decode_image(ctx.get(), target, size, format, has_trns ? SPNG_DECODE_TRNS : 0);
   if (r != 0) {
     if (r == SPNG_EOF) ThrowError("{}: truncated PNG ({})", name, spng_strerror(r));
     ThrowError("{}: corrupt PNG: {}", name, spng_strerror(r));
@@ -769,6 +791,17 @@ void DecodeImage(std::span<const uint8_t> bytes, const std::string& name, Image*
   }
   ThrowUnknownFormat(name, bytes.size());
 }
+
+namespace internal {
+void DecodeImageByLibspng(std::span<const uint8_t> bytes, const std::string& name, Image* image) {
+  struct Restore {
+    bool before = libspng_only;
+    ~Restore() { libspng_only = before; }
+  } restore;
+  libspng_only = true;
+  DecodeImage(bytes, name, image);
+}
+}  // namespace internal
 
 void ReadImage(const fs::path& path, Image* image) {
   std::vector<uint8_t>& bytes = FileScratch();

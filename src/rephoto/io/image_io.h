@@ -7,6 +7,9 @@
 // Channels: 1 (grey), 2 (grey+alpha), 3 (RGB) or 4 (RGBA), as stored:
 //   PNG   grey -> 1, grey+alpha -> 2, RGB -> 3, RGBA -> 4, palette -> 3; a tRNS chunk (palette
 //         transparency or a transparent grey/RGB key colour) adds an alpha channel (2 or 4).
+//         Decoded by libspng; the image data of 8/16-bit grey, grey+alpha, RGB and RGBA files
+//         without tRNS, not interlaced, inflated by libdeflate instead (io/png_inflate.h: the
+//         same samples, 1.4-3.4x faster than zlib).
 //   JPEG  grey -> 1, YCbCr/RGB -> 3 (CMYK/YCCK are rejected). Decoded by libjpeg-turbo with
 //         its defaults (accurate integer IDCT, smooth chroma upsampling), the same pixels as
 //         libjpeg/Pillow. The EXIF orientation tag is ignored on purpose: photogrammetry tools
@@ -19,7 +22,7 @@
 // Formats are detected by content (magic bytes), not by extension.
 //
 // Writing: PNG (8 or 16 bit, 1-4 channels, values clamped to [0,1] and rounded, NaN -> 0;
-// fast zlib level 2),
+// libdeflate level 1, the "up" filter),
 // EXR (32-bit float, uncompressed for speed; channel names Y / YA / RGB / RGBA), PFM (1 or 3
 // channels, little-endian). Always atomically (temporary name + rename, core/file.h).
 //
@@ -61,6 +64,12 @@ void ReadImagePreview(const std::filesystem::path& path, int min_width, Image* i
 
 // Decodes an image file held in memory; `name` is used in error messages (normally the path).
 void DecodeImage(std::span<const uint8_t> bytes, const std::string& name, Image* image);
+
+namespace internal {
+// DecodeImage with every PNG decoded by libspng alone, none by the libdeflate path of
+// io/png_inflate.h: the reference that path is checked against (tests, fuzz/fuzz_image).
+void DecodeImageByLibspng(std::span<const uint8_t> bytes, const std::string& name, Image* image);
+}  // namespace internal
 
 // Reads only the size (width, height, channels as ReadImage would return them) from the
 // header; cheap (reads the first bytes of the file, not the pixels). Does not validate pixels.
