@@ -611,9 +611,7 @@ class FilePrefix {
   std::ifstream in_;
 };
 
-uint32_t BigEndian32(const uint8_t* p) {
-  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
-}
+using internal::BigEndian32;
 uint16_t BigEndian16(const uint8_t* p) { return static_cast<uint16_t>((p[0] << 8) | p[1]); }
 
 ImageHeader PngHeader(FilePrefix& file, const std::string& name) {

@@ -32,10 +32,6 @@ void Trim(UninitVector<uint8_t>& v) {
   if (v.capacity() > kKeptScratchBytes) UninitVector<uint8_t>().swap(v);
 }
 
-uint32_t Big32(const uint8_t* p) {
-  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
-}
-
 // PNG's Paeth predictor (PNG specification, section 9.4).
 inline uint8_t Paeth(int a, int b, int c) {
   const int p = a + b - c;
@@ -119,13 +115,13 @@ std::span<const uint8_t> ImageData(std::span<const uint8_t> file, UninitVector<u
   size_t chunks = 0, total = 0, start = 0;
   // First pass: find the IDAT run, check it and count its bytes.
   while (pos <= file.size() && file.size() - pos >= 12) {
-    const uint32_t length = Big32(file.data() + pos);
+    const uint32_t length = BigEndian32(file.data() + pos);
     if (length > 0x7fffffffu || length > file.size() - pos - 12) return {};
     const uint8_t* type = file.data() + pos + 4;
     const bool idat = std::memcmp(type, "IDAT", 4) == 0;
     if (!idat && chunks > 0) break;  // the end of the image data
     if (idat) {
-      const uint32_t crc = Big32(file.data() + pos + 8 + length);
+      const uint32_t crc = BigEndian32(file.data() + pos + 8 + length);
       if (libdeflate_crc32(0, type, size_t{length} + 4) != crc) return {};
       if (chunks == 0) {
         start = pos;
@@ -143,7 +139,7 @@ std::span<const uint8_t> ImageData(std::span<const uint8_t> file, UninitVector<u
   joined.resize(total);
   size_t filled = 0;
   for (pos = start; filled < total;) {
-    const uint32_t length = Big32(file.data() + pos);
+    const uint32_t length = BigEndian32(file.data() + pos);
     std::memcpy(joined.data() + filled, file.data() + pos + 8, length);
     filled += length;
     pos += size_t{length} + 12;

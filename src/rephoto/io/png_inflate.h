@@ -24,6 +24,11 @@
 
 namespace rephoto::io::internal {
 
+// The big-endian 32-bit value at p (PNG's chunk lengths, CRCs and IHDR fields).
+inline uint32_t BigEndian32(const uint8_t* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
+}
+
 struct PngLayout {
   uint32_t width = 0, height = 0;
   int channels = 0;   // 1-4
