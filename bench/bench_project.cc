@@ -1,9 +1,11 @@
 // Error projection speed (project/project.h) on the demo-size model: the procedural demo mesh
 // at its default density (~860k triangles, ~430k vertices: ground 500 x 500 cells + object 300
 // bands), 24 views at 640 x 480 with random error images (10 % NaN), as `rephoto evaluate` or
-// `rephoto project` run it after a demo-size evaluation.
-//   BM_ProjectPrebuiltModel: ProjectErrors with the render model built beforehand (the BVH
-//     the evaluation rendered with): depth maps + reading EXRs + projection, per 24 views.
+// `rephoto project` run it after a demo-size evaluation; and 16 views at 1280 x 960, the demo's
+// own photos (more faces span 4 pixels there and are sampled inside).
+//   BM_ProjectPrebuiltModel/<faces>/<short side>: ProjectErrors with the render model built
+//     beforehand (the BVH the evaluation rendered with): depth maps + reading EXRs + projection,
+//     per 24 (480) or 16 (960) views; faces 0 = vertices only.
 //   BM_ProjectFromMesh: the Mesh overload (builds the geometry-only BVH itself), as the CLI.
 //   BM_WriteProjectedPly: writing the binary PLY.
 // Counters: render_s / project_s = the ProjectResult timings per iteration; cpu_s = process CPU.
@@ -37,14 +39,15 @@ struct Fixture {
   std::vector<ProjectView> views;
   fs::path dir;
 
-  Fixture() {
+  Fixture(int short_side, int camera_count) {
     rephoto::synth::DemoSceneOptions options;  // default mesh density
-    options.image_width = 640;
-    options.image_height = 480;
-    options.camera_count = 24;
+    options.image_width = short_side * 4 / 3;
+    options.image_height = short_side;
+    options.camera_count = camera_count;
     mesh = rephoto::synth::MakeDemoMesh(options);
     const rephoto::scene::Scene scene = rephoto::synth::MakeDemoScene(options, "images");
-    dir = fs::temp_directory_path() / ("rephoto_bench_project_" + std::to_string(::getpid()));
+    dir = fs::temp_directory_path() / ("rephoto_bench_project_" + std::to_string(::getpid()) +
+                                       "_" + std::to_string(short_side));
     std::mt19937 rng(1);
     std::uniform_real_distribution<float> value(0.0f, 1.0f);
     for (const rephoto::scene::View& view : scene.views) {
@@ -65,14 +68,18 @@ struct Fixture {
   }
 };
 
-Fixture& GetFixture() {
-  static Fixture fixture;
+Fixture& GetFixture(int short_side = 480) {
+  if (short_side == 960) {
+    static Fixture large(960, 16);
+    return large;
+  }
+  static Fixture fixture(480, 24);
   return fixture;
 }
 
-// Argument 1: with per-face errors (the default), 0: vertices only.
+// Arguments: 1 with per-face errors (the default), 0 vertices only; the short side (480, 960).
 void BM_ProjectPrebuiltModel(benchmark::State& state) {
-  Fixture& f = GetFixture();
+  Fixture& f = GetFixture(static_cast<int>(state.range(1)));
   rephoto::project::ProjectOptions options;
   options.face_errors = state.range(0) != 0;
   rephoto::render::ModelOptions model_options;
@@ -97,8 +104,9 @@ void BM_ProjectPrebuiltModel(benchmark::State& state) {
   state.counters["seen"] = static_cast<double>(seen);
 }
 BENCHMARK(BM_ProjectPrebuiltModel)
-    ->Arg(1)
-    ->Arg(0)
+    ->Args({1, 480})
+    ->Args({0, 480})
+    ->Args({1, 960})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(2);

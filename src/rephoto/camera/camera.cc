@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "rephoto/camera/cam_to_image.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/limits.h"
 
@@ -69,95 +70,6 @@ inline Dual operator/(Dual a, Dual b) {
 inline Dual operator*(double s, Dual a) { return {s * a.v, s * a.d0, s * a.d1}; }
 inline Dual operator+(double s, Dual a) { return {s + a.v, a.d0, a.d1}; }
 
-// COLMAP's additive distortion (du, dv) of the normalized (or, for fisheye models, the
-// angle-scaled) coordinates (u, v); `k` points at the parameters after the principal point.
-// FOV is not additive and is handled separately.
-template <typename T>
-void Distortion(CameraModel model, const double* k, const T& u, const T& v, T* du, T* dv) {
-  const T u2 = u * u;
-  const T v2 = v * v;
-  const T uv = u * v;
-  const T r2 = u2 + v2;
-  switch (model) {
-    case CameraModel::kSimplePinhole:
-    case CameraModel::kPinhole:
-    case CameraModel::kFov:
-      *du = 0.0 * u;
-      *dv = 0.0 * v;
-      return;
-    case CameraModel::kSimpleRadial:
-    case CameraModel::kSimpleRadialFisheye: {
-      const T radial = k[0] * r2;
-      *du = u * radial;
-      *dv = v * radial;
-      return;
-    }
-    case CameraModel::kRadial:
-    case CameraModel::kRadialFisheye: {
-      const T radial = k[0] * r2 + k[1] * (r2 * r2);
-      *du = u * radial;
-      *dv = v * radial;
-      return;
-    }
-    case CameraModel::kOpenCv: {
-      const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3];
-      const T radial = k1 * r2 + k2 * (r2 * r2);
-      *du = u * radial + (2.0 * p1) * uv + p2 * (r2 + 2.0 * u2);
-      *dv = v * radial + (2.0 * p2) * uv + p1 * (r2 + 2.0 * v2);
-      return;
-    }
-    case CameraModel::kOpenCvFisheye: {
-      // Here r2 is theta^2.
-      const T r4 = r2 * r2;
-      const T radial = k[0] * r2 + k[1] * r4 + k[2] * (r4 * r2) + k[3] * (r4 * r4);
-      *du = u * radial;
-      *dv = v * radial;
-      return;
-    }
-    case CameraModel::kFullOpenCv: {
-      const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3];
-      const double k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
-      const T r4 = r2 * r2;
-      const T r6 = r4 * r2;
-      const T radial =
-          (1.0 + (k1 * r2 + k2 * r4 + k3 * r6)) / (1.0 + (k4 * r2 + k5 * r4 + k6 * r6));
-      *du = u * radial + (2.0 * p1) * uv + p2 * (r2 + 2.0 * u2) - u;
-      *dv = v * radial + (2.0 * p2) * uv + p1 * (r2 + 2.0 * v2) - v;
-      return;
-    }
-    case CameraModel::kThinPrismFisheye: {
-      const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3];
-      const double k3 = k[4], k4 = k[5], sx1 = k[6], sy1 = k[7];
-      const T r4 = r2 * r2;
-      const T r6 = r4 * r2;
-      const T radial = k1 * r2 + k2 * r4 + k3 * r6 + k4 * (r6 * r2);
-      *du = u * radial + (2.0 * p1) * uv + p2 * (r2 + 2.0 * u2) + sx1 * r2;
-      *dv = v * radial + (2.0 * p2) * uv + p1 * (r2 + 2.0 * v2) + sy1 * r2;
-      return;
-    }
-  }
-}
-
-// FOV model (Devernay & Faugeras), COLMAP's FOVCameraModel::Distortion: the distorted
-// coordinates themselves (not an offset), with its series expansions near omega = 0 and r = 0.
-Eigen::Vector2d FovDistort(double omega, double u, double v) {
-  constexpr double kEpsilon = 1e-4;
-  const double radius2 = u * u + v * v;
-  const double omega2 = omega * omega;
-  double factor;
-  if (omega2 < kEpsilon) {
-    factor = (omega2 * radius2) / 3.0 - omega2 / 12.0 + 1.0;
-  } else if (radius2 < kEpsilon) {
-    const double tan_half_omega = std::tan(omega / 2.0);
-    factor = (-2.0 * tan_half_omega * (4.0 * radius2 * tan_half_omega * tan_half_omega - 3.0)) /
-             (3.0 * omega);
-  } else {
-    const double radius = std::sqrt(radius2);
-    factor = std::atan(radius * 2.0 * std::tan(omega / 2.0)) / (radius * omega);
-  }
-  return {u * factor, v * factor};
-}
-
 // Inverse of FovDistort (COLMAP's FOVCameraModel::Undistortion); std::nullopt where the
 // undistorted ray would reach or pass 90 degrees off the optical axis.
 std::optional<Eigen::Vector2d> FovUndistort(double omega, double u, double v) {
@@ -197,7 +109,7 @@ std::optional<Eigen::Vector2d> Undistort(CameraModel model, const double* k,
     const Dual u{x.x(), 1.0, 0.0};
     const Dual v{x.y(), 0.0, 1.0};
     Dual du, dv;
-    Distortion(model, k, u, v, &du, &dv);
+    internal::Distortion(model, k, u, v, &du, &dv);
     const Eigen::Vector2d residual(x.x() + du.v - target.x(), x.y() + dv.v - target.y());
     Eigen::Matrix2d jacobian;
     jacobian << 1.0 + du.d0, du.d1, dv.d0, 1.0 + dv.d1;
@@ -240,6 +152,30 @@ bool AllFinite(const std::vector<double>& values) {
 
 }  // namespace
 
+namespace internal {
+
+// FOV model (Devernay & Faugeras), COLMAP's FOVCameraModel::Distortion: the distorted
+// coordinates themselves (not an offset), with its series expansions near omega = 0 and r = 0.
+Eigen::Vector2d FovDistort(double omega, double u, double v) {
+  constexpr double kEpsilon = 1e-4;
+  const double radius2 = u * u + v * v;
+  const double omega2 = omega * omega;
+  double factor;
+  if (omega2 < kEpsilon) {
+    factor = (omega2 * radius2) / 3.0 - omega2 / 12.0 + 1.0;
+  } else if (radius2 < kEpsilon) {
+    const double tan_half_omega = std::tan(omega / 2.0);
+    factor = (-2.0 * tan_half_omega * (4.0 * radius2 * tan_half_omega * tan_half_omega - 3.0)) /
+             (3.0 * omega);
+  } else {
+    const double radius = std::sqrt(radius2);
+    factor = std::atan(radius * 2.0 * std::tan(omega / 2.0)) / (radius * omega);
+  }
+  return {u * factor, v * factor};
+}
+
+}  // namespace internal
+
 std::string_view CameraModelName(CameraModel model) { return Info(model).name; }
 
 std::optional<CameraModel> ParseCameraModel(std::string_view name) {
@@ -278,44 +214,21 @@ bool Camera::IsPinhole() const {
 
 bool Camera::IsFisheye() const { return Info(model).fisheye; }
 
-std::optional<Eigen::Vector2d> Camera::ImgFromCam(const Eigen::Vector3d& point_in_cam) const {
-  const ModelInfo& info = Info(model);
-  REPHOTO_CHECK(static_cast<int>(params.size()) == info.num_params,
-                "{} camera has {} parameters, expected {}", info.name, params.size(),
+CamToImage::CamToImage(const Camera& camera) : model_(camera.model), fisheye_(camera.IsFisheye()) {
+  const ModelInfo& info = Info(camera.model);
+  REPHOTO_CHECK(static_cast<int>(camera.params.size()) == info.num_params,
+                "{} camera has {} parameters, expected {}", info.name, camera.params.size(),
                 info.num_params);
-  if (!(point_in_cam.z() >= std::numeric_limits<double>::epsilon())) {
-    return std::nullopt;
-  }
   const int nf = info.num_focal;
-  const double fx = params[0];
-  const double fy = params[nf - 1];
-  const double cx = params[nf];
-  const double cy = params[nf + 1];
-  const double* extra = params.data() + nf + 2;
+  fx_ = camera.params[0];
+  fy_ = camera.params[nf - 1];
+  cx_ = camera.params[nf];
+  cy_ = camera.params[nf + 1];
+  for (int k = nf + 2; k < info.num_params; ++k) extra_[k - nf - 2] = camera.params[k];
+}
 
-  double u = point_in_cam.x() / point_in_cam.z();
-  double v = point_in_cam.y() / point_in_cam.z();
-  Eigen::Vector2d distorted;
-  if (model == CameraModel::kFov) {
-    distorted = FovDistort(extra[0], u, v);
-  } else {
-    if (info.fisheye) {
-      const double r = std::sqrt(u * u + v * v);
-      if (r > std::numeric_limits<double>::epsilon()) {
-        const double theta_over_r = std::atan(r) / r;
-        u *= theta_over_r;
-        v *= theta_over_r;
-      }
-    }
-    double du, dv;
-    Distortion(model, extra, u, v, &du, &dv);
-    distorted = {u + du, v + dv};
-  }
-  const Eigen::Vector2d pixel(fx * distorted.x() + cx, fy * distorted.y() + cy);
-  if (!pixel.allFinite()) {
-    return std::nullopt;
-  }
-  return pixel;
+std::optional<Eigen::Vector2d> Camera::ImgFromCam(const Eigen::Vector3d& point_in_cam) const {
+  return CamToImage(*this)(point_in_cam);
 }
 
 std::optional<Eigen::Vector3d> Camera::CamFromImg(const Eigen::Vector2d& pixel) const {
@@ -431,7 +344,7 @@ UsableField::UsableField(const Camera& camera) : fisheye_(camera.IsFisheye()) {
       const Dual u{r * cx, 1.0, 0.0};
       const Dual v{r * cy, 0.0, 1.0};
       Dual du, dv;
-      Distortion(camera.model, k, u, v, &du, &dv);
+      internal::Distortion(camera.model, k, u, v, &du, &dv);
       const double det = (1.0 + du.d0) * (1.0 + dv.d1) - du.d1 * dv.d0;
       if (!(det > 0)) {
         radius_ = std::min(radius_, last_good);
@@ -440,14 +353,6 @@ UsableField::UsableField(const Camera& camera) : fisheye_(camera.IsFisheye()) {
       last_good = r;
     }
   }
-}
-
-bool UsableField::Contains(const Eigen::Vector3d& point_in_cam) const {
-  if (!(point_in_cam.z() > 0)) return false;
-  if (radius_ == std::numeric_limits<double>::infinity()) return true;
-  const double u = point_in_cam.x() / point_in_cam.z(), v = point_in_cam.y() / point_in_cam.z();
-  const double r = std::sqrt(u * u + v * v);
-  return (fisheye_ ? std::atan(r) : r) < radius_;
 }
 
 Pose Pose::FromQuaternion(double qw, double qx, double qy, double qz,

@@ -16,6 +16,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -116,7 +118,13 @@ class UsableField {
  public:
   explicit UsableField(const Camera& camera);
   // True when `point_in_cam` lies in front of the camera (z > 0) inside the disc.
-  bool Contains(const Eigen::Vector3d& point_in_cam) const;
+  bool Contains(const Eigen::Vector3d& point_in_cam) const {
+    if (!(point_in_cam.z() > 0)) return false;
+    if (radius_ == std::numeric_limits<double>::infinity()) return true;
+    const double u = point_in_cam.x() / point_in_cam.z(), v = point_in_cam.y() / point_in_cam.z();
+    const double r = std::sqrt(u * u + v * v);
+    return (fisheye_ ? std::atan(r) : r) < radius_;
+  }
   // The disc's radius (+inf: no limit).
   double radius() const { return radius_; }
 

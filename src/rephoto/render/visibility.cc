@@ -10,16 +10,11 @@ ViewGeometry::ViewGeometry(const camera::Camera& camera_in, const camera::Pose& 
 
 ViewGeometry::ViewGeometry(const camera::Camera& camera_in, const camera::Pose& pose,
                            const camera::UsableField& field_in)
-    : camera(camera_in), cam_from_world(pose), field(field_in), center(pose.Center()) {}
-
-std::optional<Eigen::Vector2d> ProjectInField(const ViewGeometry& view,
-                                              const Eigen::Vector3d& point,
-                                              Eigen::Vector3d* in_cam) {
-  const Eigen::Vector3d cam = view.cam_from_world.CamFromWorld(point);
-  if (in_cam != nullptr) *in_cam = cam;
-  if (!view.field.Contains(cam)) return std::nullopt;
-  return view.camera.ImgFromCam(cam);
-}
+    : camera(camera_in),
+      cam_from_world(pose),
+      field(field_in),
+      to_image(camera_in),
+      center(pose.Center()) {}
 
 bool InsideImage(const camera::Camera& camera, const Eigen::Vector2d& pixel, double border_pixels) {
   const double x = pixel.x(), y = pixel.y();

@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <optional>
 
+#include "rephoto/camera/cam_to_image.h"
 #include "rephoto/camera/camera.h"
 
 namespace rephoto::render {
@@ -49,7 +50,8 @@ struct ViewGeometry {
   camera::Camera camera;
   camera::Pose cam_from_world;
   camera::UsableField field;
-  Eigen::Vector3d center;  // camera centre in world coordinates
+  camera::CamToImage to_image;  // camera.ImgFromCam
+  Eigen::Vector3d center;       // camera centre in world coordinates
 };
 
 // Where V is seen (steps 1-3 passed).
@@ -66,9 +68,15 @@ std::optional<SightingResult> Sighting(const ViewGeometry& view, const Eigen::Ve
 // Step 1 and the projection: V's pixel when V lies in the usable field (possibly outside the
 // image), else nullopt.
 // `in_cam` (optional) receives V in camera coordinates.
-std::optional<Eigen::Vector2d> ProjectInField(const ViewGeometry& view,
-                                              const Eigen::Vector3d& point,
-                                              Eigen::Vector3d* in_cam = nullptr);
+// Inline: the error projection calls it for every vertex of every view.
+inline std::optional<Eigen::Vector2d> ProjectInField(const ViewGeometry& view,
+                                                     const Eigen::Vector3d& point,
+                                                     Eigen::Vector3d* in_cam = nullptr) {
+  const Eigen::Vector3d cam = view.cam_from_world.CamFromWorld(point);
+  if (in_cam != nullptr) *in_cam = cam;
+  if (!view.field.Contains(cam)) return std::nullopt;
+  return view.to_image(cam);
+}
 
 // Step 2 for a pixel.
 bool InsideImage(const camera::Camera& camera, const Eigen::Vector2d& pixel, double border_pixels);
