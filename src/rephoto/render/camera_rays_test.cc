@@ -1,10 +1,13 @@
 #include "rephoto/render/camera_rays.h"
 
+#include <cmath>
 #include <cstring>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "rephoto/core/error.h"
+#include "rephoto/core/isa.h"
 #include "rephoto/testing/testing.h"
 
 namespace rephoto::render {
@@ -47,36 +50,55 @@ TEST(CameraRaysTest, BatchEqualsSingleRays) {
   distorted.params = {30.0, 31.0, 31.7, 24.2, -0.5, 0.0, 0.0, 0.0};  // no rays at the rim
   auto rng = testing::MakeRng();
   std::uniform_real_distribution<float> ux(0, 64), uy(0, 48);
-  for (const camera::Camera& camera : {pinhole, distorted}) {
-    const CameraRays rays(camera);
-    EXPECT_EQ(rays.is_pinhole(), camera.model == camera::CameraModel::kPinhole);
-    constexpr int kCount = 4096;
-    std::vector<float> px(kCount), py(kCount), xn(kCount), yn(kCount);
-    std::vector<int> ok(kCount);
-    for (int i = 0; i < kCount; ++i) {
-      px[i] = ux(rng);
-      py[i] = uy(rng);
-    }
-    rays.Rays(kCount, px.data(), py.data(), xn.data(), yn.data(), ok.data());
-    int valid = 0;
-    for (int i = 0; i < kCount; ++i) {
-      float x, y;
-      const bool has = rays.Ray(px[i], py[i], &x, &y);
-      ASSERT_EQ(ok[i], has ? 1 : 0) << i;
-      if (!has) continue;
-      ++valid;
-      EXPECT_EQ(std::memcmp(&x, &xn[i], sizeof x), 0) << i;
-      EXPECT_EQ(std::memcmp(&y, &yn[i], sizeof y), 0) << i;
-      if (rays.is_pinhole()) {
-        float x1, y1;
-        rays.PinholeRay(px[i], py[i], &x1, &y1);
-        EXPECT_EQ(x1, x);
-        EXPECT_EQ(y1, y);
+  for (const core::Isa isa : core::SupportedIsas()) {
+    SCOPED_TRACE(core::IsaName(isa));
+    const core::ScopedIsa scoped(isa);
+    for (const camera::Camera& camera : {pinhole, distorted}) {
+      const CameraRays rays(camera);
+      EXPECT_EQ(rays.is_pinhole(), camera.model == camera::CameraModel::kPinhole);
+      // Not a multiple of 8 (the table's vector width): the last positions take the scalar path.
+      constexpr int kCount = 4096 + 5;
+      std::vector<float> px(kCount), py(kCount), xn(kCount), yn(kCount);
+      std::vector<int> ok(kCount);
+      for (int i = 0; i < kCount; ++i) {
+        px[i] = ux(rng);
+        py[i] = uy(rng);
       }
-    }
-    EXPECT_GT(valid, kCount / 5);
-    if (!rays.is_pinhole()) {
-      EXPECT_LT(valid, kCount);  // about a quarter have a ray
+      // The image's edges and corners (the clamped corners of the table), pixel corners and
+      // positions a hair inside the edges.
+      const float w = 64, h = 48, below_w = std::nextafter(w, 0.0f),
+                  below_h = std::nextafter(h, 0.0f);
+      const std::vector<std::pair<float, float>> edges = {
+          {0, 0},       {w, 0},       {0, h},   {w, h},   {below_w, below_h},
+          {w, 20.5f},   {31.5f, h},   {0, 17},  {12, 0},  {13, 14},
+          {below_w, 0}, {0, below_h}, {32, 24}, {63, 47}, {1, 1}};
+      for (size_t k = 0; k < edges.size(); ++k) {
+        px[100 + k] = edges[k].first;
+        py[100 + k] = edges[k].second;
+        px[kCount - 1 - k % 5] = edges[k].first;
+        py[kCount - 1 - k % 5] = edges[k].second;
+      }
+      rays.Rays(kCount, px.data(), py.data(), xn.data(), yn.data(), ok.data());
+      int valid = 0;
+      for (int i = 0; i < kCount; ++i) {
+        float x, y;
+        const bool has = rays.Ray(px[i], py[i], &x, &y);
+        ASSERT_EQ(ok[i], has ? 1 : 0) << i;
+        if (!has) continue;
+        ++valid;
+        EXPECT_EQ(std::memcmp(&x, &xn[i], sizeof x), 0) << i;
+        EXPECT_EQ(std::memcmp(&y, &yn[i], sizeof y), 0) << i;
+        if (rays.is_pinhole()) {
+          float x1, y1;
+          rays.PinholeRay(px[i], py[i], &x1, &y1);
+          EXPECT_EQ(x1, x);
+          EXPECT_EQ(y1, y);
+        }
+      }
+      EXPECT_GT(valid, kCount / 5);
+      if (!rays.is_pinhole()) {
+        EXPECT_LT(valid, kCount);  // about a quarter have a ray
+      }
     }
   }
 }
