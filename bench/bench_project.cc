@@ -46,8 +46,8 @@ struct Fixture {
     options.camera_count = camera_count;
     mesh = rephoto::synth::MakeDemoMesh(options);
     const rephoto::scene::Scene scene = rephoto::synth::MakeDemoScene(options, "images");
-    dir = fs::temp_directory_path() / ("rephoto_bench_project_" + std::to_string(::getpid()) +
-                                       "_" + std::to_string(short_side));
+    dir = fs::temp_directory_path() / ("rephoto_bench_project_" + std::to_string(::getpid()) + "_" +
+                                       std::to_string(short_side));
     std::mt19937 rng(1);
     std::uniform_real_distribution<float> value(0.0f, 1.0f);
     for (const rephoto::scene::View& view : scene.views) {
