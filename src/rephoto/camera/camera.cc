@@ -220,6 +220,8 @@ CamToImage::CamToImage(const Camera& camera) : model_(camera.model), fisheye_(ca
                 "{} camera has {} parameters, expected {}", info.name, camera.params.size(),
                 info.num_params);
   const int nf = info.num_focal;
+  REPHOTO_CHECK(info.num_params - nf - 2 <= static_cast<int>(extra_.size()),
+                "{} camera: more distortion parameters than CamToImage holds", info.name);
   fx_ = camera.params[0];
   fy_ = camera.params[nf - 1];
   cx_ = camera.params[nf];
