@@ -118,7 +118,7 @@ class UsableField {
  public:
   explicit UsableField(const Camera& camera);
   // True when `point_in_cam` lies in front of the camera (z > 0) inside the disc.
-  bool Contains(const Eigen::Vector3d& point_in_cam) const {
+  [[gnu::always_inline]] bool Contains(const Eigen::Vector3d& point_in_cam) const {
     if (!(point_in_cam.z() > 0)) return false;
     if (radius_ == std::numeric_limits<double>::infinity()) return true;
     const double u = point_in_cam.x() / point_in_cam.z(), v = point_in_cam.y() / point_in_cam.z();

@@ -69,9 +69,8 @@ std::optional<SightingResult> Sighting(const ViewGeometry& view, const Eigen::Ve
 // image), else nullopt.
 // `in_cam` (optional) receives V in camera coordinates.
 // Inline: the error projection calls it for every vertex of every view.
-inline std::optional<Eigen::Vector2d> ProjectInField(const ViewGeometry& view,
-                                                     const Eigen::Vector3d& point,
-                                                     Eigen::Vector3d* in_cam = nullptr) {
+[[gnu::always_inline]] inline std::optional<Eigen::Vector2d> ProjectInField(
+    const ViewGeometry& view, const Eigen::Vector3d& point, Eigen::Vector3d* in_cam = nullptr) {
   const Eigen::Vector3d cam = view.cam_from_world.CamFromWorld(point);
   if (in_cam != nullptr) *in_cam = cam;
   if (!view.field.Contains(cam)) return std::nullopt;
