@@ -10,6 +10,7 @@
 #include <optional>
 #include <utility>
 
+#include "rephoto/camera/cam_to_image.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/core/progress.h"
@@ -37,6 +38,7 @@ constexpr int kRasterViewsPerK = 3;  // IBR: the proxies of the 3 * k_best neare
 struct ViewData {
   TrainingView info;
   camera::Camera camera;  // scaled to the photo
+  std::optional<camera::CamToImage> to_image;  // camera's projection (set with camera)
   int width = 0, height = 0;
   std::vector<uint8_t> rgb;          // 8-bit RGB, interleaved, top row first
   Image depth;                       // see depth_map_io.h
@@ -69,7 +71,7 @@ struct ViewData {
       return true;
     }
     if (!(xn >= min_xn && xn <= max_xn && yn >= min_yn && yn <= max_yn)) return false;
-    const auto pixel = camera.ImgFromCam(p.cast<double>());
+    const auto pixel = (*to_image)(p.cast<double>());
     if (!pixel) return false;
     *u = static_cast<float>(pixel->x());
     *v = static_cast<float>(pixel->y());
@@ -227,6 +229,7 @@ void ImageBasedRenderer::State::LoadPhotos(std::vector<TrainingView> training) {
       if (v.camera.width != v.width || v.camera.height != v.height) {
         v.camera = v.camera.Scaled(v.width, v.height);
       }
+      v.to_image.emplace(v.camera);
       const int c = photo.channels();
       v.rgb.resize(photo.pixel_count() * 3);
       for (size_t p = 0; p < photo.pixel_count(); ++p) {
@@ -375,10 +378,11 @@ std::pair<double, double> SweepRange(const std::vector<TrainingView>& views,
   }
   const TrainingView& view = views[v];
   const camera::Camera& camera = cameras[v];
+  const camera::CamToImage to_image(camera);
   std::vector<double> depths;
   for (const Eigen::Vector3d& point : options.scene_points) {
     const Eigen::Vector3d p = view.cam_from_world.CamFromWorld(point);
-    const auto pixel = camera.ImgFromCam(p);
+    const auto pixel = to_image(p);
     if (pixel && pixel->x() >= 0 && pixel->y() >= 0 && pixel->x() <= camera.width &&
         pixel->y() <= camera.height) {
       depths.push_back(p.z());
@@ -545,6 +549,7 @@ void ProjectProxyGrids(const std::vector<ViewData>& views, const camera::Camera&
   const Eigen::Matrix3d R = pose.rotation;
   const Eigen::Vector3d t = pose.translation;
   const bool pinhole = camera.IsPinhole();
+  const camera::CamToImage to_image(camera);
   const double fx = camera.FocalLengthX(), fy = camera.FocalLengthY(),
                cx = camera.PrincipalPointX(), cy = camera.PrincipalPointY();
   // Project the grid vertices: (x, y) in novel pixels, 1/z.
@@ -568,7 +573,7 @@ void ProjectProxyGrids(const std::vector<ViewData>& views, const camera::Camera&
           if (pinhole) {
             pixel = Eigen::Vector2d(fx * p.x() / p.z() + cx, fy * p.y() / p.z() + cy);
           } else {
-            const auto q = camera.ImgFromCam(p);
+            const auto q = to_image(p);
             if (!q) continue;
             pixel = *q;
           }

@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 
+#include "rephoto/camera/cam_to_image.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/ibr/image_ops.h"
@@ -70,11 +71,12 @@ WorkingView Prepare(const PlaneSweepView& view, int max_width, const char* role)
   // Undistort: each pinhole pixel looks up where the real lens put its ray.
   out.grey = Image(width, height, 1);
   const double fx = out.K(0, 0), fy = out.K(1, 1), cx = out.K(0, 2), cy = out.K(1, 2);
+  const camera::CamToImage to_image(out.distorted);
   ParallelFor(0, height, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < width; ++x) {
         const Eigen::Vector3d ray((x + 0.5 - cx) / fx, (y + 0.5 - cy) / fy, 1.0);
-        const auto p = out.distorted.ImgFromCam(ray);
+        const auto p = to_image(ray);
         out.grey.at(x, static_cast<int>(y)) =
             p ? SampleOrNaN(grey, static_cast<float>(p->x()), static_cast<float>(p->y())) : kNaN;
       }
@@ -390,6 +392,9 @@ void FilterInconsistentDepths(std::span<const DepthView> views,
                 "FilterInconsistentDepths: {} neighbour lists for {} views", neighbors.size(),
                 views.size());
   std::vector<Mask> keep(views.size());
+  std::vector<camera::CamToImage> to_image;
+  to_image.reserve(views.size());
+  for (const DepthView& v : views) to_image.emplace_back(v.camera);
   for (size_t i = 0; i < views.size(); ++i) {
     const DepthView& v = views[i];
     REPHOTO_CHECK(v.depth != nullptr && v.depth->channels() == 1 &&
@@ -415,7 +420,7 @@ void FilterInconsistentDepths(std::span<const DepthView> views,
           for (size_t n : neighbors[i]) {
             const DepthView& o = views[n];
             const Eigen::Vector3d p = o.cam_from_world.CamFromWorld(X);
-            const auto pixel = o.camera.ImgFromCam(p);
+            const auto pixel = to_image[n](p);
             if (!pixel || !(pixel->x() >= 0 && pixel->y() >= 0 && pixel->x() < o.camera.width &&
                             pixel->y() < o.camera.height)) {
               continue;

@@ -5,6 +5,7 @@
 #include <numeric>
 #include <optional>
 
+#include "rephoto/camera/cam_to_image.h"
 #include "rephoto/core/error.h"
 #include "rephoto/core/parallel.h"
 #include "rephoto/io/image_io.h"
@@ -318,8 +319,7 @@ Atlases BuildAtlases(const mesh::Mesh& mesh,
   }
   // Corners in photo pixels, patch boxes and sizes.
   std::vector<Eigen::Vector2d> corners(3 * face_count, Eigen::Vector2d::Zero());
-  std::vector<camera::Camera> cameras(views.size());
-  std::vector<uint8_t> camera_ready(views.size(), 0);
+  std::vector<std::optional<camera::CamToImage>> cameras(views.size());
   Atlases out;
   for (Patch& patch : patches) {
     if (patch.label < 0) {
@@ -329,15 +329,12 @@ Atlases BuildAtlases(const mesh::Mesh& mesh,
     }
     ++out.patches;
     const scene::View& view = scene.views[views[patch.label]];
-    if (!camera_ready[patch.label]) {
-      cameras[patch.label] = PhotoCamera(scene, view);
-      camera_ready[patch.label] = 1;
-    }
-    const camera::Camera& camera = cameras[patch.label];
+    if (!cameras[patch.label]) cameras[patch.label].emplace(PhotoCamera(scene, view));
+    const camera::CamToImage& to_image = *cameras[patch.label];
     double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
     for (uint32_t f : patch.faces) {
       for (int k = 0; k < 3; ++k) {
-        const auto pixel = camera.ImgFromCam(
+        const auto pixel = to_image(
             view.cam_from_world.CamFromWorld(mesh.positions[mesh.faces[f][k]].cast<double>()));
         const Eigen::Vector2d p = pixel ? *pixel : Eigen::Vector2d(0.5, 0.5);
         corners[3 * f + k] = p;
