@@ -506,14 +506,27 @@ ImageResult CompareImages(const CompareOptions& options, const std::string& name
 
 }  // namespace
 
+template <typename P, typename R>
 ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::string& name,
                                   const fs::path& photo_path, const fs::path& render_path,
-                                  const Image& photo, const Image& render, const Mask* photo_mask,
-                                  const Mask* render_mask, const fs::path& error_folder,
-                                  CompareWorkspace* workspace, std::vector<Image>* error_images) {
+                                  const ImageT<P>& photo, const ImageT<R>& render,
+                                  const Mask* photo_mask, const Mask* render_mask,
+                                  const fs::path& error_folder, CompareWorkspace* workspace,
+                                  std::vector<Image>* error_images) {
   return CompareImages(options, name, photo_path, render_path, photo, render, photo_mask,
                        render_mask, error_folder, error_images, workspace->buffers.get());
 }
+
+#define REPHOTO_COMPARE_PHOTO_AND_RENDER(P, R)                                                 \
+  template ImageResult ComparePhotoAndRender<P, R>(                                            \
+      const CompareOptions&, const std::string&, const fs::path&, const fs::path&,             \
+      const ImageT<P>&, const ImageT<R>&, const Mask*, const Mask*, const fs::path&,           \
+      CompareWorkspace*, std::vector<Image>*);
+REPHOTO_COMPARE_PHOTO_AND_RENDER(float, float)
+REPHOTO_COMPARE_PHOTO_AND_RENDER(float, uint8_t)
+REPHOTO_COMPARE_PHOTO_AND_RENDER(uint8_t, float)
+REPHOTO_COMPARE_PHOTO_AND_RENDER(uint8_t, uint8_t)
+#undef REPHOTO_COMPARE_PHOTO_AND_RENDER
 
 template <typename P, typename R>
 ImageResult CompareInMemory(const CompareOptions& options, const ImageT<P>& photo,

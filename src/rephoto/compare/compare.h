@@ -194,10 +194,13 @@ class CompareWorkspace {
 // exist) while it compares. When `error_images` is not null, nothing is written: it receives
 // the error images instead, as CompareInMemory gives them, for a caller that writes them later
 // (WriteErrorImages in error_images.h writes the same files). Masks may be null. Throws Error
-// naming the files on a size mismatch.
+// naming the files on a size mismatch. `photo` and `render` are Image or Image8 (as for
+// CompareInMemory below: an 8-bit image gives the same values as its floats v / 255.f, bit for
+// bit, and skips their conversion).
+template <typename P, typename R>
 ImageResult ComparePhotoAndRender(
     const CompareOptions& options, const std::string& name, const std::filesystem::path& photo_path,
-    const std::filesystem::path& render_path, const Image& photo, const Image& render,
+    const std::filesystem::path& render_path, const ImageT<P>& photo, const ImageT<R>& render,
     const Mask* photo_mask, const Mask* render_mask, const std::filesystem::path& error_folder,
     CompareWorkspace* workspace, std::vector<Image>* error_images = nullptr);
 

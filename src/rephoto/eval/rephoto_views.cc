@@ -38,14 +38,19 @@ void RemoveStaleErrorImages(const fs::path& errors_dir, const std::string& stem)
 
 // The photo at the evaluation resolution: the original, or its downscaled copy, cached once as
 // 16-bit PNG (keeps the filtered values to 1/65535) and compared as read back.
-const Image& EvalPhoto(const RunContext& s, Tally& tally, PreparedView& view, const TestView& test,
-                       fs::path* used_path) {
+void EvalPhoto(const RunContext& s, Tally& tally, PreparedView& view, const TestView& test,
+               fs::path* used_path) {
   Image* scratch = &view.eval_photo;
+  view.photo_is_8bit = false;
   const camera::Camera& full = s.scene.CameraOf(s.scene.views[test.view_index]);
   if (full.width == test.camera.width && full.height == test.camera.height) {
-    io::ReadImage(test.photo, scratch);
+    if (s.options.compat) {
+      io::ReadImage(test.photo, scratch);
+    } else {
+      view.photo_is_8bit = io::ReadImage8(test.photo, &view.photo8, scratch);
+    }
     *used_path = test.photo;
-    return *scratch;
+    return;
   }
   const fs::path cache_dir = s.CacheDir() / "eval_photos";
   const fs::path cached = fs::absolute(cache_dir / (test.stem + ".png")).lexically_normal();
@@ -59,7 +64,7 @@ const Image& EvalPhoto(const RunContext& s, Tally& tally, PreparedView& view, co
         io::ReadImage(cached, scratch);
         if (scratch->width() == test.camera.width && scratch->height() == test.camera.height) {
           *used_path = cached;
-          return *scratch;
+          return;
         }
       }
     } catch (const Error&) {
@@ -76,7 +81,6 @@ const Image& EvalPhoto(const RunContext& s, Tally& tally, PreparedView& view, co
   WriteTextFileAtomically(key_file, key);
   tally.Count(&EvaluateCounters::photos_downscaled);
   *used_path = cached;
-  return *scratch;
 }
 
 std::optional<Mask> EvalMask(const TestView& test) {
@@ -104,26 +108,41 @@ compare::CompareOptions CompareSettings(const EvaluateOptions& o) {
 }
 
 // The rendering of the view into view.render: reused from disk, rendered, or the external one.
+// 8-bit files are read as bytes (view.render8) unless `floats` (--compat).
 fs::path ObtainRendering(Tally& tally, PreparedView& view, const FoldPlan& fold,
                          const TestView& test, render::ViewRenderer* renderer,
-                         const ViewOutcome& outcome, bool write_depth) {
+                         const ViewOutcome& outcome, bool write_depth, bool floats) {
   const fs::path renders_dir = fold.dir / "renders";
+  const auto read = [&](const fs::path& path) {
+    if (floats) {
+      io::ReadImage(path, &view.render);
+      view.render_is_8bit = false;
+    } else {
+      view.render_is_8bit = io::ReadImage8(path, &view.render8, &view.render);
+    }
+  };
   if (outcome.reuse_render) {
     // Only compare settings changed: the rendering on disk is the one this view needs.
-    io::ReadImage(renders_dir / (test.stem + ".png"), &view.render);
+    read(renders_dir / (test.stem + ".png"));
     return renders_dir / (test.stem + ".png");
   }
   if (renderer != nullptr) {
     renderer->Render(test.camera, test.pose, &view.rephoto);
     // Compared as the PNG written.
-    render::WriteRephoto(renders_dir, test.stem, &view.rephoto, write_depth);
-    std::swap(view.render, view.rephoto.color);  // the next view renders into the previous buffer
+    if (floats) {
+      render::WriteRephoto(renders_dir, test.stem, &view.rephoto, write_depth);
+      std::swap(view.render, view.rephoto.color);  // the next view renders into the previous one
+      view.render_is_8bit = false;
+    } else {
+      render::WriteRephoto(renders_dir, test.stem, view.rephoto, write_depth, &view.render8);
+      view.render_is_8bit = true;
+    }
     tally.Count(&EvaluateCounters::views_rendered);
     return renders_dir / (test.stem + ".png");
   }
   const fs::path path = FindImageByStem(fold.out_dir, test.stem);
   REPHOTO_CHECK(!path.empty(), "{}: no rendering named '{}'", fold.out_dir.string(), test.stem);
-  io::ReadImage(path, &view.render);
+  read(path);
   return path;
 }
 
@@ -135,8 +154,9 @@ void PrepareView(const RunContext& s, Tally& tally, PreparedView& view, const Fo
   view.failure.clear();
   try {
     auto start = Clock::now();
-    view.render_path = ObtainRendering(tally, view, fold, test, renderer, outcome,
-                                       WritesDepthImages(s.options, gaussians));
+    view.render_path =
+        ObtainRendering(tally, view, fold, test, renderer, outcome,
+                        WritesDepthImages(s.options, gaussians), s.options.compat.has_value());
     outcome.render_seconds = Seconds(start);
     tally.AddSeconds(&EvaluateTimings::render, outcome.render_seconds);
     start = Clock::now();
@@ -169,10 +189,18 @@ void CompareView(const RunContext& s, Tally& tally, ViewWorkspace& ws, const Pre
   }
   compare::CompareOptions settings = CompareSettings(s.options);
   settings.min_alpha = view.min_alpha;
-  outcome.image = compare::ComparePhotoAndRender(
-      settings, test.stem, view.photo_path, fs::path(s.Relative(view.render_path)), view.eval_photo,
-      view.render, view.mask ? &*view.mask : nullptr, nullptr, errors_dir, &ws.compare,
-      error_images);
+  const auto compare = [&](const auto& photo, const auto& render) {
+    return compare::ComparePhotoAndRender(
+        settings, test.stem, view.photo_path, fs::path(s.Relative(view.render_path)), photo,
+        render, view.mask ? &*view.mask : nullptr, nullptr, errors_dir, &ws.compare, error_images);
+  };
+  if (view.photo_is_8bit) {
+    outcome.image = view.render_is_8bit ? compare(view.photo8, view.render8)
+                                        : compare(view.photo8, view.render);
+  } else {
+    outcome.image = view.render_is_8bit ? compare(view.eval_photo, view.render8)
+                                        : compare(view.eval_photo, view.render);
+  }
   if (s.options.compat) {  // the numbers papers publish, from the same rendering and photo
     outcome.compat = CompareViewCompat(s.options, test.stem, view.photo_path,
                                        fs::path(s.Relative(view.render_path)), view.eval_photo,

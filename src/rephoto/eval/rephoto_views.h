@@ -52,11 +52,15 @@ namespace rephoto::eval {
 // One view between the preparer and the comparison: its rendering, photo and masks.
 struct PreparedView {
   render::Rephoto rephoto;  // the renderer's buffers
-  Image render;             // the rendering compared (as written or read back)
+  Image render;             // the rendering compared (as written or read back; not render_is_8bit)
   // Full-size photos decoded before downscaling: one buffer reused for all of them (a fresh
   // 6-24 MP float image costs more in zeroing and page faults than in decoding).
   Image full_photo;
-  Image eval_photo;  // the photo compared
+  Image eval_photo;  // the photo compared (when not photo_is_8bit)
+  // 8-bit photos and renderings are compared as their bytes (compare::ComparePhotoAndRender:
+  // the same values as their floats v / 255.f, without the conversions), except under --compat.
+  Image8 photo8, render8;
+  bool photo_is_8bit = false, render_is_8bit = false;
   std::filesystem::path render_path, photo_path;
   std::optional<Mask> mask;
   // The rendering's coverage rule (compare::CompareOptions::min_alpha): the Gaussian alpha

@@ -738,11 +738,9 @@ T QuantizeSample(float v) {
 // The PNG samples of `image` into `out`; with `back` (may be image's own values), also the
 // values ReadImage returns for them, in the same pass.
 template <typename T>
-void QuantizeTo(const Image& image, std::vector<T>* out, float* back = nullptr) {
+void QuantizeTo(const Image& image, T* dst, float* back = nullptr) {
   constexpr float kMax = sizeof(T) == 1 ? 255.f : 65535.f;
-  out->resize(image.size());
   const float* in = image.data();
-  T* dst = out->data();
   ParallelFor(0, static_cast<int64_t>(image.size()), 1 << 16, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       dst[i] = QuantizeSample<T>(in[i]);
@@ -905,12 +903,14 @@ void WritePngOf(const fs::path& path, const Image& image, PngDepth depth,
                 PngCompression compression, float* back) {
   if (depth == PngDepth::k8) {
     thread_local std::vector<uint8_t> bytes;
-    QuantizeTo(image, &bytes, back);
+    bytes.resize(image.size());
+    QuantizeTo(image, bytes.data(), back);
     EncodePng(path, bytes.data(), bytes.size(), image.width(), image.height(), image.channels(), 8,
               compression);
   } else {
     thread_local std::vector<uint16_t> words;
-    QuantizeTo(image, &words, back);
+    words.resize(image.size());
+    QuantizeTo(image, words.data(), back);
     EncodePng(path, words.data(), words.size() * 2, image.width(), image.height(), image.channels(),
               16, compression);
   }
@@ -925,6 +925,16 @@ void WritePng(const fs::path& path, const Image& image, PngDepth depth,
 void WritePngAndQuantize(const fs::path& path, Image* image, PngDepth depth,
                          PngCompression compression) {
   WritePngOf(path, *image, depth, compression, image->data());
+}
+
+void WritePngAndQuantize(const fs::path& path, const Image& image, Image8* bytes) {
+  if (bytes->width() != image.width() || bytes->height() != image.height() ||
+      bytes->channels() != image.channels()) {
+    *bytes = Image8(image.width(), image.height(), image.channels());
+  }
+  QuantizeTo(image, bytes->data());
+  EncodePng(path, bytes->data(), bytes->size(), image.width(), image.height(), image.channels(), 8,
+            PngCompression::kFast);
 }
 
 void WritePng(const fs::path& path, const Mask& mask) {

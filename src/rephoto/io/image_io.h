@@ -101,6 +101,9 @@ void QuantizeAsPng(Image* image, PngDepth depth = PngDepth::k8);
 void WritePngAndQuantize(const std::filesystem::path& path, Image* image,
                          PngDepth depth = PngDepth::k8,
                          PngCompression compression = PngCompression::kFast);
+// WritePng (8 bit, kFast), and the file's samples into `bytes` (resized to the image's size):
+// the values ReadImage8 returns for the PNG, without the file round trip. `image` is unchanged.
+void WritePngAndQuantize(const std::filesystem::path& path, const Image& image, Image8* bytes);
 // 8-bit pixels already converted by the caller: width*height*channels bytes, interleaved, top
 // row first, channels 1-4. Avoids a float copy for large colour-mapped images.
 void WritePng8(const std::filesystem::path& path, std::span<const uint8_t> pixels, int width,

@@ -40,16 +40,29 @@ void GaussianViewRenderer::Render(const camera::Camera& camera, const camera::Po
   std::swap(out->depth, rendering_.depth);
 }
 
-void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto,
-                  bool write_depth) {
-  io::WritePngAndQuantize(out_dir / (stem + ".png"), &rephoto->color);
+namespace {
+void WriteDepth(const std::filesystem::path& out_dir, const std::string& stem,
+                const Rephoto& rephoto, bool write_depth) {
   const std::filesystem::path depth = out_dir / (stem + ".depth.exr");
   if (write_depth) {
-    io::WriteExr(depth, rephoto->depth);
+    io::WriteExr(depth, rephoto.depth);
   } else {
     std::error_code ec;
     std::filesystem::remove(depth, ec);  // an earlier rendering's: it would not match this one
   }
+}
+}  // namespace
+
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto,
+                  bool write_depth) {
+  io::WritePngAndQuantize(out_dir / (stem + ".png"), &rephoto->color);
+  WriteDepth(out_dir, stem, *rephoto, write_depth);
+}
+
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem,
+                  const Rephoto& rephoto, bool write_depth, Image8* color8) {
+  io::WritePngAndQuantize(out_dir / (stem + ".png"), rephoto.color, color8);
+  WriteDepth(out_dir, stem, rephoto, write_depth);
 }
 
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,

@@ -85,6 +85,10 @@ class GaussianViewRenderer : public ViewRenderer {
 // OUT/<stem>.depth.exr is removed: it belonged to an earlier rendering).
 void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem, Rephoto* rephoto,
                   bool write_depth = true);
+// The same files, with the PNG's 8-bit samples into `color8` (io::WritePngAndQuantize) and
+// `rephoto.color` unchanged: for a caller that goes on with the bytes (evaluate's comparison).
+void WriteRephoto(const std::filesystem::path& out_dir, const std::string& stem,
+                  const Rephoto& rephoto, bool write_depth, Image8* color8);
 
 // See above. `stems[i]` names views[i]'s files.
 void RenderViews(ViewRenderer& renderer, const scene::Scene& scene,
