@@ -517,10 +517,10 @@ ImageResult ComparePhotoAndRender(const CompareOptions& options, const std::stri
                        render_mask, error_folder, error_images, workspace->buffers.get());
 }
 
-#define REPHOTO_COMPARE_PHOTO_AND_RENDER(P, R)                                                 \
-  template ImageResult ComparePhotoAndRender<P, R>(                                            \
-      const CompareOptions&, const std::string&, const fs::path&, const fs::path&,             \
-      const ImageT<P>&, const ImageT<R>&, const Mask*, const Mask*, const fs::path&,           \
+#define REPHOTO_COMPARE_PHOTO_AND_RENDER(P, R)                                       \
+  template ImageResult ComparePhotoAndRender<P, R>(                                  \
+      const CompareOptions&, const std::string&, const fs::path&, const fs::path&,   \
+      const ImageT<P>&, const ImageT<R>&, const Mask*, const Mask*, const fs::path&, \
       CompareWorkspace*, std::vector<Image>*);
 REPHOTO_COMPARE_PHOTO_AND_RENDER(float, float)
 REPHOTO_COMPARE_PHOTO_AND_RENDER(float, uint8_t)

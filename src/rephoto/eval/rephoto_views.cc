@@ -191,8 +191,8 @@ void CompareView(const RunContext& s, Tally& tally, ViewWorkspace& ws, const Pre
   settings.min_alpha = view.min_alpha;
   const auto compare = [&](const auto& photo, const auto& render) {
     return compare::ComparePhotoAndRender(
-        settings, test.stem, view.photo_path, fs::path(s.Relative(view.render_path)), photo,
-        render, view.mask ? &*view.mask : nullptr, nullptr, errors_dir, &ws.compare, error_images);
+        settings, test.stem, view.photo_path, fs::path(s.Relative(view.render_path)), photo, render,
+        view.mask ? &*view.mask : nullptr, nullptr, errors_dir, &ws.compare, error_images);
   };
   if (view.photo_is_8bit) {
     outcome.image = view.render_is_8bit ? compare(view.photo8, view.render8)
