@@ -344,6 +344,36 @@ TEST(ImageIo, QuantizeAsPngEqualsTheFileRoundTrip) {
   }
 }
 
+// The 8-bit form: WritePng's file, the samples ReadImage8 decodes from it, the image unchanged;
+// for every channel count, and into a buffer of another size.
+TEST(ImageIo, WritePngAndQuantizeGivesTheFilesBytes) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> value(-0.2f, 1.2f);
+  Image8 bytes(3, 2, 1);
+  for (int channels = 1; channels <= 4; ++channels) {
+    Image image(29, 13, channels);
+    for (size_t i = 0; i < image.size(); ++i) image.data()[i] = value(rng);
+    image.data()[3] = std::nanf("");
+    image.data()[4] = 0.5f;  // a rounding tie: 127.5
+    const Image before = image;
+    const fs::path dir = testing::MakeTempDir();
+    WritePng(dir / "a.png", image);
+    WritePngAndQuantize(dir / "b.png", image, &bytes);
+    EXPECT_EQ(ReadFileToString(dir / "b.png"), ReadFileToString(dir / "a.png"));
+    Image8 read;
+    Image unused;
+    ASSERT_TRUE(ReadImage8(dir / "a.png", &read, &unused));
+    ASSERT_EQ(bytes.width(), read.width());
+    ASSERT_EQ(bytes.height(), read.height());
+    ASSERT_EQ(bytes.channels(), channels);
+    for (size_t i = 0; i < read.size(); ++i) ASSERT_EQ(bytes.data()[i], read.data()[i]) << i;
+    for (size_t i = 0; i < image.size(); ++i) {
+      const float a = image.data()[i], b = before.data()[i];
+      ASSERT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << i;
+    }
+  }
+}
+
 TEST(ImageIo, PngWriteClampsAndMapsNanToZero) {
   const fs::path path = testing::MakeTempDir() / "clamp.png";
   Image image(4, 1, 1);
